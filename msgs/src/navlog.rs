@@ -1,0 +1,511 @@
+//! navlog: the record stream of logged, simulated and recorded flights.
+//!
+//! A file is a sequence of frames. Each frame is
+//! `COBS( postcard(Record) ‖ CRC-32(postcard bytes), little endian ) ‖ 0x00`.
+//! COBS guarantees that 0x00 appears only as the delimiter, so a damaged
+//! frame costs only itself: the reader resynchronises at the next 0x00. The
+//! CRC catches bit flips that still decode. The first record is a
+//! [`Header`] with [`MAGIC`] and [`FORMAT_VERSION`].
+//!
+//! [`NavlogReader`] yields every intact record of a truncated or corrupted
+//! file and keeps a [`ReadReport`] of what it skipped and why; it never
+//! stops early on damage.
+
+use std::io::{BufRead, Write};
+
+use serde::{Deserialize, Serialize};
+
+use crate::payloads::{
+    BaroSample, CnsFix, ImuSample, InitState, Solution, SrsSample, Status, TruthRecord,
+};
+
+/// First bytes of every navlog's header record.
+pub const MAGIC: [u8; 8] = *b"POLARNAV";
+/// Version of the record format; bump on any change of [`Record`].
+pub const FORMAT_VERSION: u16 = 1;
+/// Frames longer than this are treated as corruption (the largest record is ~1 kB
+/// plus the header's scenario text).
+pub const MAX_FRAME_BYTES: usize = 1 << 20;
+
+/// File header: identifies the format and the flight.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Header {
+    pub magic: [u8; 8],
+    pub format_version: u16,
+    /// Program and version that wrote the file, e.g. `sensor-replay 0.1.0 simulate`.
+    pub producer: String,
+    /// Scenario or source name.
+    pub scenario: String,
+    /// Random seed of a simulation (0 if not simulated).
+    pub seed: u64,
+    /// Free text: the scenario file contents, import source, etc.
+    pub metadata: String,
+}
+
+impl Header {
+    pub fn new(producer: &str, scenario: &str, seed: u64, metadata: &str) -> Self {
+        Self {
+            magic: MAGIC,
+            format_version: FORMAT_VERSION,
+            producer: producer.to_owned(),
+            scenario: scenario.to_owned(),
+            seed,
+            metadata: metadata.to_owned(),
+        }
+    }
+}
+
+/// One navlog record.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub enum Record {
+    Header(Header),
+    Init(InitState),
+    Imu(ImuSample),
+    Srs(SrsSample),
+    Cns(CnsFix),
+    Baro(BaroSample),
+    Truth(TruthRecord),
+    Solution(Solution),
+    Status(Status),
+}
+
+impl Record {
+    /// Time stamp of the record (`None` for the header).
+    pub fn t_ns(&self) -> Option<u64> {
+        match self {
+            Record::Header(_) => None,
+            Record::Init(r) => Some(r.t_ns),
+            Record::Imu(r) => Some(r.t_ns),
+            Record::Srs(r) => Some(r.t_ns),
+            Record::Cns(r) => Some(r.t_ns),
+            Record::Baro(r) => Some(r.t_ns),
+            Record::Truth(r) => Some(r.t_ns),
+            Record::Solution(r) => Some(r.t_ns),
+            Record::Status(r) => Some(r.t_ns),
+        }
+    }
+}
+
+/// Errors of writing a navlog.
+#[derive(Debug, thiserror::Error)]
+pub enum WriteError {
+    /// The underlying writer failed (disk full, closed pipe, ...).
+    #[error("navlog write failed: {0}")]
+    Io(#[from] std::io::Error),
+    /// The record could not be serialized (should not happen for the types above).
+    #[error("navlog record could not be serialized: {0}")]
+    Encode(#[from] postcard::Error),
+}
+
+/// Writes framed records. Buffers are reused: no allocation per record once warm.
+#[derive(Debug)]
+pub struct NavlogWriter<W: Write> {
+    out: W,
+    raw: Vec<u8>,
+    framed: Vec<u8>,
+    records: u64,
+}
+
+impl<W: Write> NavlogWriter<W> {
+    /// Starts a navlog on `out` and writes `header` as its first record.
+    pub fn new(out: W, header: Header) -> Result<Self, WriteError> {
+        let mut w = Self { out, raw: Vec::with_capacity(2048), framed: Vec::with_capacity(2048), records: 0 };
+        w.write(&Record::Header(header))?;
+        Ok(w)
+    }
+
+    /// Appends one record.
+    pub fn write(&mut self, record: &Record) -> Result<(), WriteError> {
+        self.raw.clear();
+        self.raw = postcard::to_extend(record, std::mem::take(&mut self.raw))?;
+        let crc = crc32fast::hash(&self.raw);
+        self.raw.extend_from_slice(&crc.to_le_bytes());
+        self.framed.clear();
+        self.framed.resize(cobs::max_encoding_length(self.raw.len()) + 1, 0);
+        let n = cobs::encode(&self.raw, &mut self.framed);
+        self.framed[n] = 0;
+        self.out.write_all(&self.framed[..=n])?;
+        self.records += 1;
+        Ok(())
+    }
+
+    /// Records written so far, header included.
+    pub fn records_written(&self) -> u64 {
+        self.records
+    }
+
+    /// Flushes and returns the underlying writer.
+    pub fn finish(mut self) -> Result<W, WriteError> {
+        self.out.flush()?;
+        Ok(self.out)
+    }
+}
+
+/// Why a frame was skipped.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SkipReason {
+    /// COBS structure invalid (a byte was damaged).
+    Framing,
+    /// Decoded, but the CRC does not match (bit flip).
+    Checksum,
+    /// CRC matched but the record does not deserialize (written by an incompatible version).
+    Decode,
+    /// The file ends inside a frame (truncated write).
+    Truncated,
+    /// A frame longer than [`MAX_FRAME_BYTES`] (garbage between delimiters).
+    Oversized,
+}
+
+/// What the reader skipped, so that damage is reported, never hidden.
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
+pub struct ReadReport {
+    /// Intact records returned.
+    pub records: u64,
+    /// Frames skipped, by reason.
+    pub framing: u64,
+    pub checksum: u64,
+    pub decode: u64,
+    pub truncated: u64,
+    pub oversized: u64,
+    /// Bytes belonging to skipped frames.
+    pub skipped_bytes: u64,
+    /// Byte offset of the first skipped frame, if any.
+    pub first_skip_offset: Option<u64>,
+}
+
+impl ReadReport {
+    /// Total frames skipped for any reason.
+    pub fn skipped_frames(&self) -> u64 {
+        self.framing + self.checksum + self.decode + self.truncated + self.oversized
+    }
+
+    /// True when nothing was skipped.
+    pub fn is_clean(&self) -> bool {
+        self.skipped_frames() == 0
+    }
+
+    fn note(&mut self, reason: SkipReason, offset: u64, len: u64) {
+        match reason {
+            SkipReason::Framing => self.framing += 1,
+            SkipReason::Checksum => self.checksum += 1,
+            SkipReason::Decode => self.decode += 1,
+            SkipReason::Truncated => self.truncated += 1,
+            SkipReason::Oversized => self.oversized += 1,
+        }
+        self.skipped_bytes += len;
+        self.first_skip_offset.get_or_insert(offset);
+    }
+}
+
+impl std::fmt::Display for ReadReport {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{} records read", self.records)?;
+        if self.is_clean() {
+            return write!(f, ", nothing skipped");
+        }
+        write!(
+            f,
+            "; skipped {} frame(s), {} byte(s) (framing {}, checksum {}, decode {}, truncated {}, oversized {}), first at byte {}",
+            self.skipped_frames(),
+            self.skipped_bytes,
+            self.framing,
+            self.checksum,
+            self.decode,
+            self.truncated,
+            self.oversized,
+            self.first_skip_offset.unwrap_or(0)
+        )
+    }
+}
+
+/// Errors that stop reading altogether (damage inside the file never does).
+#[derive(Debug, thiserror::Error)]
+pub enum ReadError {
+    /// The underlying reader failed.
+    #[error("navlog read failed: {0}")]
+    Io(#[from] std::io::Error),
+}
+
+/// Streaming reader: an iterator of intact records; see [`NavlogReader::report`].
+#[derive(Debug)]
+pub struct NavlogReader<R: BufRead> {
+    input: R,
+    frame: Vec<u8>,
+    decoded: Vec<u8>,
+    offset: u64,
+    report: ReadReport,
+    done: bool,
+}
+
+impl<R: BufRead> NavlogReader<R> {
+    pub fn new(input: R) -> Self {
+        Self {
+            input,
+            frame: Vec::with_capacity(2048),
+            decoded: Vec::with_capacity(2048),
+            offset: 0,
+            report: ReadReport::default(),
+            done: false,
+        }
+    }
+
+    /// What has been read and skipped so far (complete once the iterator ends).
+    pub fn report(&self) -> &ReadReport {
+        &self.report
+    }
+
+    /// Reads the next intact record; damaged frames are counted and skipped.
+    /// `Ok(None)` at the end of the input.
+    pub fn next_record(&mut self) -> Result<Option<Record>, ReadError> {
+        while !self.done {
+            self.frame.clear();
+            let start = self.offset;
+            let n = read_frame(&mut self.input, &mut self.frame)?;
+            self.offset += n as u64;
+            if n == 0 {
+                self.done = true;
+                break;
+            }
+            let terminated = self.frame.last() == Some(&0);
+            if terminated {
+                self.frame.pop();
+            } else {
+                self.done = true;
+                // Trailing bytes without a delimiter: a truncated final frame.
+                self.report.note(SkipReason::Truncated, start, n as u64);
+                break;
+            }
+            if self.frame.is_empty() {
+                // A lone delimiter (e.g. a byte flipped to 0 right after another delimiter).
+                continue;
+            }
+            if self.frame.len() > MAX_FRAME_BYTES {
+                self.report.note(SkipReason::Oversized, start, n as u64);
+                continue;
+            }
+            match decode_frame(&self.frame, &mut self.decoded) {
+                Ok(record) => {
+                    self.report.records += 1;
+                    return Ok(Some(record));
+                }
+                Err(reason) => self.report.note(reason, start, n as u64),
+            }
+        }
+        Ok(None)
+    }
+}
+
+impl<R: BufRead> Iterator for NavlogReader<R> {
+    type Item = Result<Record, ReadError>;
+    fn next(&mut self) -> Option<Self::Item> {
+        self.next_record().transpose()
+    }
+}
+
+/// Reads up to and including the next 0x00, bounded so that garbage without
+/// delimiters cannot exhaust memory: past the bound the rest of the run is
+/// consumed but not stored.
+fn read_frame<R: BufRead>(input: &mut R, frame: &mut Vec<u8>) -> std::io::Result<usize> {
+    let mut total = 0;
+    loop {
+        let buf = match input.fill_buf() {
+            Ok(b) => b,
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
+            Err(e) => return Err(e),
+        };
+        if buf.is_empty() {
+            return Ok(total);
+        }
+        let (take, found) = match buf.iter().position(|&b| b == 0) {
+            Some(i) => (i + 1, true),
+            None => (buf.len(), false),
+        };
+        let room = (MAX_FRAME_BYTES + 2).saturating_sub(frame.len());
+        if found && take > room {
+            // Keep the delimiter visible so the caller sees a terminated, oversized frame.
+            frame.extend_from_slice(&buf[..room.saturating_sub(1)]);
+            frame.push(0);
+        } else {
+            frame.extend_from_slice(&buf[..take.min(room)]);
+        }
+        input.consume(take);
+        total += take;
+        if found {
+            return Ok(total);
+        }
+    }
+}
+
+fn decode_frame(frame: &[u8], decoded: &mut Vec<u8>) -> Result<Record, SkipReason> {
+    decoded.clear();
+    decoded.resize(frame.len(), 0);
+    let n = cobs::decode(frame, decoded).map_err(|_| SkipReason::Framing)?;
+    if n < 5 {
+        return Err(SkipReason::Framing);
+    }
+    let (body, crc) = decoded[..n].split_at(n - 4);
+    let crc = u32::from_le_bytes([crc[0], crc[1], crc[2], crc[3]]);
+    if crc32fast::hash(body) != crc {
+        return Err(SkipReason::Checksum);
+    }
+    match postcard::from_bytes::<Record>(body) {
+        Ok(r) => Ok(r),
+        Err(_) => Err(SkipReason::Decode),
+    }
+}
+
+/// Reads every intact record of a whole byte buffer (convenience for tests and small files).
+pub fn read_all(bytes: &[u8]) -> (Vec<Record>, ReadReport) {
+    let mut reader = NavlogReader::new(bytes);
+    let mut out = Vec::new();
+    // Reading from a slice cannot fail.
+    while let Ok(Some(r)) = reader.next_record() {
+        out.push(r);
+    }
+    (out, reader.report().clone())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::payloads::*;
+
+    fn sample_records() -> Vec<Record> {
+        let mut srs = SrsSample { t_ns: 3, seq: 1, count: 2, ..Default::default() };
+        srs.lines[0] = SrsLine {
+            los_i: [0.6, 0.8, 0.0],
+            body_vel_i_mps: [1.0, -2.0, 3.0e4],
+            rest_wavelength_m: 656.28e-9,
+            measured_wavelength_m: 656.29e-9,
+            sigma_mps: 0.5,
+            body_id: 7,
+            _pad: 0,
+        };
+        srs.lines[1].body_id = 9;
+        let mut sol = Solution { t_ns: 8, seq: 4, frame: WireFrame::Grid as u8, ..Default::default() };
+        sol.q_b_e = [0.5, 0.5, -0.5, 0.5];
+        sol.flags = solution_flags::ALIGNED | solution_flags::CNS_FRESH;
+        let mut status = Status { t_ns: 9, seq: 5, ..Default::default() };
+        status.imu.received = 1000;
+        status.cns_aid.test_ratio = 0.3;
+        vec![
+            Record::Header(Header::new("test", "unit", 42, "key = 1")),
+            Record::Init(InitState {
+                t_ns: 1,
+                r_e_m: [1.0, 2.0, 3.0],
+                q_b_e: [1.0, 0.0, 0.0, 0.0],
+                sigma_heading_rad: 1e-3,
+                ..Default::default()
+            }),
+            Record::Imu(ImuSample {
+                t_ns: 2,
+                seq: 0,
+                dt_s: 0.005,
+                d_theta_rad: [1e-6, -2e-6, 3e-9],
+                d_v_mps: [0.0, 0.0, 0.049],
+            }),
+            Record::Srs(srs),
+            Record::Cns(CnsFix { t_ns: 4, seq: 2, lat_rad: 1.5, lon_rad: -3.1, sigma_h_m: 20.0 }),
+            Record::Baro(BaroSample {
+                t_ns: 5,
+                seq: 3,
+                pressure_pa: 7565.0,
+                temperature_k: 216.65,
+                sigma_m: 10.0,
+            }),
+            Record::Truth(TruthRecord {
+                t_ns: 6,
+                r_e_m: [0.0, 0.0, 6.4e6],
+                v_e_mps: [250.0, 0.0, 0.0],
+                q_b_e: [0.0, 1.0, 0.0, 0.0],
+            }),
+            Record::Solution(sol),
+            Record::Status(status),
+        ]
+    }
+
+    fn encode(records: &[Record]) -> Vec<u8> {
+        let Record::Header(h) = &records[0] else { panic!("first must be header") };
+        let mut w = NavlogWriter::new(Vec::new(), h.clone()).expect("header");
+        for r in &records[1..] {
+            w.write(r).expect("write");
+        }
+        w.finish().expect("finish")
+    }
+
+    #[test]
+    fn every_record_type_round_trips() {
+        let records = sample_records();
+        let bytes = encode(&records);
+        let (back, report) = read_all(&bytes);
+        assert!(report.is_clean(), "{report}");
+        assert_eq!(back, records);
+        assert_eq!(report.records, records.len() as u64);
+    }
+
+    #[test]
+    fn zero_appears_only_as_delimiter() {
+        let records = sample_records();
+        let bytes = encode(&records);
+        let zeros = bytes.iter().filter(|&&b| b == 0).count();
+        assert_eq!(zeros, records.len());
+    }
+
+    #[test]
+    fn truncated_file_yields_every_complete_record() {
+        let records = sample_records();
+        let bytes = encode(&records);
+        // Cut at every possible position: the records whose delimiter survives are returned.
+        for cut in 0..bytes.len() {
+            let part = &bytes[..cut];
+            let complete = part.iter().filter(|&&b| b == 0).count();
+            let (back, report) = read_all(part);
+            assert_eq!(back.len(), complete, "cut at {cut}");
+            assert_eq!(back[..], records[..complete]);
+            let tail = cut - part.iter().rposition(|&b| b == 0).map_or(0, |i| i + 1);
+            assert_eq!(report.truncated, u64::from(tail > 0), "cut at {cut}");
+            assert_eq!(report.skipped_bytes, tail as u64);
+        }
+    }
+
+    #[test]
+    fn bit_flip_costs_only_the_damaged_record() {
+        let records = sample_records();
+        let bytes = encode(&records);
+        let ends: Vec<usize> =
+            bytes.iter().enumerate().filter(|(_, b)| **b == 0).map(|(i, _)| i).collect();
+        for pos in 0..bytes.len() {
+            for bit in [0u8, 3, 7] {
+                let mut damaged = bytes.clone();
+                damaged[pos] ^= 1 << bit;
+                let (back, report) = read_all(&damaged);
+                // The damaged record; flipping its delimiter merges it with the next one.
+                let hit = ends.iter().position(|&e| e >= pos).expect("inside file");
+                let lost = |i: usize| i == hit || (pos == ends[hit] && i == hit + 1);
+                let expected: Vec<Record> = records
+                    .iter()
+                    .enumerate()
+                    .filter(|(i, _)| !lost(*i))
+                    .map(|(_, r)| r.clone())
+                    .collect();
+                assert_eq!(back, expected, "flip at byte {pos} bit {bit}");
+                assert!(report.skipped_frames() >= 1, "flip at {pos} not reported: {report}");
+                assert!(report.first_skip_offset.is_some());
+                assert_eq!(report.records, back.len() as u64);
+            }
+        }
+    }
+
+    #[test]
+    fn garbage_without_delimiters_is_bounded_and_reported() {
+        let mut bytes = encode(&sample_records());
+        let n = bytes.len();
+        bytes.extend(std::iter::repeat_n(0xAB, MAX_FRAME_BYTES + 10));
+        bytes.push(0);
+        bytes.extend(encode(&sample_records()));
+        let (back, report) = read_all(&bytes);
+        assert_eq!(back.len(), 2 * sample_records().len());
+        assert_eq!(report.oversized, 1);
+        assert_eq!(report.first_skip_offset, Some(n as u64));
+    }
+}

@@ -1,0 +1,363 @@
+//! The payloads of DESIGN "Messages". All `#[repr(C)]`, fixed size, no
+//! implicit padding, no pointers: safe to place in shared memory and to
+//! mirror in C and Python.
+#![allow(unsafe_code)] // the ZeroCopySend derive emits `unsafe impl`; the layout rules above make it sound
+
+use iceoryx2::prelude::ZeroCopySend;
+use serde::{Deserialize, Serialize};
+
+/// Maximum number of spectral lines in one SRS message.
+pub const SRS_MAX_LINES: usize = 8;
+
+/// One IMU sample: angle and velocity increments over `dt_s` ending at `t_ns`.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize, ZeroCopySend)]
+#[repr(C)]
+#[type_name("polarnav::ImuSample_v1")]
+pub struct ImuSample {
+    /// End of the integration interval, common sensor time base.
+    pub t_ns: u64,
+    /// Publisher sequence number, +1 per sample.
+    pub seq: u64,
+    /// Length of the integration interval (s).
+    pub dt_s: f64,
+    /// Angle increment ∫ω_ib^b dt, body axes (rad).
+    pub d_theta_rad: [f64; 3],
+    /// Velocity increment ∫f^b dt, body axes (m/s).
+    pub d_v_mps: [f64; 3],
+}
+
+/// One observed spectral line of one celestial body.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize, ZeroCopySend)]
+#[repr(C)]
+#[type_name("polarnav::SrsLine_v1")]
+pub struct SrsLine {
+    /// Unit line of sight from the carrier to the body, inertial frame.
+    pub los_i: [f64; 3],
+    /// Velocity of the body relative to the Earth's centre, inertial frame (m/s), from the ephemeris.
+    pub body_vel_i_mps: [f64; 3],
+    /// Rest (emitted) wavelength λ0 of the line (m).
+    pub rest_wavelength_m: f64,
+    /// Measured (received) wavelength λ (m).
+    pub measured_wavelength_m: f64,
+    /// 1-σ of the line's radial velocity measurement (m/s); wavelength σ = λ0·σ/c.
+    pub sigma_mps: f64,
+    /// Catalogue identifier of the body.
+    pub body_id: u32,
+    /// Always zero.
+    pub _pad: u32,
+}
+
+/// Spectral-redshift observations of up to [`SRS_MAX_LINES`] bodies.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize, ZeroCopySend)]
+#[repr(C)]
+#[type_name("polarnav::SrsSample_v1")]
+pub struct SrsSample {
+    pub t_ns: u64,
+    pub seq: u64,
+    /// Number of valid entries at the start of `lines`.
+    pub count: u32,
+    /// Always zero.
+    pub _pad: u32,
+    pub lines: [SrsLine; SRS_MAX_LINES],
+}
+
+impl SrsSample {
+    /// The valid lines (`count` clamped to the capacity, so a corrupt count cannot index out of range).
+    pub fn valid_lines(&self) -> &[SrsLine] {
+        let n = (self.count as usize).min(SRS_MAX_LINES);
+        &self.lines[..n]
+    }
+}
+
+/// Celestial position fix: geodetic latitude and longitude.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize, ZeroCopySend)]
+#[repr(C)]
+#[type_name("polarnav::CnsFix_v1")]
+pub struct CnsFix {
+    pub t_ns: u64,
+    pub seq: u64,
+    pub lat_rad: f64,
+    pub lon_rad: f64,
+    /// Horizontal 1-σ (m), same in every horizontal direction.
+    pub sigma_h_m: f64,
+}
+
+/// Barometer: static pressure and temperature.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize, ZeroCopySend)]
+#[repr(C)]
+#[type_name("polarnav::BaroSample_v1")]
+pub struct BaroSample {
+    pub t_ns: u64,
+    pub seq: u64,
+    pub pressure_pa: f64,
+    pub temperature_k: f64,
+    /// 1-σ of the pressure altitude derived from this sample (m).
+    pub sigma_m: f64,
+}
+
+/// Initial state handed to the navigator (transfer alignment from a host, or
+/// the truth plus a scenario's initial errors). Frame-free: valid at the pole.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize, ZeroCopySend)]
+#[repr(C)]
+#[type_name("polarnav::InitState_v1")]
+pub struct InitState {
+    /// Time of validity.
+    pub t_ns: u64,
+    pub seq: u64,
+    /// Position, ECEF (m).
+    pub r_e_m: [f64; 3],
+    /// Earth-relative velocity, ECEF axes (m/s).
+    pub v_e_mps: [f64; 3],
+    /// Body→ECEF attitude quaternion [w, x, y, z].
+    pub q_b_e: [f64; 4],
+    /// 1-σ of position: horizontal (per axis) and vertical (m).
+    pub sigma_pos_h_m: f64,
+    pub sigma_pos_v_m: f64,
+    /// 1-σ of velocity: horizontal (per axis) and vertical (m/s).
+    pub sigma_vel_h_mps: f64,
+    pub sigma_vel_v_mps: f64,
+    /// 1-σ of attitude: tilt (per level axis) and heading (rad).
+    pub sigma_tilt_rad: f64,
+    pub sigma_heading_rad: f64,
+}
+
+/// Navigation frame tag used on the wire.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[repr(u8)]
+pub enum WireFrame {
+    /// Local geographic east-north-up.
+    Geographic = 0,
+    /// Grid frame (polar).
+    Grid = 1,
+}
+
+impl WireFrame {
+    pub fn from_u8(v: u8) -> Option<Self> {
+        match v {
+            0 => Some(Self::Geographic),
+            1 => Some(Self::Grid),
+            _ => None,
+        }
+    }
+    /// The single-letter name used in the solution CSV (`g` or `G`).
+    pub fn letter(self) -> char {
+        match self {
+            Self::Geographic => 'g',
+            Self::Grid => 'G',
+        }
+    }
+}
+
+/// Bits of [`Solution::flags`].
+pub mod solution_flags {
+    pub const ALIGNED: u32 = 1 << 0;
+    pub const SRS_FRESH: u32 = 1 << 1;
+    pub const CNS_FRESH: u32 = 1 << 2;
+    pub const BARO_FRESH: u32 = 1 << 3;
+    pub const LAST_INNOVATION_REJECTED: u32 = 1 << 4;
+    pub const IMU_LOST: u32 = 1 << 5;
+    pub const COASTING: u32 = 1 << 6;
+}
+
+/// Full navigation solution, one per filter cycle.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize, ZeroCopySend)]
+#[repr(C)]
+#[type_name("polarnav::Solution_v1")]
+pub struct Solution {
+    pub t_ns: u64,
+    pub seq: u64,
+    /// Geodetic latitude, longitude (rad), ellipsoidal height (m).
+    pub lat_rad: f64,
+    pub lon_rad: f64,
+    pub h_m: f64,
+    /// Position, ECEF (m).
+    pub r_e_m: [f64; 3],
+    /// Earth-relative velocity in ECEF axes (m/s).
+    pub v_e_mps: [f64; 3],
+    /// Earth-relative velocity, local east-north-up (m/s). At the exact pole the
+    /// east/north axes are those of longitude `lon_rad`.
+    pub v_enu_mps: [f64; 3],
+    /// Earth-relative velocity in the current navigation frame (m/s).
+    pub v_nav_mps: [f64; 3],
+    /// Grid angle σ (rad), clockwise from true north to grid north.
+    pub grid_angle_rad: f64,
+    /// Body→ECEF attitude quaternion [w, x, y, z]; frame-free, valid at the pole.
+    pub q_b_e: [f64; 4],
+    /// True heading (clockwise from true north), grid heading, pitch, roll (rad).
+    pub heading_rad: f64,
+    pub grid_heading_rad: f64,
+    pub pitch_rad: f64,
+    pub roll_rad: f64,
+    /// 1-σ of position, local east/north/up (m).
+    pub sigma_pos_enu_m: [f64; 3],
+    /// 1-σ of velocity in the navigation frame (m/s).
+    pub sigma_vel_mps: [f64; 3],
+    /// 1-σ of attitude error φ in the navigation frame (rad).
+    pub sigma_att_rad: [f64; 3],
+    /// Estimated gyro bias (rad/s) and accelerometer bias (m/s²), body axes.
+    pub gyro_bias_rps: [f64; 3],
+    pub accel_bias_mps2: [f64; 3],
+    /// Bit set of [`solution_flags`].
+    pub flags: u32,
+    /// Number of frame switches since start.
+    pub switch_count: u32,
+    /// [`WireFrame`] as u8.
+    pub frame: u8,
+    /// Always zero.
+    pub _pad: [u8; 7],
+}
+
+/// Counters of one input stream.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize, ZeroCopySend)]
+#[repr(C)]
+#[type_name("polarnav::StreamCounters_v1")]
+pub struct StreamCounters {
+    /// Samples received from the transport or log.
+    pub received: u64,
+    /// Samples that passed validation and were used.
+    pub accepted: u64,
+    /// Rejected: non-finite or physically impossible values.
+    pub rejected_invalid: u64,
+    /// Rejected: time stamp not after the previous one (backwards or duplicate).
+    pub rejected_time: u64,
+    /// Rejected by the innovation gate (aids only).
+    pub rejected_gate: u64,
+    /// Gaps detected in the sequence numbers (samples lost upstream).
+    pub seq_gaps: u64,
+    /// Time stamp of the last accepted sample (0 = none yet).
+    pub last_t_ns: u64,
+}
+
+/// The status record every aid reports (same shape for SRS, CNS and baro).
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize, ZeroCopySend)]
+#[repr(C)]
+#[type_name("polarnav::AidStatus_v1")]
+pub struct AidStatus {
+    /// Last innovation (measurement − prediction), up to 3 components.
+    pub innovation: [f64; 3],
+    /// Its variance (diagonal of S).
+    pub innovation_var: [f64; 3],
+    /// χ² test ratio of the last innovation (test statistic / gate threshold).
+    pub test_ratio: f64,
+    /// Time of the last fused measurement (0 = never).
+    pub last_fuse_t_ns: u64,
+    /// 1 if the last measurement was fused, 0 if rejected.
+    pub fused: u8,
+    /// 1 if the aid is fresh (within its timeout).
+    pub fresh: u8,
+    /// Always zero.
+    pub _pad: [u8; 6],
+}
+
+/// Health of the daemon, published at 1 Hz.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize, ZeroCopySend)]
+#[repr(C)]
+#[type_name("polarnav::Status_v1")]
+pub struct Status {
+    pub t_ns: u64,
+    pub seq: u64,
+    pub imu: StreamCounters,
+    pub srs: StreamCounters,
+    pub cns: StreamCounters,
+    pub baro: StreamCounters,
+    pub srs_aid: AidStatus,
+    pub cns_aid: AidStatus,
+    pub baro_aid: AidStatus,
+    /// Filter cycles run and cycles that overran their period.
+    pub cycles: u64,
+    pub overruns: u64,
+    /// Cycle execution time statistics over the last status period (ns).
+    pub cycle_time_mean_ns: u64,
+    pub cycle_time_max_ns: u64,
+    /// Time of the last frame switch (0 = none).
+    pub last_switch_t_ns: u64,
+    /// Re-initializations (new init messages) taken.
+    pub reinit_count: u32,
+    pub switch_count: u32,
+    /// Bit set of [`solution_flags`] at the time of the status.
+    pub flags: u32,
+    /// [`WireFrame`] as u8.
+    pub frame: u8,
+    /// Always zero.
+    pub _pad: [u8; 3],
+}
+
+/// Truth record of a simulated or reference flight (navlog only, not on the wire).
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[repr(C)]
+pub struct TruthRecord {
+    pub t_ns: u64,
+    /// Position, ECEF (m).
+    pub r_e_m: [f64; 3],
+    /// Earth-relative velocity, ECEF axes (m/s).
+    pub v_e_mps: [f64; 3],
+    /// Body→ECEF quaternion [w, x, y, z].
+    pub q_b_e: [f64; 4],
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use core::mem::{align_of, size_of};
+
+    /// Sum of field sizes equals the struct size: no implicit padding, so the
+    /// C and Python mirrors can be written field by field.
+    #[test]
+    fn payloads_have_no_implicit_padding() {
+        assert_eq!(size_of::<ImuSample>(), 8 + 8 + 8 + 24 + 24);
+        assert_eq!(size_of::<SrsLine>(), 24 + 24 + 8 + 8 + 8 + 4 + 4);
+        assert_eq!(size_of::<SrsSample>(), 8 + 8 + 4 + 4 + SRS_MAX_LINES * size_of::<SrsLine>());
+        assert_eq!(size_of::<CnsFix>(), 5 * 8);
+        assert_eq!(size_of::<BaroSample>(), 5 * 8);
+        assert_eq!(size_of::<InitState>(), 16 + 24 + 24 + 32 + 6 * 8);
+        assert_eq!(
+            size_of::<Solution>(),
+            16 + 24 + 24 + 24 + 24 + 24 + 8 + 32 + 32 + 24 * 5 + 4 + 4 + 1 + 7
+        );
+        assert_eq!(size_of::<StreamCounters>(), 7 * 8);
+        assert_eq!(size_of::<AidStatus>(), 48 + 8 + 8 + 8);
+        assert_eq!(
+            size_of::<Status>(),
+            16 + 4 * size_of::<StreamCounters>() + 3 * size_of::<AidStatus>() + 5 * 8 + 16
+        );
+        for a in [align_of::<ImuSample>(), align_of::<Solution>(), align_of::<Status>()] {
+            assert_eq!(a, 8);
+        }
+    }
+
+    #[test]
+    fn type_names_are_versioned() {
+        // SAFETY-free: `type_name` is an unsafe fn only to discourage casual use.
+        #[allow(unsafe_code)]
+        let names = unsafe {
+            [
+                ImuSample::type_name(),
+                SrsSample::type_name(),
+                CnsFix::type_name(),
+                BaroSample::type_name(),
+                InitState::type_name(),
+                Solution::type_name(),
+                Status::type_name(),
+            ]
+        };
+        for n in names {
+            assert!(n.starts_with("polarnav::") && n.contains("_v"), "{n}");
+        }
+    }
+
+    #[test]
+    fn srs_valid_lines_clamps_a_corrupt_count() {
+        let s = SrsSample { count: 200, ..Default::default() };
+        assert_eq!(s.valid_lines().len(), SRS_MAX_LINES);
+        let s = SrsSample { count: 3, ..Default::default() };
+        assert_eq!(s.valid_lines().len(), 3);
+    }
+
+    #[test]
+    fn wire_frame_round_trips() {
+        for f in [WireFrame::Geographic, WireFrame::Grid] {
+            assert_eq!(WireFrame::from_u8(f as u8), Some(f));
+        }
+        assert_eq!(WireFrame::from_u8(7), None);
+    }
+}
