@@ -1,0 +1,304 @@
+//! WGS-84 Earth model: radii, normal gravity, geodetic↔ECEF, ISA atmosphere.
+//! Stateless: every function is pure.
+
+use nalgebra::Vector3;
+
+/// Semi-major axis a (m).
+pub const A: f64 = 6_378_137.0;
+/// Flattening f.
+pub const F: f64 = 1.0 / 298.257_223_563;
+/// Semi-minor axis b = a(1 − f) (m).
+pub const B: f64 = A * (1.0 - F);
+/// First eccentricity squared e² = f(2 − f).
+pub const E2: f64 = F * (2.0 - F);
+/// Earth rotation rate ω_ie (rad/s).
+pub const OMEGA_IE: f64 = 7.292_115_146_7e-5;
+/// Normal gravity at the equator γ_e (m/s²).
+pub const GAMMA_E: f64 = 9.780_325_335_9;
+/// Somigliana constant k.
+pub const GRAVITY_K: f64 = 0.001_931_852_652_41;
+/// m = ω²a²b/GM.
+pub const GRAVITY_M: f64 = 0.003_449_786_506_84;
+/// Standard gravity g0 (m/s²), used for unit conversions (µg) and geopotential height.
+pub const G0: f64 = 9.806_65;
+
+/// Earth rotation vector in ECEF.
+pub fn omega_ie_e() -> Vector3<f64> {
+    Vector3::new(0.0, 0.0, OMEGA_IE)
+}
+
+/// A geodetic position: latitude, longitude (rad), ellipsoidal height (m).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Geodetic {
+    pub lat_rad: f64,
+    pub lon_rad: f64,
+    pub h_m: f64,
+}
+
+impl Geodetic {
+    pub fn new(lat_rad: f64, lon_rad: f64, h_m: f64) -> Self {
+        Self { lat_rad, lon_rad, h_m }
+    }
+    pub fn from_deg(lat_deg: f64, lon_deg: f64, h_m: f64) -> Self {
+        Self::new(lat_deg.to_radians(), lon_deg.to_radians(), h_m)
+    }
+}
+
+/// Meridian and prime-vertical radii of curvature (R_M, R_N) at latitude `lat`.
+pub fn radii(lat_rad: f64) -> (f64, f64) {
+    let s2 = lat_rad.sin().powi(2);
+    let w2 = 1.0 - E2 * s2;
+    let rn = A / w2.sqrt();
+    let rm = rn * (1.0 - E2) / w2;
+    (rm, rn)
+}
+
+/// WGS-84 normal gravity magnitude at latitude `lat` and height `h`
+/// (Somigliana with the second-order height correction of DESIGN).
+pub fn normal_gravity(lat_rad: f64, h_m: f64) -> f64 {
+    let s2 = lat_rad.sin().powi(2);
+    let g0 = GAMMA_E * (1.0 + GRAVITY_K * s2) / (1.0 - E2 * s2).sqrt();
+    let hf = 1.0 - (2.0 / A) * (1.0 + F + GRAVITY_M - 2.0 * F * s2) * h_m + 3.0 * h_m * h_m / (A * A);
+    g0 * hf
+}
+
+/// Unit ellipsoid normal (local up) in ECEF.
+pub fn up_e(lat_rad: f64, lon_rad: f64) -> Vector3<f64> {
+    let (sl, cl) = lat_rad.sin_cos();
+    let (so, co) = lon_rad.sin_cos();
+    Vector3::new(cl * co, cl * so, sl)
+}
+
+/// Geodetic → ECEF (exact).
+pub fn geodetic_to_ecef(p: &Geodetic) -> Vector3<f64> {
+    let (sl, cl) = p.lat_rad.sin_cos();
+    let (so, co) = p.lon_rad.sin_cos();
+    let (_, rn) = radii(p.lat_rad);
+    Vector3::new((rn + p.h_m) * cl * co, (rn + p.h_m) * cl * so, (rn * (1.0 - E2) + p.h_m) * sl)
+}
+
+/// ECEF → geodetic, closed form of Vermeille (2004); exact to numerical
+/// precision everywhere outside the Earth's deep interior, including on the
+/// polar axis (longitude 0 there) and across ±180° (longitude in (−π, π]).
+pub fn ecef_to_geodetic(r: &Vector3<f64>) -> Geodetic {
+    let (x, y, z) = (r.x, r.y, r.z);
+    let e4 = E2 * E2;
+    let a2 = A * A;
+    let rho2 = x * x + y * y;
+    let p = rho2 / a2;
+    let q = (1.0 - E2) / a2 * z * z;
+    let rr = (p + q - e4) / 6.0;
+    let s = e4 * p * q / (4.0 * rr * rr * rr);
+    let t = (1.0 + s + (s * (2.0 + s)).sqrt()).cbrt();
+    let u = rr * (1.0 + t + 1.0 / t);
+    let v = (u * u + e4 * q).sqrt();
+    let w = E2 * (u + v - q) / (2.0 * v);
+    let k = (u + v + w * w).sqrt() - w;
+    let rho = rho2.sqrt();
+    let d = k * rho / (k + E2);
+    let dz = (d * d + z * z).sqrt();
+    let lat = 2.0 * z.atan2(d + dz);
+    let h = (k + E2 - 1.0) / k * dz;
+    let lon = y.atan2(x);
+    Geodetic::new(lat, lon, h)
+}
+
+/// Wraps an angle to (−π, π].
+pub fn wrap_pi(a: f64) -> f64 {
+    let w = a.rem_euclid(std::f64::consts::TAU);
+    if w > std::f64::consts::PI { w - std::f64::consts::TAU } else { w }
+}
+
+/// ICAO standard atmosphere (troposphere and the isothermal lower
+/// stratosphere, 0–20 km geopotential, extended to 32 km with the +1 K/km
+/// layer) as functions of geopotential altitude.
+pub mod isa {
+    use super::G0;
+
+    /// Sea-level pressure (Pa) and temperature (K).
+    pub const P0: f64 = 101_325.0;
+    pub const T0: f64 = 288.15;
+    /// Specific gas constant of dry air (J/(kg·K)).
+    pub const R_AIR: f64 = 287.052_87;
+    /// Layer bases (geopotential m), lapse rates (K/m).
+    const H1: f64 = 11_000.0;
+    const H2: f64 = 20_000.0;
+    const H3: f64 = 32_000.0;
+    const L0: f64 = -0.0065;
+    const L2: f64 = 0.001;
+    const T1: f64 = T0 + L0 * H1; // 216.65 K
+
+    fn p1() -> f64 {
+        P0 * (T1 / T0).powf(-G0 / (L0 * R_AIR))
+    }
+    fn p2() -> f64 {
+        p1() * (-G0 * (H2 - H1) / (R_AIR * T1)).exp()
+    }
+
+    /// Geopotential altitude H from geometric altitude z (both m), with the
+    /// ICAO Earth radius convention r0 = 6356766 m.
+    pub fn geopotential_from_geometric(z_m: f64) -> f64 {
+        const R0: f64 = 6_356_766.0;
+        R0 * z_m / (R0 + z_m)
+    }
+    /// Inverse of [`geopotential_from_geometric`].
+    pub fn geometric_from_geopotential(hgp_m: f64) -> f64 {
+        const R0: f64 = 6_356_766.0;
+        R0 * hgp_m / (R0 - hgp_m)
+    }
+    /// Temperature (K) at geopotential altitude H (m).
+    pub fn temperature(hgp_m: f64) -> f64 {
+        if hgp_m <= H1 {
+            T0 + L0 * hgp_m
+        } else if hgp_m <= H2 {
+            T1
+        } else {
+            T1 + L2 * (hgp_m - H2)
+        }
+    }
+
+    /// Pressure (Pa) at geopotential altitude H (m), valid up to 32 km.
+    pub fn pressure(hgp_m: f64) -> f64 {
+        if hgp_m <= H1 {
+            P0 * (temperature(hgp_m) / T0).powf(-G0 / (L0 * R_AIR))
+        } else if hgp_m <= H2 {
+            p1() * (-G0 * (hgp_m - H1) / (R_AIR * T1)).exp()
+        } else {
+            p2() * (temperature(hgp_m) / T1).powf(-G0 / (L2 * R_AIR))
+        }
+    }
+
+    /// Geopotential pressure altitude (m) of a static pressure (Pa); inverse of [`pressure`].
+    pub fn pressure_altitude(p_pa: f64) -> f64 {
+        if p_pa >= p1() {
+            T0 / L0 * ((p_pa / P0).powf(-L0 * R_AIR / G0) - 1.0)
+        } else if p_pa >= p2() {
+            H1 - R_AIR * T1 / G0 * (p_pa / p1()).ln()
+        } else {
+            H2 + T1 / L2 * ((p_pa / p2()).powf(-L2 * R_AIR / G0) - 1.0)
+        }
+    }
+
+    /// Upper end of the modelled atmosphere (geopotential m).
+    pub const MAX_ALTITUDE_M: f64 = H3;
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use std::f64::consts::{FRAC_PI_2, PI};
+
+    /// Independent inverse: Newton iteration on latitude (Bowring form), used
+    /// only to cross-check the closed form away from the axis.
+    fn ecef_to_geodetic_iterative(r: &Vector3<f64>) -> Geodetic {
+        let rho = (r.x * r.x + r.y * r.y).sqrt();
+        let mut lat = r.z.atan2(rho * (1.0 - E2));
+        let mut h = 0.0;
+        for _ in 0..50 {
+            let (_, rn) = radii(lat);
+            h = rho / lat.cos() - rn;
+            lat = r.z.atan2(rho * (1.0 - E2 * rn / (rn + h)));
+        }
+        Geodetic::new(lat, r.y.atan2(r.x), h)
+    }
+
+    #[test]
+    fn geodetic_ecef_round_trip_below_a_millimetre_including_poles_and_antimeridian() {
+        let lats = [-90.0, -89.999_999, -89.9, -70.0, -45.0, -1e-9, 0.0, 30.0, 69.5, 88.0, 89.999_999_9, 90.0];
+        let lons = [-180.0, -179.999_999, -90.0, 0.0, 45.0, 90.0, 179.999_999, 180.0];
+        let hs = [-500.0, 0.0, 18_000.0, 100_000.0];
+        let mut worst: f64 = 0.0;
+        for &lat in &lats {
+            for &lon in &lons {
+                for &h in &hs {
+                    let g = Geodetic::from_deg(lat, lon, h);
+                    let r = geodetic_to_ecef(&g);
+                    let back = ecef_to_geodetic(&r);
+                    let r2 = geodetic_to_ecef(&back);
+                    let err = (r2 - r).norm();
+                    worst = worst.max(err);
+                    assert!(err < 1e-3, "lat {lat} lon {lon} h {h}: {err} m");
+                    assert!((back.h_m - h).abs() < 1e-3, "height at {lat},{lon},{h}");
+                    assert!((back.lat_rad - g.lat_rad).abs() < 1e-3 / A, "lat at {lat},{lon}");
+                    if lat.abs() < 90.0 {
+                        let dlon = wrap_pi(back.lon_rad - g.lon_rad);
+                        assert!(dlon.abs() * A * g.lat_rad.cos() < 1e-3, "lon at {lat},{lon}");
+                    }
+                }
+            }
+        }
+        assert!(worst < 1e-6, "worst round trip {worst} m");
+    }
+
+    #[test]
+    fn exact_poles_give_plus_minus_ninety() {
+        for (z_sign, lat) in [(1.0, FRAC_PI_2), (-1.0, -FRAC_PI_2)] {
+            let r = Vector3::new(0.0, 0.0, z_sign * (B + 18_000.0));
+            let g = ecef_to_geodetic(&r);
+            assert!((g.lat_rad - lat).abs() < 1e-15);
+            assert!((g.h_m - 18_000.0).abs() < 1e-6, "{}", g.h_m);
+        }
+    }
+
+    #[test]
+    fn closed_form_inverse_agrees_with_newton_iteration() {
+        for &lat in &[-80.0, -33.3, 0.5, 45.0, 75.0, 85.0] {
+            for &lon in &[-170.0, 10.0, 120.0] {
+                let r = geodetic_to_ecef(&Geodetic::from_deg(lat, lon, 12_345.0));
+                let a = ecef_to_geodetic(&r);
+                let b = ecef_to_geodetic_iterative(&r);
+                assert!((a.lat_rad - b.lat_rad).abs() < 1e-13);
+                assert!((a.h_m - b.h_m).abs() < 1e-6);
+            }
+        }
+    }
+
+    #[test]
+    fn longitude_stays_in_half_open_range_across_antimeridian() {
+        let g = ecef_to_geodetic(&geodetic_to_ecef(&Geodetic::from_deg(10.0, 180.0, 0.0)));
+        assert!(g.lon_rad > -PI && g.lon_rad <= PI);
+        assert!((wrap_pi(g.lon_rad - PI)).abs() < 1e-14);
+        assert!((wrap_pi(3.0 * PI) - PI).abs() < 1e-15);
+    }
+
+    #[test]
+    fn normal_gravity_matches_published_values() {
+        // WGS-84 normal gravity on the ellipsoid: equator 9.7803253359, pole 9.8321849378.
+        assert!((normal_gravity(0.0, 0.0) - 9.780_325_335_9).abs() < 1e-10);
+        assert!((normal_gravity(FRAC_PI_2, 0.0) - 9.832_184_937_8).abs() < 1e-8);
+        // Free-air gradient ≈ −3.086e-6 s⁻² at mid latitudes.
+        let dg = (normal_gravity(0.785, 100.0) - normal_gravity(0.785, -100.0)) / 200.0;
+        assert!((dg + 3.086e-6).abs() < 0.01e-6, "{dg}");
+    }
+
+    #[test]
+    fn radii_match_finite_difference_of_the_meridian_arc() {
+        // R_M = |d r / dL| along a meridian, R_N·cosL = |d r / dλ|, at h = 0.
+        for &lat in &[0.1_f64, 0.7, 1.3] {
+            let d = 1e-6;
+            let r = |l: f64, o: f64| geodetic_to_ecef(&Geodetic::new(l, o, 0.0));
+            let rm_fd = (r(lat + d, 0.3) - r(lat - d, 0.3)).norm() / (2.0 * d);
+            let rn_fd = (r(lat, 0.3 + d) - r(lat, 0.3 - d)).norm() / (2.0 * d) / lat.cos();
+            let (rm, rn) = radii(lat);
+            assert!((rm - rm_fd).abs() < 1e-3, "{rm} {rm_fd}");
+            assert!((rn - rn_fd).abs() < 1e-3, "{rn} {rn_fd}");
+        }
+    }
+
+    #[test]
+    fn isa_matches_standard_table_and_inverts() {
+        // ICAO table: 11 km 22632.06 Pa, 20 km 5474.89 Pa, 5 km 54019.9 Pa.
+        assert!((isa::pressure(11_000.0) - 22_632.06).abs() < 0.1);
+        assert!((isa::pressure(20_000.0) - 5_474.89).abs() < 0.1);
+        assert!((isa::pressure(5_000.0) - 54_019.9).abs() < 1.0);
+        assert!((isa::temperature(15_000.0) - 216.65).abs() < 1e-9);
+        for h in [0.0, 1500.0, 10_999.0, 11_001.0, 18_000.0, 19_999.0, 20_001.0, 25_000.0] {
+            let back = isa::pressure_altitude(isa::pressure(h));
+            assert!((back - h).abs() < 1e-6, "{h} -> {back}");
+        }
+        let z = 18_000.0;
+        let hgp = isa::geopotential_from_geometric(z);
+        assert!((hgp - 17_949.2).abs() < 0.5, "{hgp}");
+        assert!((isa::geometric_from_geopotential(hgp) - z).abs() < 1e-9);
+    }
+}

@@ -1,0 +1,148 @@
+//! Solution CSV, columns exactly as DESIGN "Command-line contract".
+
+use std::io::Write;
+
+use msgs::{Solution, WireFrame};
+
+/// The header line.
+pub const HEADER: &str = "t_s,frame,lat_deg,lon_deg,h_m,x_m,y_m,z_m,vx,vy,vz,ve,vn,vu,qw,qx,qy,qz,heading_deg,pitch_deg,roll_deg,sig_e_m,sig_n_m,sig_u_m";
+
+/// Writes one row (no allocation: formats straight into the writer).
+pub fn write_row<W: Write>(out: &mut W, s: &Solution) -> std::io::Result<()> {
+    let frame = WireFrame::from_u8(s.frame).map_or('?', WireFrame::letter);
+    let [x, y, z] = s.r_e_m;
+    let [vx, vy, vz] = s.v_e_mps;
+    let [ve, vn, vu] = s.v_enu_mps;
+    let [qw, qx, qy, qz] = s.q_b_e;
+    let [se, sn, su] = s.sigma_pos_enu_m;
+    writeln!(
+        out,
+        "{:.9},{},{:.12},{:.12},{:.6},{:.6},{:.6},{:.6},{:.9},{:.9},{:.9},{:.9},{:.9},{:.9},{:.15},{:.15},{:.15},{:.15},{:.9},{:.9},{:.9},{:.4},{:.4},{:.4}",
+        s.t_ns as f64 * 1e-9,
+        frame,
+        s.lat_rad.to_degrees(),
+        s.lon_rad.to_degrees(),
+        s.h_m,
+        x,
+        y,
+        z,
+        vx,
+        vy,
+        vz,
+        ve,
+        vn,
+        vu,
+        qw,
+        qx,
+        qy,
+        qz,
+        s.heading_rad.to_degrees(),
+        s.pitch_rad.to_degrees(),
+        s.roll_rad.to_degrees(),
+        se,
+        sn,
+        su
+    )
+}
+
+/// One parsed row (the columns the evaluator needs).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Row {
+    pub t_s: f64,
+    pub frame: char,
+    pub lat_deg: f64,
+    pub lon_deg: f64,
+    pub h_m: f64,
+    pub r_e_m: [f64; 3],
+    pub v_e_mps: [f64; 3],
+    pub v_enu_mps: [f64; 3],
+    pub q_b_e: [f64; 4],
+    pub heading_deg: f64,
+    pub pitch_deg: f64,
+    pub roll_deg: f64,
+    pub sigma_enu_m: [f64; 3],
+}
+
+/// Errors of reading a solution CSV.
+#[derive(Debug, thiserror::Error)]
+pub enum ReadCsvError {
+    #[error("{path}: {source}")]
+    Io { path: String, source: std::io::Error },
+    #[error("{path}: header is not the solution CSV header")]
+    Header { path: String },
+    #[error("{path}:{line}: {what}")]
+    Row { path: String, line: usize, what: String },
+}
+
+/// Reads a solution CSV written by [`write_row`].
+pub fn read(path: &std::path::Path) -> Result<Vec<Row>, ReadCsvError> {
+    let p = path.display().to_string();
+    let text = std::fs::read_to_string(path).map_err(|source| ReadCsvError::Io { path: p.clone(), source })?;
+    let mut lines = text.lines();
+    if lines.next().map(str::trim) != Some(HEADER) {
+        return Err(ReadCsvError::Header { path: p });
+    }
+    let mut rows = Vec::new();
+    for (i, line) in lines.enumerate() {
+        let f: Vec<&str> = line.split(',').collect();
+        if f.len() != 24 {
+            return Err(ReadCsvError::Row { path: p, line: i + 2, what: format!("{} columns, expected 24", f.len()) });
+        }
+        let mut v = [0.0f64; 24];
+        for (k, s) in f.iter().enumerate() {
+            if k == 1 {
+                continue;
+            }
+            v[k] = s.trim().parse().map_err(|_| ReadCsvError::Row {
+                path: p.clone(),
+                line: i + 2,
+                what: format!("column {} is not a number: {s:?}", k + 1),
+            })?;
+        }
+        rows.push(Row {
+            t_s: v[0],
+            frame: f[1].chars().next().unwrap_or('?'),
+            lat_deg: v[2],
+            lon_deg: v[3],
+            h_m: v[4],
+            r_e_m: [v[5], v[6], v[7]],
+            v_e_mps: [v[8], v[9], v[10]],
+            v_enu_mps: [v[11], v[12], v[13]],
+            q_b_e: [v[14], v[15], v[16], v[17]],
+            heading_deg: v[18],
+            pitch_deg: v[19],
+            roll_deg: v[20],
+            sigma_enu_m: [v[21], v[22], v[23]],
+        });
+    }
+    Ok(rows)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn row_has_every_header_column_and_reads_back() {
+        let mut s = Solution { t_ns: 1_500_000_000, frame: 1, ..Default::default() };
+        s.lat_rad = 1.2;
+        s.r_e_m = [1.0, -2.0, 6.3e6];
+        s.q_b_e = [1.0, 0.0, 0.0, 0.0];
+        s.sigma_pos_enu_m = [f64::NAN; 3];
+        let mut buf = Vec::new();
+        write_row(&mut buf, &s).expect("write");
+        let line = String::from_utf8(buf).expect("utf8");
+        assert_eq!(line.trim().split(',').count(), HEADER.split(',').count());
+        let dir = std::env::temp_dir().join(format!("polarnav-csv-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("dir");
+        let path = dir.join("s.csv");
+        std::fs::write(&path, format!("{HEADER}\n{line}")).expect("write file");
+        let rows = read(&path).expect("read");
+        assert_eq!(rows.len(), 1);
+        assert_eq!(rows[0].frame, 'G');
+        assert!((rows[0].t_s - 1.5).abs() < 1e-12);
+        assert!((rows[0].lat_deg - 1.2f64.to_degrees()).abs() < 1e-9);
+        assert!(rows[0].sigma_enu_m[0].is_nan());
+        std::fs::remove_dir_all(&dir).ok();
+    }
+}
