@@ -10,6 +10,8 @@
 //!
 //! Units are SI (rad, m, s) inside the math; names carry units at the boundaries.
 
+pub mod batch;
+pub mod config;
 pub mod earth;
 pub mod frame_select;
 pub mod frames;

@@ -1,1 +1,9 @@
-//! placeholder
+//! polarnav sensor-replay: flight simulator, log import/export, evaluation.
+
+pub mod eval;
+pub mod export;
+pub mod logfile;
+pub mod scenario;
+pub mod sensors;
+pub mod simulate;
+pub mod trajectory;

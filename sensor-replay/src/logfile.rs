@@ -1,0 +1,52 @@
+//! Reading a navlog file into memory by record kind, with the damage report.
+
+use std::fs::File;
+use std::io::BufReader;
+use std::path::Path;
+
+use msgs::navlog::{Header, NavlogReader, ReadReport, Record};
+use msgs::{BaroSample, CnsFix, ImuSample, InitState, SrsSample, TruthRecord};
+
+/// Every intact record of a log, grouped by kind.
+#[derive(Debug, Default, Clone)]
+pub struct LogContents {
+    pub header: Option<Header>,
+    pub init: Vec<InitState>,
+    pub imu: Vec<ImuSample>,
+    pub srs: Vec<SrsSample>,
+    pub cns: Vec<CnsFix>,
+    pub baro: Vec<BaroSample>,
+    pub truth: Vec<TruthRecord>,
+    pub report: ReadReport,
+}
+
+/// Errors that stop loading (damage inside the file does not).
+#[derive(Debug, thiserror::Error)]
+pub enum LoadError {
+    #[error("{path}: cannot open: {source}")]
+    Open { path: String, source: std::io::Error },
+    #[error("{path}: {source}")]
+    Read { path: String, source: msgs::navlog::ReadError },
+}
+
+/// Loads a navlog; the report says what was skipped.
+pub fn load(path: &Path) -> Result<LogContents, LoadError> {
+    let p = path.display().to_string();
+    let f = File::open(path).map_err(|source| LoadError::Open { path: p.clone(), source })?;
+    let mut r = NavlogReader::new(BufReader::with_capacity(1 << 20, f));
+    let mut c = LogContents::default();
+    while let Some(rec) = r.next_record().map_err(|source| LoadError::Read { path: p.clone(), source })? {
+        match rec {
+            Record::Header(h) => c.header = Some(h),
+            Record::Init(x) => c.init.push(x),
+            Record::Imu(x) => c.imu.push(x),
+            Record::Srs(x) => c.srs.push(x),
+            Record::Cns(x) => c.cns.push(x),
+            Record::Baro(x) => c.baro.push(x),
+            Record::Truth(x) => c.truth.push(x),
+            Record::Solution(_) | Record::Status(_) => {}
+        }
+    }
+    c.report = r.report().clone();
+    Ok(c)
+}

@@ -1,0 +1,382 @@
+//! Scenario files (`config/scenarios/*.toml`): trajectory, sensor errors,
+//! aid rates and noise, initial errors, navigator overrides.
+//!
+//! Unknown keys are errors, and every error names the file and the key.
+
+use std::path::Path;
+
+use serde::Deserialize;
+
+/// A whole scenario.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Scenario {
+    pub name: String,
+    #[serde(default)]
+    pub description: String,
+    pub start: Start,
+    #[serde(default)]
+    pub imu: ImuSpec,
+    #[serde(default)]
+    pub truth: TruthSpec,
+    pub cns: Option<CnsSpec>,
+    pub baro: Option<BaroSpec>,
+    pub srs: Option<SrsSpec>,
+    #[serde(default)]
+    pub init_error: InitErrorSpec,
+    /// Navigator settings this scenario needs (e.g. the paper's 88° switch);
+    /// passed to the navigator through the navlog header.
+    pub navigator: Option<NavigatorOverrides>,
+    #[serde(rename = "segment")]
+    pub segments: Vec<Segment>,
+}
+
+/// Initial position, heading and speed.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct Start {
+    pub lat_deg: f64,
+    pub lon_deg: f64,
+    pub h_m: f64,
+    /// True heading, clockwise from north (deg).
+    pub heading_deg: f64,
+    /// Horizontal speed (m/s).
+    pub speed_mps: f64,
+    /// Bank in turns: coordinated (aircraft) or level (ground vehicle).
+    #[serde(default)]
+    pub bank: BankMode,
+}
+
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum BankMode {
+    #[default]
+    Coordinated,
+    Level,
+}
+
+/// How constant biases are drawn from their magnitudes.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum BiasModel {
+    /// Each axis N(0, value²) from the seed (the filter's prior matches).
+    #[default]
+    Gaussian,
+    /// Each axis exactly +value.
+    Fixed,
+}
+
+/// IMU rate and error model. Units as in papers/001 Table 1.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct ImuSpec {
+    pub rate_hz: f64,
+    pub bias_model: BiasModel,
+    /// Gyro constant bias (deg/h).
+    pub gyro_bias_dph: f64,
+    /// Accelerometer constant bias (µg).
+    pub accel_bias_ug: f64,
+    /// Angle random walk (deg/√h).
+    pub arw_dpsh: f64,
+    /// Velocity random walk (µg/√Hz).
+    pub vrw_ug_psqhz: f64,
+    /// First-order Gauss–Markov gyro bias: σ (deg/h) and correlation time (s); 0 = off.
+    pub gm_gyro_sigma_dph: f64,
+    pub gm_gyro_tau_s: f64,
+    /// First-order Gauss–Markov accelerometer bias: σ (µg) and correlation time (s); 0 = off.
+    pub gm_accel_sigma_ug: f64,
+    pub gm_accel_tau_s: f64,
+    /// Quantization step of the angle increments (rad) and velocity increments (m/s); 0 = none.
+    pub gyro_quant_rad: f64,
+    pub accel_quant_mps: f64,
+}
+
+impl Default for ImuSpec {
+    fn default() -> Self {
+        Self {
+            rate_hz: 200.0,
+            bias_model: BiasModel::Gaussian,
+            gyro_bias_dph: 0.0,
+            accel_bias_ug: 0.0,
+            arw_dpsh: 0.0,
+            vrw_ug_psqhz: 0.0,
+            gm_gyro_sigma_dph: 0.0,
+            gm_gyro_tau_s: 3600.0,
+            gm_accel_sigma_ug: 0.0,
+            gm_accel_tau_s: 3600.0,
+            gyro_quant_rad: 0.0,
+            accel_quant_mps: 0.0,
+        }
+    }
+}
+
+/// Truth record rate.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct TruthSpec {
+    pub rate_hz: f64,
+}
+
+impl Default for TruthSpec {
+    fn default() -> Self {
+        Self { rate_hz: 10.0 }
+    }
+}
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CnsSpec {
+    pub rate_hz: f64,
+    /// Horizontal 1-σ (m).
+    pub sigma_m: f64,
+}
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BaroSpec {
+    pub rate_hz: f64,
+    /// Altitude 1-σ (m).
+    pub sigma_m: f64,
+}
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SrsSpec {
+    pub rate_hz: f64,
+    /// Radial-velocity 1-σ per line (m/s).
+    pub sigma_mps: f64,
+    #[serde(default = "default_mask")]
+    pub elevation_mask_deg: f64,
+    /// Explicit body catalogue; the built-in catalogue when empty.
+    #[serde(default, rename = "body")]
+    pub bodies: Vec<BodySpec>,
+}
+
+fn default_mask() -> f64 {
+    10.0
+}
+
+/// One celestial body: direction (fixed star) and ephemeris velocity.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BodySpec {
+    pub id: u32,
+    /// Right ascension and declination of the line of sight (deg), inertial frame.
+    pub ra_deg: f64,
+    pub dec_deg: f64,
+    /// Velocity relative to the Earth's centre, inertial frame (m/s).
+    pub vel_i_mps: [f64; 3],
+    /// Rest wavelength of the observed line (nm).
+    pub rest_wavelength_nm: f64,
+}
+
+/// Initial errors of the state handed to the navigator (1-σ; drawn from the seed).
+#[derive(Debug, Clone, Default, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct InitErrorSpec {
+    pub pos_h_m: f64,
+    pub pos_v_m: f64,
+    pub vel_h_mps: f64,
+    pub vel_v_mps: f64,
+    pub tilt_arcmin: f64,
+    pub heading_arcmin: f64,
+}
+
+/// Navigator settings a scenario may impose.
+#[derive(Debug, Clone, Default, PartialEq, serde::Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct NavigatorOverrides {
+    pub switch_enter_deg: Option<f64>,
+    pub switch_leave_deg: Option<f64>,
+    /// Forced frame-switch times (s from the start); disables the latitude rule.
+    pub force_switch_s: Option<Vec<f64>>,
+}
+
+/// One trajectory segment. Changes ramp in and out smoothly over `ramp_s`.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case", deny_unknown_fields)]
+pub enum Segment {
+    /// Straight (great-circle) flight at constant speed and height.
+    Cruise { duration_s: f64 },
+    /// Turn by `heading_change_deg` (positive = right/clockwise).
+    Turn { duration_s: f64, heading_change_deg: f64, ramp_s: Option<f64> },
+    /// Climb (or descend, negative) by `altitude_change_m`.
+    Climb { duration_s: f64, altitude_change_m: f64, ramp_s: Option<f64> },
+    /// Change horizontal speed by `speed_change_mps`.
+    Accelerate { duration_s: f64, speed_change_mps: f64, ramp_s: Option<f64> },
+}
+
+impl Segment {
+    pub fn duration_s(&self) -> f64 {
+        match *self {
+            Segment::Cruise { duration_s }
+            | Segment::Turn { duration_s, .. }
+            | Segment::Climb { duration_s, .. }
+            | Segment::Accelerate { duration_s, .. } => duration_s,
+        }
+    }
+}
+
+/// Errors of loading a scenario.
+#[derive(Debug, thiserror::Error)]
+pub enum ScenarioError {
+    #[error("{path}: cannot read: {source}")]
+    Io { path: String, source: std::io::Error },
+    #[error("{path}: {message}")]
+    Parse { path: String, message: String },
+    #[error("{path}: key `{key}`: {message}")]
+    Invalid { path: String, key: String, message: String },
+}
+
+impl Scenario {
+    /// Loads and validates a scenario file.
+    pub fn load(path: &Path) -> Result<(Self, String), ScenarioError> {
+        let p = path.display().to_string();
+        let text = std::fs::read_to_string(path).map_err(|source| ScenarioError::Io { path: p.clone(), source })?;
+        let s = Self::parse(&text, &p)?;
+        Ok((s, text))
+    }
+
+    /// Parses and validates scenario text; `origin` names it in errors.
+    pub fn parse(text: &str, origin: &str) -> Result<Self, ScenarioError> {
+        let s: Scenario =
+            toml::from_str(text).map_err(|e| ScenarioError::Parse { path: origin.to_owned(), message: e.to_string() })?;
+        s.validate(origin)?;
+        Ok(s)
+    }
+
+    fn validate(&self, origin: &str) -> Result<(), ScenarioError> {
+        let bad = |key: &str, message: String| ScenarioError::Invalid { path: origin.to_owned(), key: key.to_owned(), message };
+        let finite_pos = |key: &str, v: f64| {
+            if v.is_finite() && v > 0.0 { Ok(()) } else { Err(bad(key, format!("must be a positive number, got {v}"))) }
+        };
+        let non_neg = |key: &str, v: f64| {
+            if v.is_finite() && v >= 0.0 { Ok(()) } else { Err(bad(key, format!("must be ≥ 0, got {v}"))) }
+        };
+        if !(-90.0..=90.0).contains(&self.start.lat_deg) {
+            return Err(bad("start.lat_deg", format!("must be in [-90, 90], got {}", self.start.lat_deg)));
+        }
+        if self.start.lat_deg.abs() == 90.0 {
+            return Err(bad("start.lat_deg", "a flight may cross a pole but not start on one (heading is undefined there)".into()));
+        }
+        if !self.start.lon_deg.is_finite() || !self.start.heading_deg.is_finite() || !self.start.h_m.is_finite() {
+            return Err(bad("start", "lon_deg, heading_deg and h_m must be finite".into()));
+        }
+        non_neg("start.speed_mps", self.start.speed_mps)?;
+        finite_pos("imu.rate_hz", self.imu.rate_hz)?;
+        if self.imu.rate_hz > 1000.0 {
+            return Err(bad("imu.rate_hz", format!("at most 1000 Hz, got {}", self.imu.rate_hz)));
+        }
+        for (k, v) in [
+            ("imu.gyro_bias_dph", self.imu.gyro_bias_dph),
+            ("imu.accel_bias_ug", self.imu.accel_bias_ug),
+            ("imu.arw_dpsh", self.imu.arw_dpsh),
+            ("imu.vrw_ug_psqhz", self.imu.vrw_ug_psqhz),
+            ("imu.gm_gyro_sigma_dph", self.imu.gm_gyro_sigma_dph),
+            ("imu.gm_accel_sigma_ug", self.imu.gm_accel_sigma_ug),
+            ("imu.gyro_quant_rad", self.imu.gyro_quant_rad),
+            ("imu.accel_quant_mps", self.imu.accel_quant_mps),
+            ("init_error.pos_h_m", self.init_error.pos_h_m),
+            ("init_error.pos_v_m", self.init_error.pos_v_m),
+            ("init_error.vel_h_mps", self.init_error.vel_h_mps),
+            ("init_error.vel_v_mps", self.init_error.vel_v_mps),
+            ("init_error.tilt_arcmin", self.init_error.tilt_arcmin),
+            ("init_error.heading_arcmin", self.init_error.heading_arcmin),
+        ] {
+            non_neg(k, v)?;
+        }
+        finite_pos("imu.gm_gyro_tau_s", self.imu.gm_gyro_tau_s)?;
+        finite_pos("imu.gm_accel_tau_s", self.imu.gm_accel_tau_s)?;
+        finite_pos("truth.rate_hz", self.truth.rate_hz)?;
+        if let Some(c) = &self.cns {
+            finite_pos("cns.rate_hz", c.rate_hz)?;
+            finite_pos("cns.sigma_m", c.sigma_m)?;
+        }
+        if let Some(b) = &self.baro {
+            finite_pos("baro.rate_hz", b.rate_hz)?;
+            finite_pos("baro.sigma_m", b.sigma_m)?;
+        }
+        if let Some(s) = &self.srs {
+            finite_pos("srs.rate_hz", s.rate_hz)?;
+            finite_pos("srs.sigma_mps", s.sigma_mps)?;
+            if !(0.0..90.0).contains(&s.elevation_mask_deg) {
+                return Err(bad("srs.elevation_mask_deg", format!("must be in [0, 90), got {}", s.elevation_mask_deg)));
+            }
+            for (i, b) in s.bodies.iter().enumerate() {
+                if !b.rest_wavelength_nm.is_finite() || b.rest_wavelength_nm <= 0.0 {
+                    return Err(bad(&format!("srs.body[{i}].rest_wavelength_nm"), "must be positive".into()));
+                }
+            }
+        }
+        if self.segments.is_empty() {
+            return Err(bad("segment", "at least one [[segment]] is required".into()));
+        }
+        for (i, seg) in self.segments.iter().enumerate() {
+            finite_pos(&format!("segment[{i}].duration_s"), seg.duration_s())?;
+            let ramp = match seg {
+                Segment::Cruise { .. } => None,
+                Segment::Turn { ramp_s, .. } | Segment::Climb { ramp_s, .. } | Segment::Accelerate { ramp_s, .. } => *ramp_s,
+            };
+            if let Some(r) = ramp {
+                if !(r > 0.0 && 2.0 * r <= seg.duration_s()) {
+                    return Err(bad(&format!("segment[{i}].ramp_s"), format!("must be in (0, duration_s/2], got {r}")));
+                }
+            }
+        }
+        if let Some(n) = &self.navigator {
+            if let (Some(e), Some(l)) = (n.switch_enter_deg, n.switch_leave_deg) {
+                if l >= e {
+                    return Err(bad("navigator.switch_leave_deg", format!("must be below switch_enter_deg ({e}), got {l}")));
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Total flight time (s).
+    pub fn duration_s(&self) -> f64 {
+        self.segments.iter().map(Segment::duration_s).sum()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const MINIMAL: &str = r#"
+name = "t"
+[start]
+lat_deg = 80.0
+lon_deg = 0.0
+h_m = 18000.0
+heading_deg = 0.0
+speed_mps = 250.0
+[[segment]]
+kind = "cruise"
+duration_s = 10.0
+"#;
+
+    #[test]
+    fn minimal_scenario_parses_with_defaults() {
+        let s = Scenario::parse(MINIMAL, "mem").expect("parse");
+        assert_eq!(s.imu.rate_hz, 200.0);
+        assert_eq!(s.duration_s(), 10.0);
+    }
+
+    #[test]
+    fn unknown_key_is_named() {
+        let text = MINIMAL.replace("speed_mps = 250.0", "speed_mps = 250.0\nspeeed = 1");
+        let e = Scenario::parse(&text, "file.toml").expect_err("must fail").to_string();
+        assert!(e.contains("file.toml") && e.contains("speeed"), "{e}");
+    }
+
+    #[test]
+    fn invalid_value_names_the_key() {
+        let text = MINIMAL.replace("duration_s = 10.0", "duration_s = -1.0");
+        let e = Scenario::parse(&text, "f").expect_err("must fail").to_string();
+        assert!(e.contains("segment[0].duration_s"), "{e}");
+        let text = MINIMAL.replace("lat_deg = 80.0", "lat_deg = 95.0");
+        let e = Scenario::parse(&text, "f").expect_err("must fail").to_string();
+        assert!(e.contains("start.lat_deg"), "{e}");
+    }
+}

@@ -1,0 +1,212 @@
+//! `sensor-replay simulate`: a scenario → a navlog of IMU, aids, init and truth.
+
+use std::io::Write;
+
+use msgs::navlog::{Header, NavlogWriter, Record, WriteError};
+use msgs::{ImuSample, InitState, TruthRecord};
+use nalgebra::{UnitQuaternion, Vector3};
+use polarnav::earth;
+use polarnav::frames;
+use rand::SeedableRng;
+use rand_chacha::ChaCha20Rng;
+
+use crate::scenario::Scenario;
+use crate::sensors::{self, Body, ImuErrorModel};
+use crate::trajectory::{Flight, TruthSample};
+
+/// Options of one simulation run.
+#[derive(Debug, Clone, Copy)]
+pub struct SimOptions {
+    pub seed: u64,
+    /// Error-free sensors and initial state (aid σ still reported as configured).
+    pub perfect: bool,
+    /// RK4 steps per IMU interval.
+    pub substeps: usize,
+}
+
+impl Default for SimOptions {
+    fn default() -> Self {
+        Self { seed: 1, perfect: false, substeps: 2 }
+    }
+}
+
+/// Counts of what was written.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct SimSummary {
+    pub imu: u64,
+    pub srs: u64,
+    pub cns: u64,
+    pub baro: u64,
+    pub truth: u64,
+    pub duration_ns: u64,
+}
+
+/// Converts a truth sample to its record.
+pub fn truth_record(t_ns: u64, t: &TruthSample) -> TruthRecord {
+    let q = t.q_b_e.into_inner();
+    TruthRecord { t_ns, r_e_m: t.r_e.into(), v_e_mps: t.v_e.into(), q_b_e: [q.w, q.i, q.j, q.k] }
+}
+
+/// Initial errors drawn per axis in the local level frame.
+#[derive(Debug, Clone, Copy)]
+pub struct InitErrors {
+    pub pos_h_m: f64,
+    pub pos_v_m: f64,
+    pub vel_h_mps: f64,
+    pub vel_v_mps: f64,
+    pub tilt_rad: f64,
+    pub heading_rad: f64,
+}
+
+/// The init record: truth plus errors drawn from σ (zero errors when `rng` is None).
+pub fn init_record(t_ns: u64, truth: &TruthSample, sig: &InitErrors, rng: Option<&mut ChaCha20Rng>) -> InitState {
+    let geo = earth::ecef_to_geodetic(&truth.r_e);
+    let c_e_g = frames::c_e_g(geo.lat_rad, geo.lon_rad);
+    let (dp, dv, phi) = match rng {
+        Some(rng) => {
+            let mut n = || sensors::normal(rng);
+            (
+                Vector3::new(sig.pos_h_m * n(), sig.pos_h_m * n(), sig.pos_v_m * n()),
+                Vector3::new(sig.vel_h_mps * n(), sig.vel_h_mps * n(), sig.vel_v_mps * n()),
+                Vector3::new(sig.tilt_rad * n(), sig.tilt_rad * n(), sig.heading_rad * n()),
+            )
+        }
+        None => (Vector3::zeros(), Vector3::zeros(), Vector3::zeros()),
+    };
+    let c_g_e = c_e_g.transpose();
+    let r = truth.r_e + c_g_e * dp;
+    let v = truth.v_e + c_g_e * dv;
+    // Computed attitude C_b^c = (I − φ×) C_b^n, φ in g, applied as an exact rotation.
+    let q_err = UnitQuaternion::from_scaled_axis(c_g_e * -phi);
+    let q = (q_err * truth.q_b_e).into_inner();
+    InitState {
+        t_ns,
+        seq: 0,
+        r_e_m: r.into(),
+        v_e_mps: v.into(),
+        q_b_e: [q.w, q.i, q.j, q.k],
+        sigma_pos_h_m: sig.pos_h_m,
+        sigma_pos_v_m: sig.pos_v_m,
+        sigma_vel_h_mps: sig.vel_h_mps,
+        sigma_vel_v_mps: sig.vel_v_mps,
+        sigma_tilt_rad: sig.tilt_rad,
+        sigma_heading_rad: sig.heading_rad,
+    }
+}
+
+fn period_ns(rate_hz: f64) -> u64 {
+    (1e9 / rate_hz).round() as u64
+}
+
+/// A periodic stream stamped at the first IMU time at or after each nominal time.
+#[derive(Debug)]
+struct Schedule {
+    period_ns: u64,
+    next_ns: u64,
+    seq: u64,
+}
+
+impl Schedule {
+    fn new(rate_hz: f64) -> Self {
+        let p = period_ns(rate_hz);
+        Self { period_ns: p, next_ns: p, seq: 0 }
+    }
+    /// True (once) when a sample is due at or before `t_ns`.
+    fn due(&mut self, t_ns: u64) -> bool {
+        if t_ns >= self.next_ns {
+            while self.next_ns <= t_ns {
+                self.next_ns += self.period_ns;
+            }
+            self.seq += 1;
+            true
+        } else {
+            false
+        }
+    }
+}
+
+/// Runs the scenario and writes the navlog.
+pub fn simulate<W: Write>(s: &Scenario, scenario_text: &str, opts: SimOptions, out: W) -> Result<SimSummary, WriteError> {
+    let mut rng = ChaCha20Rng::seed_from_u64(opts.seed);
+    let mut imu_err = ImuErrorModel::new(&s.imu, &mut rng);
+    let metadata = format!(
+        "{scenario_text}\n\n# written by sensor-replay simulate\n[generated]\nseed = {}\nperfect = {}\ngyro_bias_rps = [{:e}, {:e}, {:e}]\naccel_bias_mps2 = [{:e}, {:e}, {:e}]\n",
+        opts.seed,
+        opts.perfect,
+        imu_err.drawn.gyro_bias_rps.x,
+        imu_err.drawn.gyro_bias_rps.y,
+        imu_err.drawn.gyro_bias_rps.z,
+        imu_err.drawn.accel_bias_mps2.x,
+        imu_err.drawn.accel_bias_mps2.y,
+        imu_err.drawn.accel_bias_mps2.z,
+    );
+    let header = Header::new(concat!("sensor-replay ", env!("CARGO_PKG_VERSION"), " simulate"), &s.name, opts.seed, &metadata);
+    let mut w = NavlogWriter::new(out, header)?;
+
+    let mut flight = Flight::new(s, opts.substeps);
+    let truth0 = flight.truth();
+    let ie = &s.init_error;
+    let sig = InitErrors {
+        pos_h_m: ie.pos_h_m,
+        pos_v_m: ie.pos_v_m,
+        vel_h_mps: ie.vel_h_mps,
+        vel_v_mps: ie.vel_v_mps,
+        tilt_rad: (ie.tilt_arcmin / 60.0).to_radians(),
+        heading_rad: (ie.heading_arcmin / 60.0).to_radians(),
+    };
+    let init = init_record(0, &truth0, &sig, (!opts.perfect).then_some(&mut rng));
+    w.write(&Record::Init(init))?;
+    w.write(&Record::Truth(truth_record(0, &truth0)))?;
+
+    let catalogue: Vec<Body> = match &s.srs {
+        Some(srs) if !srs.bodies.is_empty() => srs.bodies.iter().map(Body::from_spec).collect(),
+        _ => sensors::default_catalogue(),
+    };
+    let dt_ns = period_ns(s.imu.rate_hz);
+    let n = (s.duration_s() * 1e9 / dt_ns as f64).floor() as u64;
+    let mut truth_sched = Schedule::new(s.truth.rate_hz);
+    let mut cns_sched = s.cns.as_ref().map(|c| Schedule::new(c.rate_hz));
+    let mut baro_sched = s.baro.as_ref().map(|b| Schedule::new(b.rate_hz));
+    let mut srs_sched = s.srs.as_ref().map(|x| Schedule::new(x.rate_hz));
+    let mut sum = SimSummary::default();
+    let noisy = !opts.perfect;
+
+    for k in 1..=n {
+        let t_ns = k * dt_ns;
+        let dt = dt_ns as f64 * 1e-9;
+        let (d_theta, d_v) = flight.advance_to(t_ns as f64 * 1e-9);
+        let (d_theta, d_v) = if noisy { imu_err.corrupt(&mut rng, d_theta, d_v, dt) } else { (d_theta, d_v) };
+        w.write(&Record::Imu(ImuSample { t_ns, seq: k - 1, dt_s: dt, d_theta_rad: d_theta.into(), d_v_mps: d_v.into() }))?;
+        sum.imu += 1;
+
+        let truth = flight.truth();
+        if let (Some(sch), Some(spec)) = (srs_sched.as_mut(), s.srs.as_ref()) {
+            if sch.due(t_ns) {
+                let mask = spec.elevation_mask_deg.to_radians();
+                let obs = sensors::srs_sample(&mut rng, t_ns, sch.seq - 1, &truth.r_e, &truth.v_e, &catalogue, mask, spec.sigma_mps, noisy);
+                w.write(&Record::Srs(obs))?;
+                sum.srs += 1;
+            }
+        }
+        if let (Some(sch), Some(spec)) = (cns_sched.as_mut(), s.cns.as_ref()) {
+            if sch.due(t_ns) {
+                w.write(&Record::Cns(sensors::cns_fix(&mut rng, t_ns, sch.seq - 1, &truth.r_e, spec.sigma_m, noisy)))?;
+                sum.cns += 1;
+            }
+        }
+        if let (Some(sch), Some(spec)) = (baro_sched.as_mut(), s.baro.as_ref()) {
+            if sch.due(t_ns) {
+                let h = earth::ecef_to_geodetic(&truth.r_e).h_m;
+                w.write(&Record::Baro(sensors::baro_sample(&mut rng, t_ns, sch.seq - 1, h, spec.sigma_m, noisy)))?;
+                sum.baro += 1;
+            }
+        }
+        if truth_sched.due(t_ns) || k == n {
+            w.write(&Record::Truth(truth_record(t_ns, &truth)))?;
+            sum.truth += 1;
+        }
+        sum.duration_ns = t_ns;
+    }
+    w.finish()?;
+    Ok(sum)
+}
