@@ -109,7 +109,12 @@ pub struct NavlogWriter<W: Write> {
 impl<W: Write> NavlogWriter<W> {
     /// Starts a navlog on `out` and writes `header` as its first record.
     pub fn new(out: W, header: Header) -> Result<Self, WriteError> {
-        let mut w = Self { out, raw: Vec::with_capacity(2048), framed: Vec::with_capacity(2048), records: 0 };
+        let mut w = Self {
+            out,
+            raw: Vec::with_capacity(2048),
+            framed: Vec::with_capacity(2048),
+            records: 0,
+        };
         w.write(&Record::Header(header))?;
         Ok(w)
     }
@@ -121,7 +126,8 @@ impl<W: Write> NavlogWriter<W> {
         let crc = crc32fast::hash(&self.raw);
         self.raw.extend_from_slice(&crc.to_le_bytes());
         self.framed.clear();
-        self.framed.resize(cobs::max_encoding_length(self.raw.len()) + 1, 0);
+        self.framed
+            .resize(cobs::max_encoding_length(self.raw.len()) + 1, 0);
         let n = cobs::encode(&self.raw, &mut self.framed);
         self.framed[n] = 0;
         self.out.write_all(&self.framed[..=n])?;
@@ -371,7 +377,12 @@ mod tests {
     use crate::payloads::*;
 
     fn sample_records() -> Vec<Record> {
-        let mut srs = SrsSample { t_ns: 3, seq: 1, count: 2, ..Default::default() };
+        let mut srs = SrsSample {
+            t_ns: 3,
+            seq: 1,
+            count: 2,
+            ..Default::default()
+        };
         srs.lines[0] = SrsLine {
             los_i: [0.6, 0.8, 0.0],
             body_vel_i_mps: [1.0, -2.0, 3.0e4],
@@ -382,10 +393,19 @@ mod tests {
             _pad: 0,
         };
         srs.lines[1].body_id = 9;
-        let mut sol = Solution { t_ns: 8, seq: 4, frame: WireFrame::Grid as u8, ..Default::default() };
+        let mut sol = Solution {
+            t_ns: 8,
+            seq: 4,
+            frame: WireFrame::Grid as u8,
+            ..Default::default()
+        };
         sol.q_b_e = [0.5, 0.5, -0.5, 0.5];
         sol.flags = solution_flags::ALIGNED | solution_flags::CNS_FRESH;
-        let mut status = Status { t_ns: 9, seq: 5, ..Default::default() };
+        let mut status = Status {
+            t_ns: 9,
+            seq: 5,
+            ..Default::default()
+        };
         status.imu.received = 1000;
         status.cns_aid.test_ratio = 0.3;
         vec![
@@ -405,7 +425,13 @@ mod tests {
                 d_v_mps: [0.0, 0.0, 0.049],
             }),
             Record::Srs(srs),
-            Record::Cns(CnsFix { t_ns: 4, seq: 2, lat_rad: 1.5, lon_rad: -3.1, sigma_h_m: 20.0 }),
+            Record::Cns(CnsFix {
+                t_ns: 4,
+                seq: 2,
+                lat_rad: 1.5,
+                lon_rad: -3.1,
+                sigma_h_m: 20.0,
+            }),
             Record::Baro(BaroSample {
                 t_ns: 5,
                 seq: 3,
@@ -425,7 +451,9 @@ mod tests {
     }
 
     fn encode(records: &[Record]) -> Vec<u8> {
-        let Record::Header(h) = &records[0] else { panic!("first must be header") };
+        let Record::Header(h) = &records[0] else {
+            panic!("first must be header")
+        };
         let mut w = NavlogWriter::new(Vec::new(), h.clone()).expect("header");
         for r in &records[1..] {
             w.write(r).expect("write");
@@ -472,8 +500,12 @@ mod tests {
     fn bit_flip_costs_only_the_damaged_record() {
         let records = sample_records();
         let bytes = encode(&records);
-        let ends: Vec<usize> =
-            bytes.iter().enumerate().filter(|(_, b)| **b == 0).map(|(i, _)| i).collect();
+        let ends: Vec<usize> = bytes
+            .iter()
+            .enumerate()
+            .filter(|(_, b)| **b == 0)
+            .map(|(i, _)| i)
+            .collect();
         for pos in 0..bytes.len() {
             for bit in [0u8, 3, 7] {
                 let mut damaged = bytes.clone();
@@ -489,7 +521,10 @@ mod tests {
                     .map(|(_, r)| r.clone())
                     .collect();
                 assert_eq!(back, expected, "flip at byte {pos} bit {bit}");
-                assert!(report.skipped_frames() >= 1, "flip at {pos} not reported: {report}");
+                assert!(
+                    report.skipped_frames() >= 1,
+                    "flip at {pos} not reported: {report}"
+                );
                 assert!(report.first_skip_offset.is_some());
                 assert_eq!(report.records, back.len() as u64);
             }

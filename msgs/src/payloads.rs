@@ -306,7 +306,10 @@ mod tests {
     fn payloads_have_no_implicit_padding() {
         assert_eq!(size_of::<ImuSample>(), 8 + 8 + 8 + 24 + 24);
         assert_eq!(size_of::<SrsLine>(), 24 + 24 + 8 + 8 + 8 + 4 + 4);
-        assert_eq!(size_of::<SrsSample>(), 8 + 8 + 4 + 4 + SRS_MAX_LINES * size_of::<SrsLine>());
+        assert_eq!(
+            size_of::<SrsSample>(),
+            8 + 8 + 4 + 4 + SRS_MAX_LINES * size_of::<SrsLine>()
+        );
         assert_eq!(size_of::<CnsFix>(), 5 * 8);
         assert_eq!(size_of::<BaroSample>(), 5 * 8);
         assert_eq!(size_of::<InitState>(), 16 + 24 + 24 + 32 + 6 * 8);
@@ -320,7 +323,11 @@ mod tests {
             size_of::<Status>(),
             16 + 4 * size_of::<StreamCounters>() + 3 * size_of::<AidStatus>() + 5 * 8 + 16
         );
-        for a in [align_of::<ImuSample>(), align_of::<Solution>(), align_of::<Status>()] {
+        for a in [
+            align_of::<ImuSample>(),
+            align_of::<Solution>(),
+            align_of::<Status>(),
+        ] {
             assert_eq!(a, 8);
         }
     }
@@ -347,9 +354,15 @@ mod tests {
 
     #[test]
     fn srs_valid_lines_clamps_a_corrupt_count() {
-        let s = SrsSample { count: 200, ..Default::default() };
+        let s = SrsSample {
+            count: 200,
+            ..Default::default()
+        };
         assert_eq!(s.valid_lines().len(), SRS_MAX_LINES);
-        let s = SrsSample { count: 3, ..Default::default() };
+        let s = SrsSample {
+            count: 3,
+            ..Default::default()
+        };
         assert_eq!(s.valid_lines().len(), 3);
     }
 

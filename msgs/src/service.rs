@@ -62,8 +62,10 @@ mod tests {
         assert_eq!(Topic::Imu.service_name("polarnav"), "polarnav/imu");
         assert_eq!(Topic::Status.service_name("test-42/"), "test-42/status");
         assert_eq!(Topic::Solution.event_name("p"), "p/solution/event");
-        let names: std::collections::HashSet<_> =
-            Topic::ALL.iter().map(|t| t.service_name(DEFAULT_PREFIX)).collect();
+        let names: std::collections::HashSet<_> = Topic::ALL
+            .iter()
+            .map(|t| t.service_name(DEFAULT_PREFIX))
+            .collect();
         assert_eq!(names.len(), Topic::ALL.len());
     }
 }

@@ -28,7 +28,11 @@ impl AidSet {
                 "srs" => a.srs = true,
                 "cns" => a.cns = true,
                 "baro" => a.baro = true,
-                other => return Err(format!("unknown aid {other:?}: expected a list of srs, cns, baro, or none")),
+                other => {
+                    return Err(format!(
+                        "unknown aid {other:?}: expected a list of srs, cns, baro, or none"
+                    ));
+                }
             }
         }
         Ok(a)
@@ -55,6 +59,8 @@ pub struct BatchOptions {
     pub conversion: Conversion,
     /// `--force-switch` times (s), overriding config and scenario.
     pub force_switch_s: Option<Vec<f64>>,
+    /// Print a progress line to stderr every this many seconds of flight (0 = quiet).
+    pub progress_every_s: f64,
 }
 
 /// What a batch run did.
@@ -86,7 +92,10 @@ pub enum BatchError {
     AidsUnavailable(String),
     /// Reading the log failed (exit 1).
     #[error("{path}: {source}")]
-    Read { path: String, source: msgs::navlog::ReadError },
+    Read {
+        path: String,
+        source: msgs::navlog::ReadError,
+    },
     /// Writing the solution failed (exit 1).
     #[error("writing the solution: {0}")]
     Write(#[from] std::io::Error),
@@ -112,20 +121,32 @@ pub fn run<R: BufRead, W: Write>(
     opts: &BatchOptions,
 ) -> Result<BatchReport, BatchError> {
     if opts.aids.any() {
-        let list: Vec<&str> = [("srs", opts.aids.srs), ("cns", opts.aids.cns), ("baro", opts.aids.baro)]
-            .iter()
-            .filter(|(_, on)| *on)
-            .map(|(n, _)| *n)
-            .collect();
+        let list: Vec<&str> = [
+            ("srs", opts.aids.srs),
+            ("cns", opts.aids.cns),
+            ("baro", opts.aids.baro),
+        ]
+        .iter()
+        .filter(|(_, on)| *on)
+        .map(|(n, _)| *n)
+        .collect();
         return Err(BatchError::AidsUnavailable(list.join(",")));
     }
     let mut reader = NavlogReader::new(log);
-    let mut report = BatchReport { frame: config.frame.clone(), ..Default::default() };
-    let read_err = |source| BatchError::Read { path: log_name.to_owned(), source };
+    let mut report = BatchReport {
+        frame: config.frame.clone(),
+        ..Default::default()
+    };
+    let read_err = |source| BatchError::Read {
+        path: log_name.to_owned(),
+        source,
+    };
     writeln!(out, "{}", solution_csv::HEADER)?;
 
     let mut nav: Option<Navigator> = None;
     let mut rejected_logged = 0u32;
+    let progress_ns = (opts.progress_every_s.max(0.0) * 1e9) as u64;
+    let mut next_progress_ns = progress_ns;
     while let Some(rec) = reader.next_record().map_err(read_err)? {
         match rec {
             Record::Header(h) => {
@@ -160,15 +181,32 @@ pub fn run<R: BufRead, W: Write>(
                             tracing::info!(t_s = sw.t_ns as f64 * 1e-9, from = ?sw.from, to = ?sw.to, lat_deg = sw.lat_rad.to_degrees(), "frame switch");
                             report.switches.push(sw);
                         }
-                        solution_csv::write_row(&mut out, &n.solution())?;
+                        let sol = n.solution();
+                        solution_csv::write_row(&mut out, &sol)?;
                         report.rows += 1;
                         report.last_t_ns = s.t_ns;
+                        if progress_ns > 0 && s.t_ns >= next_progress_ns {
+                            next_progress_ns += progress_ns;
+                            eprintln!(
+                                "batch: t = {:7.1} s  frame {}  lat {:9.5}°  lon {:10.5}°  h {:8.1} m  heading {:6.2}°",
+                                s.t_ns as f64 * 1e-9,
+                                n.state().kind().to_wire().letter(),
+                                sol.lat_rad.to_degrees(),
+                                sol.lon_rad.to_degrees(),
+                                sol.h_m,
+                                sol.heading_rad.to_degrees()
+                            );
+                        }
                     }
                     Err(e) => {
                         report.imu_rejected += 1;
                         if rejected_logged < 10 {
                             rejected_logged += 1;
-                            tracing::warn!(t_ns = s.t_ns, seq = s.seq, "{log_name}: IMU sample rejected: {e}");
+                            tracing::warn!(
+                                t_ns = s.t_ns,
+                                seq = s.seq,
+                                "{log_name}: IMU sample rejected: {e}"
+                            );
                         }
                     }
                 }

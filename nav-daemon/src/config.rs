@@ -25,7 +25,10 @@ fn default_prefix() -> String {
 
 impl Default for Config {
     fn default() -> Self {
-        Self { prefix: default_prefix(), frame: FrameConfig::default() }
+        Self {
+            prefix: default_prefix(),
+            frame: FrameConfig::default(),
+        }
     }
 }
 
@@ -43,7 +46,11 @@ pub struct FrameConfig {
 
 impl Default for FrameConfig {
     fn default() -> Self {
-        Self { switch_enter_deg: 70.0, switch_leave_deg: 69.5, force_switch_s: Vec::new() }
+        Self {
+            switch_enter_deg: 70.0,
+            switch_leave_deg: 69.5,
+            force_switch_s: Vec::new(),
+        }
     }
 }
 
@@ -51,11 +58,18 @@ impl Default for FrameConfig {
 #[derive(Debug, thiserror::Error)]
 pub enum ConfigError {
     #[error("{path}: cannot read: {source}")]
-    Io { path: String, source: std::io::Error },
+    Io {
+        path: String,
+        source: std::io::Error,
+    },
     #[error("{path}: {message}")]
     Parse { path: String, message: String },
     #[error("{path}: key `{key}`: {message}")]
-    Invalid { path: String, key: String, message: String },
+    Invalid {
+        path: String,
+        key: String,
+        message: String,
+    },
 }
 
 impl FrameConfig {
@@ -66,21 +80,35 @@ impl FrameConfig {
             key: format!("{table}.{key}"),
             message,
         };
-        for (k, v) in [("switch_enter_deg", self.switch_enter_deg), ("switch_leave_deg", self.switch_leave_deg)] {
+        for (k, v) in [
+            ("switch_enter_deg", self.switch_enter_deg),
+            ("switch_leave_deg", self.switch_leave_deg),
+        ] {
             if !(v.is_finite() && (0.0..=90.0).contains(&v)) {
-                return Err(bad(k, format!("expected a latitude in [0, 90] degrees, got {v}")));
+                return Err(bad(
+                    k,
+                    format!("expected a latitude in [0, 90] degrees, got {v}"),
+                ));
             }
         }
         if self.switch_leave_deg >= self.switch_enter_deg {
             return Err(bad(
                 "switch_leave_deg",
-                format!("must be below switch_enter_deg ({}) for hysteresis, got {}", self.switch_enter_deg, self.switch_leave_deg),
+                format!(
+                    "must be below switch_enter_deg ({}) for hysteresis, got {}",
+                    self.switch_enter_deg, self.switch_leave_deg
+                ),
             ));
         }
         let mut last = f64::NEG_INFINITY;
         for &t in &self.force_switch_s {
             if !(t.is_finite() && t >= 0.0 && t > last) {
-                return Err(bad("force_switch_s", format!("expected ascending non-negative times in seconds, got {t} after {last}")));
+                return Err(bad(
+                    "force_switch_s",
+                    format!(
+                        "expected ascending non-negative times in seconds, got {t} after {last}"
+                    ),
+                ));
             }
             last = t;
         }
@@ -95,7 +123,12 @@ impl FrameConfig {
                 leave_rad: self.switch_leave_deg.to_radians(),
             })
         } else {
-            FramePolicy::Forced(self.force_switch_s.iter().map(|t| (t * 1e9).round() as u64).collect())
+            FramePolicy::Forced(
+                self.force_switch_s
+                    .iter()
+                    .map(|t| (t * 1e9).round() as u64)
+                    .collect(),
+            )
         }
     }
 }
@@ -103,12 +136,18 @@ impl FrameConfig {
 impl Config {
     /// Parses configuration text; `origin` names it in errors.
     pub fn parse(text: &str, origin: &str) -> Result<Self, ConfigError> {
-        let c: Config = toml::from_str(text).map_err(|e| ConfigError::Parse { path: origin.to_owned(), message: e.to_string() })?;
+        let c: Config = toml::from_str(text).map_err(|e| ConfigError::Parse {
+            path: origin.to_owned(),
+            message: e.to_string(),
+        })?;
         if c.prefix.is_empty() || c.prefix.contains(char::is_whitespace) {
             return Err(ConfigError::Invalid {
                 path: origin.to_owned(),
                 key: "prefix".into(),
-                message: format!("expected a non-empty service prefix without spaces, got {:?}", c.prefix),
+                message: format!(
+                    "expected a non-empty service prefix without spaces, got {:?}",
+                    c.prefix
+                ),
             });
         }
         c.frame.validate(origin, "frame")?;
@@ -117,12 +156,17 @@ impl Config {
 
     pub fn load(path: &Path) -> Result<Self, ConfigError> {
         let p = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Io { path: p.clone(), source })?;
+        let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Io {
+            path: p.clone(),
+            source,
+        })?;
         Self::parse(&text, &p)
     }
 
     pub fn navigator(&self) -> NavigatorConfig {
-        NavigatorConfig { frame_policy: self.frame.policy() }
+        NavigatorConfig {
+            frame_policy: self.frame.policy(),
+        }
     }
 }
 
@@ -143,11 +187,16 @@ impl ScenarioOverrides {
             // Metadata of imported logs is free text, not TOML.
             return Ok(None);
         };
-        let Some(nav) = table.get("navigator") else { return Ok(None) };
-        let o: Self = nav.clone().try_into().map_err(|e: toml::de::Error| ConfigError::Parse {
-            path: origin.to_owned(),
-            message: e.to_string(),
-        })?;
+        let Some(nav) = table.get("navigator") else {
+            return Ok(None);
+        };
+        let o: Self = nav
+            .clone()
+            .try_into()
+            .map_err(|e: toml::de::Error| ConfigError::Parse {
+                path: origin.to_owned(),
+                message: e.to_string(),
+            })?;
         Ok(Some(o))
     }
 
@@ -180,28 +229,43 @@ mod tests {
 
     #[test]
     fn unknown_key_names_file_and_key() {
-        let e = Config::parse("[frame]\nswitch_entr_deg = 70\n", "x.toml").expect_err("fails").to_string();
+        let e = Config::parse("[frame]\nswitch_entr_deg = 70\n", "x.toml")
+            .expect_err("fails")
+            .to_string();
         assert!(e.contains("x.toml") && e.contains("switch_entr_deg"), "{e}");
     }
 
     #[test]
     fn bad_hysteresis_names_the_key() {
-        let e = Config::parse("[frame]\nswitch_enter_deg = 70\nswitch_leave_deg = 71\n", "x.toml").expect_err("fails").to_string();
+        let e = Config::parse(
+            "[frame]\nswitch_enter_deg = 70\nswitch_leave_deg = 71\n",
+            "x.toml",
+        )
+        .expect_err("fails")
+        .to_string();
         assert!(e.contains("frame.switch_leave_deg"), "{e}");
-        let e = Config::parse("[frame]\nforce_switch_s = [900, 300]\n", "x.toml").expect_err("fails").to_string();
+        let e = Config::parse("[frame]\nforce_switch_s = [900, 300]\n", "x.toml")
+            .expect_err("fails")
+            .to_string();
         assert!(e.contains("frame.force_switch_s"), "{e}");
     }
 
     #[test]
     fn scenario_overrides_apply_and_keep_hysteresis() {
-        let o = ScenarioOverrides::from_metadata("name='x'\n[navigator]\nswitch_enter_deg = 88.0\n[generated]\nseed=1\n")
-            .expect("parse")
-            .expect("present");
+        let o = ScenarioOverrides::from_metadata(
+            "name='x'\n[navigator]\nswitch_enter_deg = 88.0\n[generated]\nseed=1\n",
+        )
+        .expect("parse")
+        .expect("present");
         let mut f = FrameConfig::default();
         o.apply(&mut f);
-        assert_eq!(f.switch_enter_deg, 88.0);
-        assert_eq!(f.switch_leave_deg, 87.5);
+        assert!((f.switch_enter_deg - 88.0).abs() < 1e-12);
+        assert!((f.switch_leave_deg - 87.5).abs() < 1e-12);
         f.validate("t", "frame").expect("valid");
-        assert!(ScenarioOverrides::from_metadata("not toml at all ===").expect("ok").is_none());
+        assert!(
+            ScenarioOverrides::from_metadata("not toml at all ===")
+                .expect("ok")
+                .is_none()
+        );
     }
 }

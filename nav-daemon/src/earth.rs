@@ -37,7 +37,11 @@ pub struct Geodetic {
 
 impl Geodetic {
     pub fn new(lat_rad: f64, lon_rad: f64, h_m: f64) -> Self {
-        Self { lat_rad, lon_rad, h_m }
+        Self {
+            lat_rad,
+            lon_rad,
+            h_m,
+        }
     }
     pub fn from_deg(lat_deg: f64, lon_deg: f64, h_m: f64) -> Self {
         Self::new(lat_deg.to_radians(), lon_deg.to_radians(), h_m)
@@ -58,7 +62,8 @@ pub fn radii(lat_rad: f64) -> (f64, f64) {
 pub fn normal_gravity(lat_rad: f64, h_m: f64) -> f64 {
     let s2 = lat_rad.sin().powi(2);
     let g0 = GAMMA_E * (1.0 + GRAVITY_K * s2) / (1.0 - E2 * s2).sqrt();
-    let hf = 1.0 - (2.0 / A) * (1.0 + F + GRAVITY_M - 2.0 * F * s2) * h_m + 3.0 * h_m * h_m / (A * A);
+    let hf =
+        1.0 - (2.0 / A) * (1.0 + F + GRAVITY_M - 2.0 * F * s2) * h_m + 3.0 * h_m * h_m / (A * A);
     g0 * hf
 }
 
@@ -74,7 +79,11 @@ pub fn geodetic_to_ecef(p: &Geodetic) -> Vector3<f64> {
     let (sl, cl) = p.lat_rad.sin_cos();
     let (so, co) = p.lon_rad.sin_cos();
     let (_, rn) = radii(p.lat_rad);
-    Vector3::new((rn + p.h_m) * cl * co, (rn + p.h_m) * cl * so, (rn * (1.0 - E2) + p.h_m) * sl)
+    Vector3::new(
+        (rn + p.h_m) * cl * co,
+        (rn + p.h_m) * cl * so,
+        (rn * (1.0 - E2) + p.h_m) * sl,
+    )
 }
 
 /// ECEF → geodetic, closed form of Vermeille (2004); exact to numerical
@@ -106,7 +115,11 @@ pub fn ecef_to_geodetic(r: &Vector3<f64>) -> Geodetic {
 /// Wraps an angle to (−π, π].
 pub fn wrap_pi(a: f64) -> f64 {
     let w = a.rem_euclid(std::f64::consts::TAU);
-    if w > std::f64::consts::PI { w - std::f64::consts::TAU } else { w }
+    if w > std::f64::consts::PI {
+        w - std::f64::consts::TAU
+    } else {
+        w
+    }
 }
 
 /// ICAO standard atmosphere (troposphere and the isothermal lower
@@ -204,8 +217,30 @@ mod tests {
 
     #[test]
     fn geodetic_ecef_round_trip_below_a_millimetre_including_poles_and_antimeridian() {
-        let lats = [-90.0, -89.999_999, -89.9, -70.0, -45.0, -1e-9, 0.0, 30.0, 69.5, 88.0, 89.999_999_9, 90.0];
-        let lons = [-180.0, -179.999_999, -90.0, 0.0, 45.0, 90.0, 179.999_999, 180.0];
+        let lats = [
+            -90.0,
+            -89.999_999,
+            -89.9,
+            -70.0,
+            -45.0,
+            -1e-9,
+            0.0,
+            30.0,
+            69.5,
+            88.0,
+            89.999_999_9,
+            90.0,
+        ];
+        let lons = [
+            -180.0,
+            -179.999_999,
+            -90.0,
+            0.0,
+            45.0,
+            90.0,
+            179.999_999,
+            180.0,
+        ];
         let hs = [-500.0, 0.0, 18_000.0, 100_000.0];
         let mut worst: f64 = 0.0;
         for &lat in &lats {
@@ -219,10 +254,16 @@ mod tests {
                     worst = worst.max(err);
                     assert!(err < 1e-3, "lat {lat} lon {lon} h {h}: {err} m");
                     assert!((back.h_m - h).abs() < 1e-3, "height at {lat},{lon},{h}");
-                    assert!((back.lat_rad - g.lat_rad).abs() < 1e-3 / A, "lat at {lat},{lon}");
+                    assert!(
+                        (back.lat_rad - g.lat_rad).abs() < 1e-3 / A,
+                        "lat at {lat},{lon}"
+                    );
                     if lat.abs() < 90.0 {
                         let dlon = wrap_pi(back.lon_rad - g.lon_rad);
-                        assert!(dlon.abs() * A * g.lat_rad.cos() < 1e-3, "lon at {lat},{lon}");
+                        assert!(
+                            dlon.abs() * A * g.lat_rad.cos() < 1e-3,
+                            "lon at {lat},{lon}"
+                        );
                     }
                 }
             }
@@ -292,7 +333,9 @@ mod tests {
         assert!((isa::pressure(20_000.0) - 5_474.89).abs() < 0.1);
         assert!((isa::pressure(5_000.0) - 54_019.9).abs() < 1.0);
         assert!((isa::temperature(15_000.0) - 216.65).abs() < 1e-9);
-        for h in [0.0, 1500.0, 10_999.0, 11_001.0, 18_000.0, 19_999.0, 20_001.0, 25_000.0] {
+        for h in [
+            0.0, 1500.0, 10_999.0, 11_001.0, 18_000.0, 19_999.0, 20_001.0, 25_000.0,
+        ] {
             let back = isa::pressure_altitude(isa::pressure(h));
             assert!((back - h).abs() < 1e-6, "{h} -> {back}");
         }

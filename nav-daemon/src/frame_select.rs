@@ -14,7 +14,10 @@ pub struct SwitchLatitudes {
 
 impl Default for SwitchLatitudes {
     fn default() -> Self {
-        Self { enter_rad: 70f64.to_radians(), leave_rad: 69.5f64.to_radians() }
+        Self {
+            enter_rad: 70f64.to_radians(),
+            leave_rad: 69.5f64.to_radians(),
+        }
     }
 }
 
@@ -43,7 +46,10 @@ pub struct FrameSelector {
 
 impl FrameSelector {
     pub fn new(policy: FramePolicy) -> Self {
-        Self { policy, next_forced: 0 }
+        Self {
+            policy,
+            next_forced: 0,
+        }
     }
 
     /// Frame to start in at latitude `lat_rad`.
@@ -101,7 +107,10 @@ mod tests {
         assert_eq!(switches, 1);
         assert_eq!(s.decide(FrameKind::Grid, d(69.6), 0), FrameKind::Grid);
         assert_eq!(s.decide(FrameKind::Grid, d(69.5), 0), FrameKind::Geographic);
-        assert_eq!(s.decide(FrameKind::Geographic, d(-70.0), 0), FrameKind::Grid);
+        assert_eq!(
+            s.decide(FrameKind::Geographic, d(-70.0), 0),
+            FrameKind::Grid
+        );
     }
 
     #[test]

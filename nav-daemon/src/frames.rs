@@ -15,7 +15,11 @@ pub fn skew(v: &Vector3<f64>) -> Matrix3<f64> {
 
 /// Inverse of [`skew`] for a (nearly) skew-symmetric matrix.
 pub fn unskew(m: &Matrix3<f64>) -> Vector3<f64> {
-    Vector3::new(m[(2, 1)] - m[(1, 2)], m[(0, 2)] - m[(2, 0)], m[(1, 0)] - m[(0, 1)]) * 0.5
+    Vector3::new(
+        m[(2, 1)] - m[(1, 2)],
+        m[(0, 2)] - m[(2, 0)],
+        m[(1, 0)] - m[(0, 1)],
+    ) * 0.5
 }
 
 /// Local geographic axes (east, north, up) in ECEF at (lat, lon). At the
@@ -38,7 +42,9 @@ pub fn c_e_g(lat_rad: f64, lon_rad: f64) -> Matrix3<f64> {
 
 /// |n × ŷ_e| = sqrt(1 − cos²L sin²λ): zero only on the equator at λ = ±90°.
 pub fn grid_singularity_distance(lat_rad: f64, lon_rad: f64) -> f64 {
-    (1.0 - (lat_rad.cos() * lon_rad.sin()).powi(2)).max(0.0).sqrt()
+    (1.0 - (lat_rad.cos() * lon_rad.sin()).powi(2))
+        .max(0.0)
+        .sqrt()
 }
 
 /// Grid axes (grid east, grid north, up) in ECEF, from the geometric
@@ -100,7 +106,11 @@ pub fn transport_rate_grid(pos: &Geodetic, v_e: &Vector3<f64>) -> Vector3<f64> {
     let d = cross.norm();
     let north = cross / d;
     let east = north.cross(&up);
-    Vector3::new(-north.dot(&u_dot), east.dot(&u_dot), -east.dot(&u_dot.cross(&Vector3::y())) / d)
+    Vector3::new(
+        -north.dot(&u_dot),
+        east.dot(&u_dot),
+        -east.dot(&u_dot.cross(&Vector3::y())) / d,
+    )
 }
 
 /// Body→nav DCM from heading (clockwise from the nav frame's north), pitch
@@ -125,7 +135,7 @@ pub fn euler_from_c_b_n(c: &Matrix3<f64>) -> (f64, f64, f64) {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::earth::{geodetic_to_ecef, Geodetic};
+    use crate::earth::{Geodetic, geodetic_to_ecef};
 
     /// papers/002 eq (1): closed form of the grid angle.
     fn sigma_002(lat: f64, lon: f64) -> (f64, f64) {
@@ -153,8 +163,12 @@ mod tests {
 
     fn grid_points() -> Vec<(f64, f64)> {
         let mut pts = Vec::new();
-        for lat in [-90.0, -89.99, -75.0, -45.0, -10.0, 0.0, 10.0, 31.94, 60.0, 70.0, 88.0, 90.0] {
-            for lon in [-180.0, -135.0, -89.0, -30.0, 0.0, 45.0, 91.0, 118.79, 179.9, 180.0] {
+        for lat in [
+            -90.0, -89.99, -75.0, -45.0, -10.0, 0.0, 10.0, 31.94, 60.0, 70.0, 88.0, 90.0,
+        ] {
+            for lon in [
+                -180.0, -135.0, -89.0, -30.0, 0.0, 45.0, 91.0, 118.79, 179.9, 180.0,
+            ] {
                 pts.push((f64::to_radians(lat), f64::to_radians(lon)));
             }
         }
@@ -205,7 +219,12 @@ mod tests {
 
     #[test]
     fn euler_round_trip_and_heading_convention() {
-        for &(h, p, r) in &[(0.0, 0.0, 0.0), (1.0, 0.2, -0.3), (4.0, -1.2, 2.9), (6.2, 0.01, 0.5)] {
+        for &(h, p, r) in &[
+            (0.0, 0.0, 0.0),
+            (1.0, 0.2, -0.3),
+            (4.0, -1.2, 2.9),
+            (6.2, 0.01, 0.5),
+        ] {
             let c = c_b_n_from_euler(h, p, r);
             let (h2, p2, r2) = euler_from_c_b_n(&c);
             assert!((h - h2).abs() < 1e-12 && (p - p2).abs() < 1e-12 && (r - r2).abs() < 1e-12);
@@ -224,7 +243,11 @@ mod tests {
     }
 
     /// ω from finite differences of a frame's axes: [ė2·e3, ė3·e1, ė1·e2].
-    fn omega_fd(axes: impl Fn(&Geodetic) -> [Vector3<f64>; 3], pos: &Geodetic, v_e: &Vector3<f64>) -> Vector3<f64> {
+    fn omega_fd(
+        axes: impl Fn(&Geodetic) -> [Vector3<f64>; 3],
+        pos: &Geodetic,
+        v_e: &Vector3<f64>,
+    ) -> Vector3<f64> {
         let dt = 1e-3;
         let a = axes(pos);
         let p = axes(&moved(pos, v_e, dt));
@@ -235,7 +258,14 @@ mod tests {
 
     #[test]
     fn grid_transport_rate_matches_finite_differences_including_the_pole() {
-        for &(lat, lon) in &[(70.0_f64, 10.0_f64), (85.0, -120.0), (89.999, 45.0), (90.0, 0.0), (-88.0, 170.0), (31.94, 118.79)] {
+        for &(lat, lon) in &[
+            (70.0_f64, 10.0_f64),
+            (85.0, -120.0),
+            (89.999, 45.0),
+            (90.0, 0.0),
+            (-88.0, 170.0),
+            (31.94, 118.79),
+        ] {
             let pos = Geodetic::from_deg(lat, lon, 18_000.0);
             let v_e = Vector3::new(120.0, -200.0, 15.0);
             let w = transport_rate_grid(&pos, &v_e);

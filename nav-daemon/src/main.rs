@@ -10,7 +10,11 @@ use polarnav::batch::{self, AidSet, BatchOptions, Conversion};
 use polarnav::config::Config;
 
 #[derive(Debug, Parser)]
-#[command(name = "nav-daemon", version, about = "polarnav navigation daemon (SINS/SRS/CNS/baro, g/G frame switching)")]
+#[command(
+    name = "nav-daemon",
+    version,
+    about = "polarnav navigation daemon (SINS/SRS/CNS/baro, g/G frame switching)"
+)]
 struct Cli {
     /// Configuration file (default: $PWD/config/nav-daemon.toml, then /etc/polarnav/nav-daemon.toml).
     #[arg(long, global = true)]
@@ -42,6 +46,9 @@ enum Cmd {
         /// Aids to fuse: a list of srs, cns, baro, or none.
         #[arg(long, default_value = "none")]
         aids: String,
+        /// Print a progress line every this many seconds of flight (0 = quiet).
+        #[arg(long, default_value_t = 0.0)]
+        progress: f64,
     },
 }
 
@@ -67,7 +74,9 @@ fn find_config(explicit: Option<&PathBuf>) -> Result<Config, (String, i32)> {
 
 fn main() -> ExitCode {
     tracing_subscriber::fmt()
-        .with_env_filter(tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| "info".into()))
+        .with_env_filter(
+            tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| "info".into()),
+        )
         .with_writer(std::io::stderr)
         .init();
     let cli = Cli::parse();
@@ -94,7 +103,14 @@ fn main() -> ExitCode {
         config.prefix = p;
     }
     match cli.cmd {
-        Some(Cmd::Batch { log, out, conversion, force_switch, aids }) => {
+        Some(Cmd::Batch {
+            log,
+            out,
+            conversion,
+            force_switch,
+            aids,
+            progress,
+        }) => {
             let usage = |m: String| {
                 eprintln!("error: {m}");
                 ExitCode::from(2)
@@ -106,9 +122,18 @@ fn main() -> ExitCode {
             let conversion = match conversion.as_str() {
                 "paper" => Conversion::Paper,
                 "none" => Conversion::None,
-                other => return usage(format!("--conversion: expected paper or none, got {other:?}")),
+                other => {
+                    return usage(format!(
+                        "--conversion: expected paper or none, got {other:?}"
+                    ));
+                }
             };
-            let opts = BatchOptions { aids, conversion, force_switch_s: force_switch };
+            let opts = BatchOptions {
+                aids,
+                conversion,
+                force_switch_s: force_switch,
+                progress_every_s: progress,
+            };
             let log_name = log.display().to_string();
             let input = match File::open(&log) {
                 Ok(f) => BufReader::with_capacity(1 << 20, f),

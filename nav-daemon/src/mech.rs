@@ -61,7 +61,14 @@ pub trait NavFrame: Copy + std::fmt::Debug + PartialEq {
     fn midpoint(a: &Self::Pos, b: &Self::Pos) -> Self::Pos;
     /// Trapezoidal position update from `v0` (start) to `v1` (end) with the
     /// frame geometry evaluated at `mid` (start) and `end` (predicted end).
-    fn advance(pos: &Self::Pos, mid: &Geodetic, end: &Geodetic, v0: &Vector3<f64>, v1: &Vector3<f64>, dt: f64) -> Self::Pos;
+    fn advance(
+        pos: &Self::Pos,
+        mid: &Geodetic,
+        end: &Geodetic,
+        v0: &Vector3<f64>,
+        v1: &Vector3<f64>,
+        dt: f64,
+    ) -> Self::Pos;
 }
 
 /// Marker: the local geographic frame g (ENU).
@@ -90,7 +97,14 @@ impl NavFrame for Geo {
             0.5 * (a.h_m + b.h_m),
         )
     }
-    fn advance(pos: &Geodetic, mid: &Geodetic, _end: &Geodetic, v0: &Vector3<f64>, v1: &Vector3<f64>, dt: f64) -> Geodetic {
+    fn advance(
+        pos: &Geodetic,
+        mid: &Geodetic,
+        _end: &Geodetic,
+        v0: &Vector3<f64>,
+        v1: &Vector3<f64>,
+        dt: f64,
+    ) -> Geodetic {
         let (rm, rn) = earth::radii(mid.lat_rad);
         let v = (v0 + v1) * 0.5;
         Geodetic::new(
@@ -116,7 +130,14 @@ impl NavFrame for Grid {
     fn midpoint(a: &Vector3<f64>, b: &Vector3<f64>) -> Vector3<f64> {
         (a + b) * 0.5
     }
-    fn advance(pos: &Vector3<f64>, _mid: &Geodetic, end: &Geodetic, v0: &Vector3<f64>, v1: &Vector3<f64>, dt: f64) -> Vector3<f64> {
+    fn advance(
+        pos: &Vector3<f64>,
+        _mid: &Geodetic,
+        end: &Geodetic,
+        v0: &Vector3<f64>,
+        v1: &Vector3<f64>,
+        dt: f64,
+    ) -> Vector3<f64> {
         // v0 is expressed in the grid frame at the start, v1 at the end.
         let c_n_e0 = Self::c_e_n(&Self::geodetic(pos)).transpose();
         let c_n_e1 = Self::c_e_n(end).transpose();
@@ -162,7 +183,13 @@ fn compensated_dv(prev: &Increment, cur: &Increment) -> Vector3<f64> {
     cur.d_v + rot + scul
 }
 
-fn velocity_update<F: NavFrame>(s: &Nav<F>, dv_sf_b: &Vector3<f64>, env: &Environment, v_mid: &Vector3<f64>, dt: f64) -> Vector3<f64> {
+fn velocity_update<F: NavFrame>(
+    s: &Nav<F>,
+    dv_sf_b: &Vector3<f64>,
+    env: &Environment,
+    v_mid: &Vector3<f64>,
+    dt: f64,
+) -> Vector3<f64> {
     let zeta = env.omega_in_n() * dt;
     let dv_sf_n = s.q_b_n * dv_sf_b;
     let dv_sf_n = dv_sf_n - zeta.cross(&dv_sf_n) * 0.5;
@@ -193,8 +220,13 @@ pub fn mechanize<F: NavFrame>(s: &Nav<F>, prev: &Increment, cur: &Increment) -> 
     // Attitude: body rotation with coning correction, nav-frame rotation at mid-interval.
     let phi_b = cur.d_theta + prev.d_theta.cross(&cur.d_theta) / 12.0;
     let zeta = env_mid.omega_in_n() * dt;
-    let q_b_n = UnitQuaternion::from_scaled_axis(-zeta) * s.q_b_n * UnitQuaternion::from_scaled_axis(phi_b);
-    Nav { q_b_n: q_b_n.normalize_unit(), v_n: v1, pos: pos1 }
+    let q_b_n =
+        UnitQuaternion::from_scaled_axis(-zeta) * s.q_b_n * UnitQuaternion::from_scaled_axis(phi_b);
+    Nav {
+        q_b_n: q_b_n.normalize_unit(),
+        v_n: v1,
+        pos: pos1,
+    }
 }
 
 /// Renormalization helper (nalgebra's `renormalize` works in place).
@@ -214,7 +246,11 @@ pub fn geo_to_grid(s: &Nav<Geo>) -> Nav<Grid> {
     let sigma = frames::grid_angle(s.pos.lat_rad, s.pos.lon_rad);
     let c_g_grid = frames::c_g_grid(sigma);
     let q_g_grid = UnitQuaternion::from_matrix(&c_g_grid);
-    Nav { q_b_n: q_g_grid * s.q_b_n, v_n: c_g_grid * s.v_n, pos: earth::geodetic_to_ecef(&s.pos) }
+    Nav {
+        q_b_n: q_g_grid * s.q_b_n,
+        v_n: c_g_grid * s.v_n,
+        pos: earth::geodetic_to_ecef(&s.pos),
+    }
 }
 
 /// Converts a grid-frame state to the geographic frame (papers/001 eq 27).
@@ -223,7 +259,11 @@ pub fn grid_to_geo(s: &Nav<Grid>) -> Nav<Geo> {
     let sigma = frames::grid_angle(geo.lat_rad, geo.lon_rad);
     let c_grid_g = frames::c_g_grid(sigma).transpose();
     let q_grid_g = UnitQuaternion::from_matrix(&c_grid_g);
-    Nav { q_b_n: q_grid_g * s.q_b_n, v_n: c_grid_g * s.v_n, pos: geo }
+    Nav {
+        q_b_n: q_grid_g * s.q_b_n,
+        v_n: c_grid_g * s.v_n,
+        pos: geo,
+    }
 }
 
 /// A navigation state in whichever frame is in use.
@@ -258,18 +298,31 @@ impl AnyNav {
     }
 
     /// Builds a state in frame `kind` from frame-free quantities.
-    pub fn from_frame_free(kind: FrameKind, r_e: &Vector3<f64>, v_e: &Vector3<f64>, q_b_e: &UnitQuaternion<f64>) -> Self {
+    pub fn from_frame_free(
+        kind: FrameKind,
+        r_e: &Vector3<f64>,
+        v_e: &Vector3<f64>,
+        q_b_e: &UnitQuaternion<f64>,
+    ) -> Self {
         let geo = earth::ecef_to_geodetic(r_e);
         match kind {
             FrameKind::Geographic => {
                 let c = frames::c_e_g(geo.lat_rad, geo.lon_rad);
                 let q_e_n = UnitQuaternion::from_matrix(&c);
-                AnyNav::Geographic(Nav { q_b_n: q_e_n * q_b_e, v_n: c * v_e, pos: geo })
+                AnyNav::Geographic(Nav {
+                    q_b_n: q_e_n * q_b_e,
+                    v_n: c * v_e,
+                    pos: geo,
+                })
             }
             FrameKind::Grid => {
                 let c = frames::c_e_grid(geo.lat_rad, geo.lon_rad);
                 let q_e_n = UnitQuaternion::from_matrix(&c);
-                AnyNav::Grid(Nav { q_b_n: q_e_n * q_b_e, v_n: c * v_e, pos: *r_e })
+                AnyNav::Grid(Nav {
+                    q_b_n: q_e_n * q_b_e,
+                    v_n: c * v_e,
+                    pos: *r_e,
+                })
             }
         }
     }
@@ -278,11 +331,21 @@ impl AnyNav {
     pub fn frame_free(&self) -> FrameFree {
         let geo = self.geodetic();
         let (c_e_n, q_b_n, v_n, r_e) = match self {
-            AnyNav::Geographic(s) => (Geo::c_e_n(&geo), s.q_b_n, s.v_n, earth::geodetic_to_ecef(&s.pos)),
+            AnyNav::Geographic(s) => (
+                Geo::c_e_n(&geo),
+                s.q_b_n,
+                s.v_n,
+                earth::geodetic_to_ecef(&s.pos),
+            ),
             AnyNav::Grid(s) => (Grid::c_e_n(&geo), s.q_b_n, s.v_n, s.pos),
         };
         let q_n_e = UnitQuaternion::from_matrix(&c_e_n.transpose());
-        FrameFree { geo, r_e, v_e: c_e_n.transpose() * v_n, q_b_e: q_n_e * q_b_n }
+        FrameFree {
+            geo,
+            r_e,
+            v_e: c_e_n.transpose() * v_n,
+            q_b_e: q_n_e * q_b_n,
+        }
     }
 
     /// Nav-frame velocity.
@@ -347,7 +410,12 @@ mod tests {
         let c_e_grid = frames::c_e_grid(g.pos.lat_rad, g.pos.lon_rad);
         let c_g_e = frames::c_e_g(g.pos.lat_rad, g.pos.lon_rad).transpose();
         let expect = c_e_grid * c_g_e * g.q_b_n.to_rotation_matrix().into_inner();
-        assert!((grid.q_b_n.to_rotation_matrix().into_inner() - expect).abs().max() < 1e-14);
+        assert!(
+            (grid.q_b_n.to_rotation_matrix().into_inner() - expect)
+                .abs()
+                .max()
+                < 1e-14
+        );
     }
 
     #[test]
@@ -359,8 +427,13 @@ mod tests {
             let c_e_g = frames::c_e_g(geo.lat_rad, geo.lon_rad);
             let dt = 0.005;
             let w_b = c_b_g.transpose() * c_e_g * earth::omega_ie_e();
-            let f_b = c_b_g.transpose() * Vector3::new(0.0, 0.0, earth::normal_gravity(geo.lat_rad, geo.h_m));
-            let inc = Increment { d_theta: w_b * dt, d_v: f_b * dt, dt_s: dt };
+            let f_b = c_b_g.transpose()
+                * Vector3::new(0.0, 0.0, earth::normal_gravity(geo.lat_rad, geo.h_m));
+            let inc = Increment {
+                d_theta: w_b * dt,
+                d_v: f_b * dt,
+                dt_s: dt,
+            };
             let r0 = earth::geodetic_to_ecef(&geo);
             for kind in [FrameKind::Geographic, FrameKind::Grid] {
                 let q_b_e = UnitQuaternion::from_matrix(&(c_e_g.transpose() * c_b_g));
@@ -369,8 +442,16 @@ mod tests {
                     s = s.mechanize(&inc, &inc);
                 }
                 let ff = s.frame_free();
-                assert!((ff.r_e - r0).norm() < 1e-3, "{kind:?} at {lat_deg}: drift {}", (ff.r_e - r0).norm());
-                assert!(ff.v_e.norm() < 1e-5, "{kind:?} at {lat_deg}: {}", ff.v_e.norm());
+                assert!(
+                    (ff.r_e - r0).norm() < 1e-3,
+                    "{kind:?} at {lat_deg}: drift {}",
+                    (ff.r_e - r0).norm()
+                );
+                assert!(
+                    ff.v_e.norm() < 1e-5,
+                    "{kind:?} at {lat_deg}: {}",
+                    ff.v_e.norm()
+                );
             }
         }
     }

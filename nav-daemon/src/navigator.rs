@@ -99,16 +99,23 @@ impl Navigator {
     fn validate(&self, s: &ImuSample) -> Result<Increment, InputRejection> {
         let finite = |a: &[f64; 3]| a.iter().all(|x| x.is_finite());
         if !finite(&s.d_theta_rad) {
-            return Err(InputRejection::NonFinite { field: "imu.d_theta_rad" });
+            return Err(InputRejection::NonFinite {
+                field: "imu.d_theta_rad",
+            });
         }
         if !finite(&s.d_v_mps) {
-            return Err(InputRejection::NonFinite { field: "imu.d_v_mps" });
+            return Err(InputRejection::NonFinite {
+                field: "imu.d_v_mps",
+            });
         }
         if !s.dt_s.is_finite() {
             return Err(InputRejection::NonFinite { field: "imu.dt_s" });
         }
         if s.t_ns <= self.t_ns {
-            return Err(InputRejection::TimeNotIncreasing { t_ns: s.t_ns, prev_ns: self.t_ns });
+            return Err(InputRejection::TimeNotIncreasing {
+                t_ns: s.t_ns,
+                prev_ns: self.t_ns,
+            });
         }
         // The interval must be positive and may not exceed the time since the
         // previous sample by more than 1 %: a longer dt would claim motion over
@@ -117,7 +124,11 @@ impl Navigator {
         if s.dt_s <= 0.0 || s.dt_s > span_s * 1.01 {
             return Err(InputRejection::BadInterval { dt_s: s.dt_s });
         }
-        Ok(Increment { d_theta: Vector3::from(s.d_theta_rad), d_v: Vector3::from(s.d_v_mps), dt_s: s.dt_s })
+        Ok(Increment {
+            d_theta: Vector3::from(s.d_theta_rad),
+            d_v: Vector3::from(s.d_v_mps),
+            dt_s: s.dt_s,
+        })
     }
 
     /// Integrates one IMU sample; the frame switch, if due, happens after the step.
@@ -148,7 +159,13 @@ impl Navigator {
             self.nav = self.nav.converted(to);
             self.switch_count += 1;
             self.last_switch_t_ns = self.t_ns;
-            SwitchEvent { t_ns: self.t_ns, from, to, count: self.switch_count, lat_rad: lat }
+            SwitchEvent {
+                t_ns: self.t_ns,
+                from,
+                to,
+                count: self.switch_count,
+                lat_rad: lat,
+            }
         });
         Ok(ImuOutcome { switch })
     }

@@ -67,17 +67,27 @@ pub struct Row {
 #[derive(Debug, thiserror::Error)]
 pub enum ReadCsvError {
     #[error("{path}: {source}")]
-    Io { path: String, source: std::io::Error },
+    Io {
+        path: String,
+        source: std::io::Error,
+    },
     #[error("{path}: header is not the solution CSV header")]
     Header { path: String },
     #[error("{path}:{line}: {what}")]
-    Row { path: String, line: usize, what: String },
+    Row {
+        path: String,
+        line: usize,
+        what: String,
+    },
 }
 
 /// Reads a solution CSV written by [`write_row`].
 pub fn read(path: &std::path::Path) -> Result<Vec<Row>, ReadCsvError> {
     let p = path.display().to_string();
-    let text = std::fs::read_to_string(path).map_err(|source| ReadCsvError::Io { path: p.clone(), source })?;
+    let text = std::fs::read_to_string(path).map_err(|source| ReadCsvError::Io {
+        path: p.clone(),
+        source,
+    })?;
     let mut lines = text.lines();
     if lines.next().map(str::trim) != Some(HEADER) {
         return Err(ReadCsvError::Header { path: p });
@@ -86,7 +96,11 @@ pub fn read(path: &std::path::Path) -> Result<Vec<Row>, ReadCsvError> {
     for (i, line) in lines.enumerate() {
         let f: Vec<&str> = line.split(',').collect();
         if f.len() != 24 {
-            return Err(ReadCsvError::Row { path: p, line: i + 2, what: format!("{} columns, expected 24", f.len()) });
+            return Err(ReadCsvError::Row {
+                path: p,
+                line: i + 2,
+                what: format!("{} columns, expected 24", f.len()),
+            });
         }
         let mut v = [0.0f64; 24];
         for (k, s) in f.iter().enumerate() {
@@ -124,7 +138,11 @@ mod tests {
 
     #[test]
     fn row_has_every_header_column_and_reads_back() {
-        let mut s = Solution { t_ns: 1_500_000_000, frame: 1, ..Default::default() };
+        let mut s = Solution {
+            t_ns: 1_500_000_000,
+            frame: 1,
+            ..Default::default()
+        };
         s.lat_rad = 1.2;
         s.r_e_m = [1.0, -2.0, 6.3e6];
         s.q_b_e = [1.0, 0.0, 0.0, 0.0];

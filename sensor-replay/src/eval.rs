@@ -38,7 +38,17 @@ impl Stat {
             sq += v * v;
             mx = mx.max(v.abs());
         }
-        if n == 0 { Stat { rmse: f64::NAN, max: f64::NAN } } else { Stat { rmse: (sq / n as f64).sqrt(), max: mx } }
+        if n == 0 {
+            Stat {
+                rmse: f64::NAN,
+                max: f64::NAN,
+            }
+        } else {
+            Stat {
+                rmse: (sq / n as f64).sqrt(),
+                max: mx,
+            }
+        }
     }
 }
 
@@ -64,7 +74,9 @@ pub fn epochs(rows: &[Row], truth: &[TruthRecord]) -> Vec<Epoch> {
     let by_time: HashMap<i64, &Row> = rows.iter().map(|r| (key(r.t_s), r)).collect();
     let mut out = Vec::new();
     for t in truth {
-        let Some(r) = by_time.get(&key(t.t_ns as f64 * 1e-9)) else { continue };
+        let Some(r) = by_time.get(&key(t.t_ns as f64 * 1e-9)) else {
+            continue;
+        };
         let r_true = Vector3::from(t.r_e_m);
         let g = earth::ecef_to_geodetic(&r_true);
         let c_e_g = frames::c_e_g(g.lat_rad, g.lon_rad);
@@ -73,7 +85,13 @@ pub fn epochs(rows: &[Row], truth: &[TruthRecord]) -> Vec<Epoch> {
         // C_b^c = (I − φ×) C_b^n  ⇒  φ = −rotvec(q_sol · q_trueᶜ).
         let d = quat(&r.q_b_e) * quat(&t.q_b_e).inverse();
         let att = c_e_g * (-d.scaled_axis());
-        out.push(Epoch { t_s: r.t_s, pos_enu: dp, vel_enu: dv, att_enu: att, frame: r.frame });
+        out.push(Epoch {
+            t_s: r.t_s,
+            pos_enu: dp,
+            vel_enu: dv,
+            att_enu: att,
+            frame: r.frame,
+        });
     }
     out
 }
@@ -89,7 +107,13 @@ pub fn summarize(rows: &[Row], ep: &[Epoch]) -> Summary {
         heading_arcmin: Stat::of(ep.iter().map(|e| e.att_enu.z * arcmin)),
         non_finite_rows: rows
             .iter()
-            .filter(|r| !(r.r_e_m.iter().chain(&r.v_e_mps).chain(&r.q_b_e).all(|x| x.is_finite())))
+            .filter(|r| {
+                !(r.r_e_m
+                    .iter()
+                    .chain(&r.v_e_mps)
+                    .chain(&r.q_b_e)
+                    .all(|x| x.is_finite()))
+            })
             .count(),
     }
 }
@@ -98,7 +122,10 @@ pub fn summarize(rows: &[Row], ep: &[Epoch]) -> Summary {
 pub fn markdown(title: &str, s: &Summary) -> String {
     let mut m = format!("## {title}\n\n{} epochs compared with truth", s.epochs);
     if s.non_finite_rows > 0 {
-        m.push_str(&format!(", **{} rows with non-finite values**", s.non_finite_rows));
+        m.push_str(&format!(
+            ", **{} rows with non-finite values**",
+            s.non_finite_rows
+        ));
     }
     m.push_str("\n\n| quantity | RMSE | max |\n|---|---|---|\n");
     for (name, st, unit) in [
@@ -108,7 +135,10 @@ pub fn markdown(title: &str, s: &Summary) -> String {
         ("tilt", s.tilt_arcmin, "′"),
         ("heading", s.heading_arcmin, "′"),
     ] {
-        m.push_str(&format!("| {name} | {:.4} {unit} | {:.4} {unit} |\n", st.rmse, st.max));
+        m.push_str(&format!(
+            "| {name} | {:.4} {unit} | {:.4} {unit} |\n",
+            st.rmse, st.max
+        ));
     }
     m
 }

@@ -24,18 +24,30 @@ pub struct LogContents {
 #[derive(Debug, thiserror::Error)]
 pub enum LoadError {
     #[error("{path}: cannot open: {source}")]
-    Open { path: String, source: std::io::Error },
+    Open {
+        path: String,
+        source: std::io::Error,
+    },
     #[error("{path}: {source}")]
-    Read { path: String, source: msgs::navlog::ReadError },
+    Read {
+        path: String,
+        source: msgs::navlog::ReadError,
+    },
 }
 
 /// Loads a navlog; the report says what was skipped.
 pub fn load(path: &Path) -> Result<LogContents, LoadError> {
     let p = path.display().to_string();
-    let f = File::open(path).map_err(|source| LoadError::Open { path: p.clone(), source })?;
+    let f = File::open(path).map_err(|source| LoadError::Open {
+        path: p.clone(),
+        source,
+    })?;
     let mut r = NavlogReader::new(BufReader::with_capacity(1 << 20, f));
     let mut c = LogContents::default();
-    while let Some(rec) = r.next_record().map_err(|source| LoadError::Read { path: p.clone(), source })? {
+    while let Some(rec) = r.next_record().map_err(|source| LoadError::Read {
+        path: p.clone(),
+        source,
+    })? {
         match rec {
             Record::Header(h) => c.header = Some(h),
             Record::Init(x) => c.init.push(x),

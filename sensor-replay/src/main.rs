@@ -11,7 +11,11 @@ use sensor_replay::simulate::{self, SimOptions};
 use sensor_replay::{eval, export, logfile};
 
 #[derive(Debug, Parser)]
-#[command(name = "sensor-replay", version, about = "polarnav flight simulator, log tools and evaluator")]
+#[command(
+    name = "sensor-replay",
+    version,
+    about = "polarnav flight simulator, log tools and evaluator"
+)]
 struct Cli {
     #[command(subcommand)]
     cmd: Cmd,
@@ -55,13 +59,33 @@ struct Fail(u8, String);
 fn run(cli: Cli) -> Result<(), Fail> {
     let bad = |m: String| Fail(2, m);
     match cli.cmd {
-        Cmd::Simulate { scenario, out, seed, perfect } => {
+        Cmd::Simulate {
+            scenario,
+            out,
+            seed,
+            perfect,
+        } => {
             let (s, text) = Scenario::load(&scenario).map_err(|e| bad(e.to_string()))?;
-            let f = File::create(&out).map_err(|e| Fail(1, format!("{}: cannot create: {e}", out.display())))?;
+            let f = File::create(&out)
+                .map_err(|e| Fail(1, format!("{}: cannot create: {e}", out.display())))?;
             let t0 = std::time::Instant::now();
-            eprintln!("simulate: {} ({:.0} s of flight, seed {seed}{})", s.name, s.duration_s(), if perfect { ", perfect sensors" } else { "" });
-            let sum = simulate::simulate(&s, &text, SimOptions { seed, perfect, ..Default::default() }, BufWriter::with_capacity(1 << 20, f))
-                .map_err(|e| Fail(1, format!("{}: {e}", out.display())))?;
+            eprintln!(
+                "simulate: {} ({:.0} s of flight, seed {seed}{})",
+                s.name,
+                s.duration_s(),
+                if perfect { ", perfect sensors" } else { "" }
+            );
+            let sum = simulate::simulate(
+                &s,
+                &text,
+                SimOptions {
+                    seed,
+                    perfect,
+                    ..Default::default()
+                },
+                BufWriter::with_capacity(1 << 20, f),
+            )
+            .map_err(|e| Fail(1, format!("{}: {e}", out.display())))?;
             eprintln!(
                 "simulate: wrote {} in {:.1} s: {} IMU, {} SRS, {} CNS, {} baro, {} truth records",
                 out.display(),
@@ -81,7 +105,8 @@ fn run(cli: Cli) -> Result<(), Fail> {
             }
             if let Some(p) = truth_csv {
                 let f = File::create(&p).map_err(|e| Fail(1, format!("{}: {e}", p.display())))?;
-                export::write_truth_csv(BufWriter::new(f), &c.truth).map_err(|e| Fail(1, format!("{}: {e}", p.display())))?;
+                export::write_truth_csv(BufWriter::new(f), &c.truth)
+                    .map_err(|e| Fail(1, format!("{}: {e}", p.display())))?;
                 eprintln!("export: {} truth rows to {}", c.truth.len(), p.display());
             }
             Ok(())
@@ -94,17 +119,27 @@ fn run(cli: Cli) -> Result<(), Fail> {
             let rows = polarnav::solution_csv::read(&solution).map_err(|e| bad(e.to_string()))?;
             let ep = eval::epochs(&rows, &c.truth);
             if ep.is_empty() {
-                return Err(bad(format!("{}: no solution row matches a truth epoch of {}", solution.display(), log.display())));
+                return Err(bad(format!(
+                    "{}: no solution row matches a truth epoch of {}",
+                    solution.display(),
+                    log.display()
+                )));
             }
             let s = eval::summarize(&rows, &ep);
-            let name = c.header.as_ref().map_or("solution".to_owned(), |h| h.scenario.clone());
+            let name = c
+                .header
+                .as_ref()
+                .map_or("solution".to_owned(), |h| h.scenario.clone());
             let md = eval::markdown(&format!("Accuracy: {name}"), &s);
             println!("{md}");
             if let Some(dir) = out {
-                std::fs::create_dir_all(&dir).map_err(|e| Fail(1, format!("{}: {e}", dir.display())))?;
+                std::fs::create_dir_all(&dir)
+                    .map_err(|e| Fail(1, format!("{}: {e}", dir.display())))?;
                 let p = dir.join("summary.md");
-                let mut f = File::create(&p).map_err(|e| Fail(1, format!("{}: {e}", p.display())))?;
-                f.write_all(md.as_bytes()).map_err(|e| Fail(1, format!("{}: {e}", p.display())))?;
+                let mut f =
+                    File::create(&p).map_err(|e| Fail(1, format!("{}: {e}", p.display())))?;
+                f.write_all(md.as_bytes())
+                    .map_err(|e| Fail(1, format!("{}: {e}", p.display())))?;
             }
             Ok(())
         }
@@ -113,7 +148,9 @@ fn run(cli: Cli) -> Result<(), Fail> {
 
 fn main() -> ExitCode {
     tracing_subscriber::fmt()
-        .with_env_filter(tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| "info".into()))
+        .with_env_filter(
+            tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| "info".into()),
+        )
         .with_writer(std::io::stderr)
         .init();
     match run(Cli::parse()) {

@@ -199,11 +199,23 @@ pub enum Segment {
     /// Straight (great-circle) flight at constant speed and height.
     Cruise { duration_s: f64 },
     /// Turn by `heading_change_deg` (positive = right/clockwise).
-    Turn { duration_s: f64, heading_change_deg: f64, ramp_s: Option<f64> },
+    Turn {
+        duration_s: f64,
+        heading_change_deg: f64,
+        ramp_s: Option<f64>,
+    },
     /// Climb (or descend, negative) by `altitude_change_m`.
-    Climb { duration_s: f64, altitude_change_m: f64, ramp_s: Option<f64> },
+    Climb {
+        duration_s: f64,
+        altitude_change_m: f64,
+        ramp_s: Option<f64>,
+    },
     /// Change horizontal speed by `speed_change_mps`.
-    Accelerate { duration_s: f64, speed_change_mps: f64, ramp_s: Option<f64> },
+    Accelerate {
+        duration_s: f64,
+        speed_change_mps: f64,
+        ramp_s: Option<f64>,
+    },
 }
 
 impl Segment {
@@ -221,51 +233,91 @@ impl Segment {
 #[derive(Debug, thiserror::Error)]
 pub enum ScenarioError {
     #[error("{path}: cannot read: {source}")]
-    Io { path: String, source: std::io::Error },
+    Io {
+        path: String,
+        source: std::io::Error,
+    },
     #[error("{path}: {message}")]
     Parse { path: String, message: String },
     #[error("{path}: key `{key}`: {message}")]
-    Invalid { path: String, key: String, message: String },
+    Invalid {
+        path: String,
+        key: String,
+        message: String,
+    },
 }
 
 impl Scenario {
     /// Loads and validates a scenario file.
     pub fn load(path: &Path) -> Result<(Self, String), ScenarioError> {
         let p = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|source| ScenarioError::Io { path: p.clone(), source })?;
+        let text = std::fs::read_to_string(path).map_err(|source| ScenarioError::Io {
+            path: p.clone(),
+            source,
+        })?;
         let s = Self::parse(&text, &p)?;
         Ok((s, text))
     }
 
     /// Parses and validates scenario text; `origin` names it in errors.
     pub fn parse(text: &str, origin: &str) -> Result<Self, ScenarioError> {
-        let s: Scenario =
-            toml::from_str(text).map_err(|e| ScenarioError::Parse { path: origin.to_owned(), message: e.to_string() })?;
+        let s: Scenario = toml::from_str(text).map_err(|e| ScenarioError::Parse {
+            path: origin.to_owned(),
+            message: e.to_string(),
+        })?;
         s.validate(origin)?;
         Ok(s)
     }
 
     fn validate(&self, origin: &str) -> Result<(), ScenarioError> {
-        let bad = |key: &str, message: String| ScenarioError::Invalid { path: origin.to_owned(), key: key.to_owned(), message };
+        let bad = |key: &str, message: String| ScenarioError::Invalid {
+            path: origin.to_owned(),
+            key: key.to_owned(),
+            message,
+        };
         let finite_pos = |key: &str, v: f64| {
-            if v.is_finite() && v > 0.0 { Ok(()) } else { Err(bad(key, format!("must be a positive number, got {v}"))) }
+            if v.is_finite() && v > 0.0 {
+                Ok(())
+            } else {
+                Err(bad(key, format!("must be a positive number, got {v}")))
+            }
         };
         let non_neg = |key: &str, v: f64| {
-            if v.is_finite() && v >= 0.0 { Ok(()) } else { Err(bad(key, format!("must be ≥ 0, got {v}"))) }
+            if v.is_finite() && v >= 0.0 {
+                Ok(())
+            } else {
+                Err(bad(key, format!("must be ≥ 0, got {v}")))
+            }
         };
         if !(-90.0..=90.0).contains(&self.start.lat_deg) {
-            return Err(bad("start.lat_deg", format!("must be in [-90, 90], got {}", self.start.lat_deg)));
+            return Err(bad(
+                "start.lat_deg",
+                format!("must be in [-90, 90], got {}", self.start.lat_deg),
+            ));
         }
-        if self.start.lat_deg.abs() == 90.0 {
-            return Err(bad("start.lat_deg", "a flight may cross a pole but not start on one (heading is undefined there)".into()));
+        if self.start.lat_deg.abs() >= 90.0 {
+            return Err(bad(
+                "start.lat_deg",
+                "a flight may cross a pole but not start on one (heading is undefined there)"
+                    .into(),
+            ));
         }
-        if !self.start.lon_deg.is_finite() || !self.start.heading_deg.is_finite() || !self.start.h_m.is_finite() {
-            return Err(bad("start", "lon_deg, heading_deg and h_m must be finite".into()));
+        if !self.start.lon_deg.is_finite()
+            || !self.start.heading_deg.is_finite()
+            || !self.start.h_m.is_finite()
+        {
+            return Err(bad(
+                "start",
+                "lon_deg, heading_deg and h_m must be finite".into(),
+            ));
         }
         non_neg("start.speed_mps", self.start.speed_mps)?;
         finite_pos("imu.rate_hz", self.imu.rate_hz)?;
         if self.imu.rate_hz > 1000.0 {
-            return Err(bad("imu.rate_hz", format!("at most 1000 Hz, got {}", self.imu.rate_hz)));
+            return Err(bad(
+                "imu.rate_hz",
+                format!("at most 1000 Hz, got {}", self.imu.rate_hz),
+            ));
         }
         for (k, v) in [
             ("imu.gyro_bias_dph", self.imu.gyro_bias_dph),
@@ -300,35 +352,51 @@ impl Scenario {
             finite_pos("srs.rate_hz", s.rate_hz)?;
             finite_pos("srs.sigma_mps", s.sigma_mps)?;
             if !(0.0..90.0).contains(&s.elevation_mask_deg) {
-                return Err(bad("srs.elevation_mask_deg", format!("must be in [0, 90), got {}", s.elevation_mask_deg)));
+                return Err(bad(
+                    "srs.elevation_mask_deg",
+                    format!("must be in [0, 90), got {}", s.elevation_mask_deg),
+                ));
             }
             for (i, b) in s.bodies.iter().enumerate() {
                 if !b.rest_wavelength_nm.is_finite() || b.rest_wavelength_nm <= 0.0 {
-                    return Err(bad(&format!("srs.body[{i}].rest_wavelength_nm"), "must be positive".into()));
+                    return Err(bad(
+                        &format!("srs.body[{i}].rest_wavelength_nm"),
+                        "must be positive".into(),
+                    ));
                 }
             }
         }
         if self.segments.is_empty() {
-            return Err(bad("segment", "at least one [[segment]] is required".into()));
+            return Err(bad(
+                "segment",
+                "at least one [[segment]] is required".into(),
+            ));
         }
         for (i, seg) in self.segments.iter().enumerate() {
             finite_pos(&format!("segment[{i}].duration_s"), seg.duration_s())?;
             let ramp = match seg {
                 Segment::Cruise { .. } => None,
-                Segment::Turn { ramp_s, .. } | Segment::Climb { ramp_s, .. } | Segment::Accelerate { ramp_s, .. } => *ramp_s,
+                Segment::Turn { ramp_s, .. }
+                | Segment::Climb { ramp_s, .. }
+                | Segment::Accelerate { ramp_s, .. } => *ramp_s,
             };
-            if let Some(r) = ramp {
-                if !(r > 0.0 && 2.0 * r <= seg.duration_s()) {
-                    return Err(bad(&format!("segment[{i}].ramp_s"), format!("must be in (0, duration_s/2], got {r}")));
-                }
+            if let Some(r) = ramp
+                && !(r > 0.0 && 2.0 * r <= seg.duration_s())
+            {
+                return Err(bad(
+                    &format!("segment[{i}].ramp_s"),
+                    format!("must be in (0, duration_s/2], got {r}"),
+                ));
             }
         }
-        if let Some(n) = &self.navigator {
-            if let (Some(e), Some(l)) = (n.switch_enter_deg, n.switch_leave_deg) {
-                if l >= e {
-                    return Err(bad("navigator.switch_leave_deg", format!("must be below switch_enter_deg ({e}), got {l}")));
-                }
-            }
+        if let Some(n) = &self.navigator
+            && let (Some(e), Some(l)) = (n.switch_enter_deg, n.switch_leave_deg)
+            && l >= e
+        {
+            return Err(bad(
+                "navigator.switch_leave_deg",
+                format!("must be below switch_enter_deg ({e}), got {l}"),
+            ));
         }
         Ok(())
     }
@@ -359,24 +427,30 @@ duration_s = 10.0
     #[test]
     fn minimal_scenario_parses_with_defaults() {
         let s = Scenario::parse(MINIMAL, "mem").expect("parse");
-        assert_eq!(s.imu.rate_hz, 200.0);
-        assert_eq!(s.duration_s(), 10.0);
+        assert!((s.imu.rate_hz - 200.0).abs() < 1e-12);
+        assert!((s.duration_s() - 10.0).abs() < 1e-12);
     }
 
     #[test]
     fn unknown_key_is_named() {
         let text = MINIMAL.replace("speed_mps = 250.0", "speed_mps = 250.0\nspeeed = 1");
-        let e = Scenario::parse(&text, "file.toml").expect_err("must fail").to_string();
+        let e = Scenario::parse(&text, "file.toml")
+            .expect_err("must fail")
+            .to_string();
         assert!(e.contains("file.toml") && e.contains("speeed"), "{e}");
     }
 
     #[test]
     fn invalid_value_names_the_key() {
         let text = MINIMAL.replace("duration_s = 10.0", "duration_s = -1.0");
-        let e = Scenario::parse(&text, "f").expect_err("must fail").to_string();
+        let e = Scenario::parse(&text, "f")
+            .expect_err("must fail")
+            .to_string();
         assert!(e.contains("segment[0].duration_s"), "{e}");
         let text = MINIMAL.replace("lat_deg = 80.0", "lat_deg = 95.0");
-        let e = Scenario::parse(&text, "f").expect_err("must fail").to_string();
+        let e = Scenario::parse(&text, "f")
+            .expect_err("must fail")
+            .to_string();
         assert!(e.contains("start.lat_deg"), "{e}");
     }
 }

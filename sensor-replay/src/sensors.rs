@@ -59,7 +59,10 @@ impl ImuErrorModel {
         let gm_gyro_sigma = spec.gm_gyro_sigma_dph * DPH;
         let gm_accel_sigma = spec.gm_accel_sigma_ug * UG;
         Self {
-            drawn: DrawnImuErrors { gyro_bias_rps: gyro, accel_bias_mps2: accel },
+            drawn: DrawnImuErrors {
+                gyro_bias_rps: gyro,
+                accel_bias_mps2: accel,
+            },
             arw: spec.arw_dpsh * std::f64::consts::PI / 180.0 / 60.0,
             vrw: spec.vrw_ug_psqhz * UG,
             gm_gyro: normal3(rng) * gm_gyro_sigma,
@@ -98,7 +101,12 @@ impl ImuErrorModel {
             }
         };
         step_gm(&mut self.gm_gyro, self.gm_gyro_sigma, self.gm_gyro_tau, rng);
-        step_gm(&mut self.gm_accel, self.gm_accel_sigma, self.gm_accel_tau, rng);
+        step_gm(
+            &mut self.gm_accel,
+            self.gm_accel_sigma,
+            self.gm_accel_tau,
+            rng,
+        );
         // Quantization with carried residual: the sum of outputs tracks the sum of inputs.
         let quantize = |x: Vector3<f64>, q: f64, res: &mut Vector3<f64>| {
             if q <= 0.0 {
@@ -117,19 +125,53 @@ impl ImuErrorModel {
 
 /// CNS fix: truth plus a horizontal error drawn in the local tangent plane
 /// (frame-free, so the fix stays meaningful at the pole).
-pub fn cns_fix(rng: &mut ChaCha20Rng, t_ns: u64, seq: u64, r_e: &Vector3<f64>, sigma_m: f64, noisy: bool) -> CnsFix {
+pub fn cns_fix(
+    rng: &mut ChaCha20Rng,
+    t_ns: u64,
+    seq: u64,
+    r_e: &Vector3<f64>,
+    sigma_m: f64,
+    noisy: bool,
+) -> CnsFix {
     let geo = earth::ecef_to_geodetic(r_e);
     let [e, n, _] = frames::enu_axes_e(geo.lat_rad, geo.lon_rad);
-    let r = if noisy { r_e + e * (sigma_m * normal(rng)) + n * (sigma_m * normal(rng)) } else { *r_e };
+    let r = if noisy {
+        r_e + e * (sigma_m * normal(rng)) + n * (sigma_m * normal(rng))
+    } else {
+        *r_e
+    };
     let g = earth::ecef_to_geodetic(&r);
-    CnsFix { t_ns, seq, lat_rad: g.lat_rad, lon_rad: g.lon_rad, sigma_h_m: sigma_m }
+    CnsFix {
+        t_ns,
+        seq,
+        lat_rad: g.lat_rad,
+        lon_rad: g.lon_rad,
+        sigma_h_m: sigma_m,
+    }
 }
 
 /// Barometer: ISA pressure at the (noisy) geometric altitude; ellipsoidal height stands in for it.
-pub fn baro_sample(rng: &mut ChaCha20Rng, t_ns: u64, seq: u64, h_m: f64, sigma_m: f64, noisy: bool) -> BaroSample {
-    let z = if noisy { h_m + sigma_m * normal(rng) } else { h_m };
+pub fn baro_sample(
+    rng: &mut ChaCha20Rng,
+    t_ns: u64,
+    seq: u64,
+    h_m: f64,
+    sigma_m: f64,
+    noisy: bool,
+) -> BaroSample {
+    let z = if noisy {
+        h_m + sigma_m * normal(rng)
+    } else {
+        h_m
+    };
     let hgp = isa::geopotential_from_geometric(z);
-    BaroSample { t_ns, seq, pressure_pa: isa::pressure(hgp), temperature_k: isa::temperature(hgp), sigma_m }
+    BaroSample {
+        t_ns,
+        seq,
+        pressure_pa: isa::pressure(hgp),
+        temperature_k: isa::temperature(hgp),
+        sigma_m,
+    }
 }
 
 /// A celestial body of the SRS catalogue.
@@ -172,7 +214,12 @@ pub fn default_catalogue() -> Vec<Body> {
             let b = 1.7 * i as f64;
             let dir = Vector3::new(b.cos(), (0.3 * b).sin(), (1.3 * b).cos()).normalize();
             let speed = 5_000.0 + 40_000.0 * ((i * 7 % 11) as f64 / 10.0);
-            Body { id: i as u32 + 1, los_i: los, vel_i: dir * speed + earth_orbit, rest_wavelength_m: lines[i % lines.len()] }
+            Body {
+                id: i as u32 + 1,
+                los_i: los,
+                vel_i: dir * speed + earth_orbit,
+                rest_wavelength_m: lines[i % lines.len()],
+            }
         })
         .collect()
 }
@@ -193,7 +240,11 @@ pub fn one_plus_z(v_p: &Vector3<f64>, v_k: &Vector3<f64>, los: &Vector3<f64>) ->
 /// Bodies above the elevation mask, at most [`SRS_MAX_LINES`], chosen for
 /// spread: the highest first, then greedily the one farthest from those chosen.
 pub fn visible_bodies(catalogue: &[Body], up_i: &Vector3<f64>, mask_rad: f64) -> Vec<Body> {
-    let mut visible: Vec<Body> = catalogue.iter().copied().filter(|b| b.los_i.dot(up_i) >= mask_rad.sin()).collect();
+    let mut visible: Vec<Body> = catalogue
+        .iter()
+        .copied()
+        .filter(|b| b.los_i.dot(up_i) >= mask_rad.sin())
+        .collect();
     if visible.len() <= SRS_MAX_LINES {
         return visible;
     }
@@ -203,7 +254,15 @@ pub fn visible_bodies(catalogue: &[Body], up_i: &Vector3<f64>, mask_rad: f64) ->
         let (idx, _) = visible
             .iter()
             .enumerate()
-            .map(|(i, b)| (i, chosen.iter().map(|c| c.los_i.dot(&b.los_i)).fold(f64::MIN, f64::max)))
+            .map(|(i, b)| {
+                (
+                    i,
+                    chosen
+                        .iter()
+                        .map(|c| c.los_i.dot(&b.los_i))
+                        .fold(f64::MIN, f64::max),
+                )
+            })
             .min_by(|a, b| a.1.total_cmp(&b.1))
             .expect("non-empty");
         chosen.push(visible.remove(idx));
@@ -229,9 +288,21 @@ pub fn srs_sample(
     let geo = earth::ecef_to_geodetic(r_e);
     let up_i = c * earth::up_e(geo.lat_rad, geo.lon_rad);
     let v_p = c * (v_e + earth::omega_ie_e().cross(r_e));
-    let mut out = SrsSample { t_ns, seq, ..Default::default() };
-    for (slot, b) in out.lines.iter_mut().zip(visible_bodies(catalogue, &up_i, mask_rad)) {
-        let noise = if noisy { sigma_mps * normal(rng) / C_LIGHT } else { 0.0 };
+    let mut out = SrsSample {
+        t_ns,
+        seq,
+        ..Default::default()
+    };
+    for (slot, b) in out
+        .lines
+        .iter_mut()
+        .zip(visible_bodies(catalogue, &up_i, mask_rad))
+    {
+        let noise = if noisy {
+            sigma_mps * normal(rng) / C_LIGHT
+        } else {
+            0.0
+        };
         let opz = one_plus_z(&v_p, &b.vel_i, &b.los_i) + noise;
         *slot = SrsLine {
             los_i: b.los_i.into(),
@@ -255,12 +326,13 @@ mod tests {
     #[test]
     fn redshift_matches_relativistic_doppler_of_paper_001_eq_2() {
         // 1 + z = (1 + |v| cosθ / c) / sqrt(1 − |v|²/c²), θ between v and the body→carrier direction.
-        let v_p = Vector3::new(300.0, -29_000.0, 12.0);
-        let v_k = Vector3::new(-1_000.0, 20_000.0, 5_000.0);
-        let los = Vector3::new(0.3, 0.4, 0.5).normalize();
+        let v_p: Vector3<f64> = Vector3::new(300.0, -29_000.0, 12.0);
+        let v_k: Vector3<f64> = Vector3::new(-1_000.0, 20_000.0, 5_000.0);
+        let los: Vector3<f64> = Vector3::new(0.3, 0.4, 0.5).normalize();
         let v = v_p - v_k;
         let cos_theta = v.dot(&-los) / v.norm();
-        let expect = (1.0 + v.norm() * cos_theta / C_LIGHT) / (1.0 - v.norm_squared() / (C_LIGHT * C_LIGHT)).sqrt();
+        let expect = (1.0 + v.norm() * cos_theta / C_LIGHT)
+            / (1.0_f64 - v.norm_squared() / (C_LIGHT * C_LIGHT)).sqrt();
         assert!((one_plus_z(&v_p, &v_k, &los) - expect).abs() < 1e-15);
         // Approaching the body (v along los) is a blueshift.
         assert!(one_plus_z(&(los * 1e4), &Vector3::zeros(), &los) < 1.0);
@@ -268,7 +340,11 @@ mod tests {
 
     #[test]
     fn quantization_keeps_the_running_sum() {
-        let spec = ImuSpec { gyro_quant_rad: 1e-6, accel_quant_mps: 1e-3, ..Default::default() };
+        let spec = ImuSpec {
+            gyro_quant_rad: 1e-6,
+            accel_quant_mps: 1e-3,
+            ..Default::default()
+        };
         let mut rng = ChaCha20Rng::seed_from_u64(1);
         let mut m = ImuErrorModel::new(&spec, &mut rng);
         let (mut sum_in, mut sum_out) = (Vector3::zeros(), Vector3::zeros());
@@ -277,7 +353,10 @@ mod tests {
             let (th, _) = m.corrupt(&mut rng, x, Vector3::zeros(), 0.005);
             sum_in += x;
             sum_out += th;
-            assert!(th.iter().all(|v| ((v / 1e-6).round() * 1e-6 - v).abs() < 1e-18));
+            assert!(
+                th.iter()
+                    .all(|v| ((v / 1e-6).round() * 1e-6 - v).abs() < 1e-18)
+            );
         }
         assert!((sum_in - sum_out).amax() <= 0.5e-6 + 1e-18);
     }
@@ -288,7 +367,11 @@ mod tests {
         for k in 0..200 {
             let z = -1.0 + 2.0 * k as f64 / 199.0;
             let a = 2.4 * k as f64;
-            let up = Vector3::new((1.0 - z * z).sqrt() * a.cos(), (1.0 - z * z).sqrt() * a.sin(), z);
+            let up = Vector3::new(
+                (1.0 - z * z).sqrt() * a.cos(),
+                (1.0 - z * z).sqrt() * a.sin(),
+                z,
+            );
             let vis = visible_bodies(&cat, &up, 10f64.to_radians());
             assert!(vis.len() >= 5, "only {} bodies at {up}", vis.len());
             // Geometry: the normal matrix of the line-of-sight directions is well conditioned.

@@ -26,7 +26,11 @@ pub struct SimOptions {
 
 impl Default for SimOptions {
     fn default() -> Self {
-        Self { seed: 1, perfect: false, substeps: 2 }
+        Self {
+            seed: 1,
+            perfect: false,
+            substeps: 2,
+        }
     }
 }
 
@@ -44,7 +48,12 @@ pub struct SimSummary {
 /// Converts a truth sample to its record.
 pub fn truth_record(t_ns: u64, t: &TruthSample) -> TruthRecord {
     let q = t.q_b_e.into_inner();
-    TruthRecord { t_ns, r_e_m: t.r_e.into(), v_e_mps: t.v_e.into(), q_b_e: [q.w, q.i, q.j, q.k] }
+    TruthRecord {
+        t_ns,
+        r_e_m: t.r_e.into(),
+        v_e_mps: t.v_e.into(),
+        q_b_e: [q.w, q.i, q.j, q.k],
+    }
 }
 
 /// Initial errors drawn per axis in the local level frame.
@@ -59,7 +68,12 @@ pub struct InitErrors {
 }
 
 /// The init record: truth plus errors drawn from σ (zero errors when `rng` is None).
-pub fn init_record(t_ns: u64, truth: &TruthSample, sig: &InitErrors, rng: Option<&mut ChaCha20Rng>) -> InitState {
+pub fn init_record(
+    t_ns: u64,
+    truth: &TruthSample,
+    sig: &InitErrors,
+    rng: Option<&mut ChaCha20Rng>,
+) -> InitState {
     let geo = earth::ecef_to_geodetic(&truth.r_e);
     let c_e_g = frames::c_e_g(geo.lat_rad, geo.lon_rad);
     let (dp, dv, phi) = match rng {
@@ -67,8 +81,16 @@ pub fn init_record(t_ns: u64, truth: &TruthSample, sig: &InitErrors, rng: Option
             let mut n = || sensors::normal(rng);
             (
                 Vector3::new(sig.pos_h_m * n(), sig.pos_h_m * n(), sig.pos_v_m * n()),
-                Vector3::new(sig.vel_h_mps * n(), sig.vel_h_mps * n(), sig.vel_v_mps * n()),
-                Vector3::new(sig.tilt_rad * n(), sig.tilt_rad * n(), sig.heading_rad * n()),
+                Vector3::new(
+                    sig.vel_h_mps * n(),
+                    sig.vel_h_mps * n(),
+                    sig.vel_v_mps * n(),
+                ),
+                Vector3::new(
+                    sig.tilt_rad * n(),
+                    sig.tilt_rad * n(),
+                    sig.heading_rad * n(),
+                ),
             )
         }
         None => (Vector3::zeros(), Vector3::zeros(), Vector3::zeros()),
@@ -109,7 +131,11 @@ struct Schedule {
 impl Schedule {
     fn new(rate_hz: f64) -> Self {
         let p = period_ns(rate_hz);
-        Self { period_ns: p, next_ns: p, seq: 0 }
+        Self {
+            period_ns: p,
+            next_ns: p,
+            seq: 0,
+        }
     }
     /// True (once) when a sample is due at or before `t_ns`.
     fn due(&mut self, t_ns: u64) -> bool {
@@ -126,7 +152,12 @@ impl Schedule {
 }
 
 /// Runs the scenario and writes the navlog.
-pub fn simulate<W: Write>(s: &Scenario, scenario_text: &str, opts: SimOptions, out: W) -> Result<SimSummary, WriteError> {
+pub fn simulate<W: Write>(
+    s: &Scenario,
+    scenario_text: &str,
+    opts: SimOptions,
+    out: W,
+) -> Result<SimSummary, WriteError> {
     let mut rng = ChaCha20Rng::seed_from_u64(opts.seed);
     let mut imu_err = ImuErrorModel::new(&s.imu, &mut rng);
     let metadata = format!(
@@ -140,7 +171,12 @@ pub fn simulate<W: Write>(s: &Scenario, scenario_text: &str, opts: SimOptions, o
         imu_err.drawn.accel_bias_mps2.y,
         imu_err.drawn.accel_bias_mps2.z,
     );
-    let header = Header::new(concat!("sensor-replay ", env!("CARGO_PKG_VERSION"), " simulate"), &s.name, opts.seed, &metadata);
+    let header = Header::new(
+        concat!("sensor-replay ", env!("CARGO_PKG_VERSION"), " simulate"),
+        &s.name,
+        opts.seed,
+        &metadata,
+    );
     let mut w = NavlogWriter::new(out, header)?;
 
     let mut flight = Flight::new(s, opts.substeps);
@@ -175,31 +211,65 @@ pub fn simulate<W: Write>(s: &Scenario, scenario_text: &str, opts: SimOptions, o
         let t_ns = k * dt_ns;
         let dt = dt_ns as f64 * 1e-9;
         let (d_theta, d_v) = flight.advance_to(t_ns as f64 * 1e-9);
-        let (d_theta, d_v) = if noisy { imu_err.corrupt(&mut rng, d_theta, d_v, dt) } else { (d_theta, d_v) };
-        w.write(&Record::Imu(ImuSample { t_ns, seq: k - 1, dt_s: dt, d_theta_rad: d_theta.into(), d_v_mps: d_v.into() }))?;
+        let (d_theta, d_v) = if noisy {
+            imu_err.corrupt(&mut rng, d_theta, d_v, dt)
+        } else {
+            (d_theta, d_v)
+        };
+        w.write(&Record::Imu(ImuSample {
+            t_ns,
+            seq: k - 1,
+            dt_s: dt,
+            d_theta_rad: d_theta.into(),
+            d_v_mps: d_v.into(),
+        }))?;
         sum.imu += 1;
 
         let truth = flight.truth();
-        if let (Some(sch), Some(spec)) = (srs_sched.as_mut(), s.srs.as_ref()) {
-            if sch.due(t_ns) {
-                let mask = spec.elevation_mask_deg.to_radians();
-                let obs = sensors::srs_sample(&mut rng, t_ns, sch.seq - 1, &truth.r_e, &truth.v_e, &catalogue, mask, spec.sigma_mps, noisy);
-                w.write(&Record::Srs(obs))?;
-                sum.srs += 1;
-            }
+        if let (Some(sch), Some(spec)) = (srs_sched.as_mut(), s.srs.as_ref())
+            && sch.due(t_ns)
+        {
+            let mask = spec.elevation_mask_deg.to_radians();
+            let obs = sensors::srs_sample(
+                &mut rng,
+                t_ns,
+                sch.seq - 1,
+                &truth.r_e,
+                &truth.v_e,
+                &catalogue,
+                mask,
+                spec.sigma_mps,
+                noisy,
+            );
+            w.write(&Record::Srs(obs))?;
+            sum.srs += 1;
         }
-        if let (Some(sch), Some(spec)) = (cns_sched.as_mut(), s.cns.as_ref()) {
-            if sch.due(t_ns) {
-                w.write(&Record::Cns(sensors::cns_fix(&mut rng, t_ns, sch.seq - 1, &truth.r_e, spec.sigma_m, noisy)))?;
-                sum.cns += 1;
-            }
+        if let (Some(sch), Some(spec)) = (cns_sched.as_mut(), s.cns.as_ref())
+            && sch.due(t_ns)
+        {
+            w.write(&Record::Cns(sensors::cns_fix(
+                &mut rng,
+                t_ns,
+                sch.seq - 1,
+                &truth.r_e,
+                spec.sigma_m,
+                noisy,
+            )))?;
+            sum.cns += 1;
         }
-        if let (Some(sch), Some(spec)) = (baro_sched.as_mut(), s.baro.as_ref()) {
-            if sch.due(t_ns) {
-                let h = earth::ecef_to_geodetic(&truth.r_e).h_m;
-                w.write(&Record::Baro(sensors::baro_sample(&mut rng, t_ns, sch.seq - 1, h, spec.sigma_m, noisy)))?;
-                sum.baro += 1;
-            }
+        if let (Some(sch), Some(spec)) = (baro_sched.as_mut(), s.baro.as_ref())
+            && sch.due(t_ns)
+        {
+            let h = earth::ecef_to_geodetic(&truth.r_e).h_m;
+            w.write(&Record::Baro(sensors::baro_sample(
+                &mut rng,
+                t_ns,
+                sch.seq - 1,
+                h,
+                spec.sigma_m,
+                noisy,
+            )))?;
+            sum.baro += 1;
         }
         if truth_sched.due(t_ns) || k == n {
             w.write(&Record::Truth(truth_record(t_ns, &truth)))?;

@@ -93,25 +93,46 @@ impl Commands {
             let default_ramp = (d / 3.0).min(5.0);
             let mut push = |channel, change: f64, ramp: Option<f64>| {
                 let r = ramp.unwrap_or(default_ramp);
-                pulses.push(Pulse { channel, t0, duration: d, ramp: r, rate: change / (d - r) });
+                pulses.push(Pulse {
+                    channel,
+                    t0,
+                    duration: d,
+                    ramp: r,
+                    rate: change / (d - r),
+                });
             };
             match *seg {
                 Segment::Cruise { .. } => {}
-                Segment::Turn { heading_change_deg, ramp_s, .. } => {
-                    push(Channel::Heading, heading_change_deg.to_radians(), ramp_s)
-                }
-                Segment::Climb { altitude_change_m, ramp_s, .. } => push(Channel::Climb, altitude_change_m, ramp_s),
-                Segment::Accelerate { speed_change_mps, ramp_s, .. } => {
-                    push(Channel::Speed, speed_change_mps, ramp_s)
-                }
+                Segment::Turn {
+                    heading_change_deg,
+                    ramp_s,
+                    ..
+                } => push(Channel::Heading, heading_change_deg.to_radians(), ramp_s),
+                Segment::Climb {
+                    altitude_change_m,
+                    ramp_s,
+                    ..
+                } => push(Channel::Climb, altitude_change_m, ramp_s),
+                Segment::Accelerate {
+                    speed_change_mps,
+                    ramp_s,
+                    ..
+                } => push(Channel::Speed, speed_change_mps, ramp_s),
             }
             t0 += d;
         }
-        Self { v0: s.start.speed_mps, pulses, bank: s.start.bank }
+        Self {
+            v0: s.start.speed_mps,
+            pulses,
+            bank: s.start.bank,
+        }
     }
 
     pub fn at(&self, t: f64) -> Profile {
-        let mut p = Profile { speed: self.v0, ..Default::default() };
+        let mut p = Profile {
+            speed: self.v0,
+            ..Default::default()
+        };
         for pl in &self.pulses {
             let (v, dv, iv) = pulse(t - pl.t0, pl.duration, pl.ramp, pl.rate);
             match pl.channel {
@@ -170,7 +191,10 @@ pub fn kinematics(cmd: &Commands, t: f64, r_e: &Vector3<f64>, dir: &Vector3<f64>
     let (theta, theta_dot) = {
         let d = p.speed * p.speed + p.climb * p.climb;
         if d > 0.0 {
-            (p.climb.atan2(p.speed), (p.speed * p.climb_dot - p.climb * p.speed_dot) / d)
+            (
+                p.climb.atan2(p.speed),
+                (p.speed * p.climb_dot - p.climb * p.speed_dot) / d,
+            )
         } else {
             (0.0, 0.0)
         }
@@ -200,12 +224,23 @@ pub fn kinematics(cmd: &Commands, t: f64, r_e: &Vector3<f64>, dir: &Vector3<f64>
     let omega_ib_b = omega_eb_b + c_b_e.transpose() * omega_ie_e;
     let gamma = earth::normal_gravity(geo.lat_rad, geo.h_m);
     let f_e = a_e + omega_ie_e.cross(&v_e) * 2.0 + u * gamma;
-    Kinematics { v_e, dir_dot, c_b_e, omega_ib_b, f_b: c_b_e.transpose() * f_e }
+    Kinematics {
+        v_e,
+        dir_dot,
+        c_b_e,
+        omega_ib_b,
+        f_b: c_b_e.transpose() * f_e,
+    }
 }
 
 fn deriv(cmd: &Commands, t: f64, y: &TruthState) -> TruthState {
     let k = kinematics(cmd, t, &y.r_e, &y.dir_e);
-    TruthState { r_e: k.v_e, dir_e: k.dir_dot, int_omega_b: k.omega_ib_b, int_f_b: k.f_b }
+    TruthState {
+        r_e: k.v_e,
+        dir_e: k.dir_dot,
+        int_omega_b: k.omega_ib_b,
+        int_f_b: k.f_b,
+    }
 }
 
 fn axpy(y: &TruthState, h: f64, d: &TruthState) -> TruthState {
@@ -246,7 +281,12 @@ impl Flight {
             int_omega_b: Vector3::zeros(),
             int_f_b: Vector3::zeros(),
         };
-        Self { cmd: Commands::new(s), y, t: 0.0, substeps: substeps.max(1) }
+        Self {
+            cmd: Commands::new(s),
+            y,
+            t: 0.0,
+            substeps: substeps.max(1),
+        }
     }
 
     pub fn time_s(&self) -> f64 {
@@ -257,7 +297,11 @@ impl Flight {
     pub fn truth(&self) -> TruthSample {
         let k = kinematics(&self.cmd, self.t, &self.y.r_e, &self.y.dir_e);
         let q = UnitQuaternion::from_matrix_eps(&k.c_b_e, 1e-15, 100, UnitQuaternion::identity());
-        TruthSample { r_e: self.y.r_e, v_e: k.v_e, q_b_e: q }
+        TruthSample {
+            r_e: self.y.r_e,
+            v_e: k.v_e,
+            q_b_e: q,
+        }
     }
 
     /// Advances to `t_end` and returns the exact increments (Δθ, Δv) over the interval.

@@ -2,8 +2,8 @@
 //! must integrate back to the truth (position < 0.1 m, attitude < 0.01′) —
 //! through a g→G switch, straight over each pole, and at low latitude in g.
 
-use msgs::navlog::{Record, read_all};
 use msgs::TruthRecord;
+use msgs::navlog::{Record, read_all};
 use nalgebra::{Quaternion, UnitQuaternion, Vector3};
 use polarnav::earth;
 use polarnav::frames;
@@ -31,10 +31,21 @@ fn quat(q: &[f64; 4]) -> UnitQuaternion<f64> {
 fn fly(text: &str) -> Outcome {
     let s = Scenario::parse(text, "test scenario").expect("scenario");
     let mut buf = Vec::new();
-    simulate(&s, text, SimOptions { perfect: true, ..Default::default() }, &mut buf).expect("simulate");
+    simulate(
+        &s,
+        text,
+        SimOptions {
+            perfect: true,
+            ..Default::default()
+        },
+        &mut buf,
+    )
+    .expect("simulate");
     let (records, report) = read_all(&buf);
     assert!(report.is_clean());
-    let Some(Record::Init(init)) = records.iter().find(|r| matches!(r, Record::Init(_))) else { panic!("no init") };
+    let Some(Record::Init(init)) = records.iter().find(|r| matches!(r, Record::Init(_))) else {
+        panic!("no init")
+    };
     let mut nav = Navigator::new(init, &NavigatorConfig::default());
     let mut o = Outcome {
         max_horizontal_m: 0.0,
@@ -53,7 +64,9 @@ fn fly(text: &str) -> Outcome {
         let d = frames::c_e_g(g.lat_rad, g.lon_rad) * (ff.r_e - r);
         o.max_horizontal_m = o.max_horizontal_m.max(d.xy().norm());
         o.max_vertical_m = o.max_vertical_m.max(d.z.abs());
-        o.max_attitude_arcmin = o.max_attitude_arcmin.max(ff.q_b_e.angle_to(&quat(&t.q_b_e)) / ARCMIN);
+        o.max_attitude_arcmin = o
+            .max_attitude_arcmin
+            .max(ff.q_b_e.angle_to(&quat(&t.q_b_e)) / ARCMIN);
         o.min_abs_lat_deg = o.min_abs_lat_deg.min(g.lat_rad.to_degrees().abs());
         o.max_abs_lat_deg = o.max_abs_lat_deg.max(g.lat_rad.to_degrees().abs());
     };
@@ -78,15 +91,26 @@ fn assert_accurate(name: &str, o: &Outcome) {
         "{name}: max horizontal {:.3e} m, vertical {:.3e} m, attitude {:.3e}′; switches {:?}",
         o.max_horizontal_m, o.max_vertical_m, o.max_attitude_arcmin, o.switches
     );
-    assert!(o.max_horizontal_m < 0.1, "{name}: horizontal {} m", o.max_horizontal_m);
-    assert!(o.max_vertical_m < 0.1, "{name}: vertical {} m", o.max_vertical_m);
-    assert!(o.max_attitude_arcmin < 0.01, "{name}: attitude {}′", o.max_attitude_arcmin);
+    assert!(
+        o.max_horizontal_m < 0.1,
+        "{name}: horizontal {} m",
+        o.max_horizontal_m
+    );
+    assert!(
+        o.max_vertical_m < 0.1,
+        "{name}: vertical {} m",
+        o.max_vertical_m
+    );
+    assert!(
+        o.max_attitude_arcmin < 0.01,
+        "{name}: attitude {}′",
+        o.max_attitude_arcmin
+    );
 }
 
 #[test]
 fn climbing_through_70n_switches_g_to_grid_and_stays_on_truth() {
-    let o = fly(
-        r#"
+    let o = fly(r#"
 name = "climb-through-70N"
 [start]
 lat_deg = 67.6
@@ -115,10 +139,18 @@ heading_change_deg = 15.0
 [[segment]]
 kind = "cruise"
 duration_s = 300.0
-"#,
+"#);
+    assert_eq!(
+        o.frames_seen,
+        vec![FrameKind::Geographic, FrameKind::Grid],
+        "{:?}",
+        o.switches
     );
-    assert_eq!(o.frames_seen, vec![FrameKind::Geographic, FrameKind::Grid], "{:?}", o.switches);
-    assert!(o.switches[0].0 > 100.0 && o.switches[0].0 < 1700.0, "switch mid-flight: {:?}", o.switches);
+    assert!(
+        o.switches[0].0 > 100.0 && o.switches[0].0 < 1700.0,
+        "switch mid-flight: {:?}",
+        o.switches
+    );
     assert!(o.max_abs_lat_deg > 70.5);
     assert_accurate("g→G at 70° N", &o);
 }
@@ -140,22 +172,33 @@ duration_s = 1800.0
 fn straight_across_the_north_pole_stays_on_truth() {
     let o = fly(&ACROSS_POLE.replace("LAT", "88.0").replace("HEADING", "0.0"));
     // Passes within metres of the exact pole.
-    assert!(o.max_abs_lat_deg > 89.9999, "closest approach {}", o.max_abs_lat_deg);
+    assert!(
+        o.max_abs_lat_deg > 89.9999,
+        "closest approach {}",
+        o.max_abs_lat_deg
+    );
     assert_eq!(o.frames_seen, vec![FrameKind::Grid]);
     assert_accurate("North Pole", &o);
 }
 
 #[test]
 fn straight_across_the_south_pole_stays_on_truth() {
-    let o = fly(&ACROSS_POLE.replace("LAT", "-88.0").replace("HEADING", "180.0"));
-    assert!(o.max_abs_lat_deg > 89.9999, "closest approach {}", o.max_abs_lat_deg);
+    let o = fly(&ACROSS_POLE
+        .replace("LAT", "-88.0")
+        .replace("HEADING", "180.0"));
+    assert!(
+        o.max_abs_lat_deg > 89.9999,
+        "closest approach {}",
+        o.max_abs_lat_deg
+    );
     assert_eq!(o.frames_seen, vec![FrameKind::Grid]);
     assert_accurate("South Pole", &o);
 }
 
 #[test]
 fn lowlat_vehicle_in_g_stays_on_truth() {
-    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("../config/scenarios/lowlat-vehicle.toml");
+    let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../config/scenarios/lowlat-vehicle.toml");
     let text = std::fs::read_to_string(path).expect("shipped scenario");
     let o = fly(&text);
     assert_eq!(o.frames_seen, vec![FrameKind::Geographic]);
