@@ -2,6 +2,7 @@
 
 pub mod eval;
 pub mod export;
+pub mod interop;
 pub mod logfile;
 pub mod scenario;
 pub mod sensors;

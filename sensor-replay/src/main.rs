@@ -6,6 +6,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
+use sensor_replay::interop::{self, AidSynthesis, ImportError};
 use sensor_replay::scenario::Scenario;
 use sensor_replay::simulate::{self, SimOptions};
 use sensor_replay::{eval, export, logfile};
@@ -40,6 +41,28 @@ enum Cmd {
         log: PathBuf,
         #[arg(long)]
         truth_csv: Option<PathBuf>,
+        /// Write KF-GINS imu.txt and truth.nav into this directory.
+        #[arg(long)]
+        kfgins: Option<PathBuf>,
+    },
+    /// Import KF-GINS text logs (IMU increments FRD, NED truth).
+    ImportKfgins {
+        #[arg(long)]
+        imu: PathBuf,
+        #[arg(long)]
+        truth: PathBuf,
+        #[arg(long)]
+        out: PathBuf,
+        #[command(flatten)]
+        aids: AidArgs,
+    },
+    /// Import a PSINS text IMU file (e.g. ../shared/datasets/psins-lasergyro/lasergyro.imu).
+    ImportPsins {
+        file: PathBuf,
+        #[arg(long)]
+        out: PathBuf,
+        #[command(flatten)]
+        aids: AidArgs,
     },
     /// Accuracy of a solution CSV against the log's truth.
     Eval {
@@ -51,6 +74,70 @@ enum Cmd {
         #[arg(long)]
         out: Option<PathBuf>,
     },
+}
+
+/// Aid streams synthesized from the truth of an imported log.
+#[derive(Debug, clap::Args)]
+struct AidArgs {
+    /// Add a 1 Hz CNS stream with this horizontal σ (m).
+    #[arg(long)]
+    cns_sigma: Option<f64>,
+    /// Add a 10 Hz barometer stream with this altitude σ (m).
+    #[arg(long)]
+    baro_sigma: Option<f64>,
+    /// Add a 1 Hz SRS stream with this radial-velocity σ per line (m/s).
+    #[arg(long)]
+    srs_sigma: Option<f64>,
+    /// Random seed of the synthesized noise.
+    #[arg(long, default_value_t = 1)]
+    seed: u64,
+}
+
+impl AidArgs {
+    fn synthesis(&self) -> Result<AidSynthesis, Fail> {
+        for (name, v) in [
+            ("--cns-sigma", self.cns_sigma),
+            ("--baro-sigma", self.baro_sigma),
+            ("--srs-sigma", self.srs_sigma),
+        ] {
+            if let Some(v) = v
+                && !(v.is_finite() && v > 0.0)
+            {
+                return Err(Fail(
+                    2,
+                    format!("{name}: expected a positive number, got {v}"),
+                ));
+            }
+        }
+        Ok(AidSynthesis {
+            cns_sigma_m: self.cns_sigma,
+            baro_sigma_m: self.baro_sigma,
+            srs_sigma_mps: self.srs_sigma,
+            seed: self.seed,
+        })
+    }
+}
+
+fn report_import(out: &std::path::Path, s: &interop::ImportSummary) {
+    for (file, line, why) in s.skipped.lines.iter().take(20) {
+        eprintln!("warning: {file}:{line}: skipped: {why}");
+    }
+    if s.skipped.lines.len() > 20 {
+        eprintln!(
+            "warning: ... and {} more skipped lines",
+            s.skipped.lines.len() - 20
+        );
+    }
+    eprintln!(
+        "import: wrote {}: {} IMU, {} truth, {} CNS, {} baro, {} SRS records; {} line(s) skipped",
+        out.display(),
+        s.imu,
+        s.truth,
+        s.cns,
+        s.baro,
+        s.srs,
+        s.skipped.lines.len()
+    );
 }
 
 /// A failure with its exit status (2 bad input, 1 other).
@@ -98,7 +185,33 @@ fn run(cli: Cli) -> Result<(), Fail> {
             );
             Ok(())
         }
-        Cmd::Export { log, truth_csv } => {
+        Cmd::ImportKfgins {
+            imu,
+            truth,
+            out,
+            aids,
+        } => {
+            let aids = aids.synthesis()?;
+            let f = File::create(&out)
+                .map_err(|e| Fail(1, format!("{}: cannot create: {e}", out.display())))?;
+            let s = interop::import_kfgins(&imu, &truth, &aids, BufWriter::new(f))
+                .map_err(import_fail)?;
+            report_import(&out, &s);
+            Ok(())
+        }
+        Cmd::ImportPsins { file, out, aids } => {
+            let aids = aids.synthesis()?;
+            let f = File::create(&out)
+                .map_err(|e| Fail(1, format!("{}: cannot create: {e}", out.display())))?;
+            let s = interop::import_psins(&file, &aids, BufWriter::new(f)).map_err(import_fail)?;
+            report_import(&out, &s);
+            Ok(())
+        }
+        Cmd::Export {
+            log,
+            truth_csv,
+            kfgins,
+        } => {
             let c = logfile::load(&log).map_err(|e| bad(e.to_string()))?;
             if !c.report.is_clean() {
                 eprintln!("warning: {}: {}", log.display(), c.report);
@@ -108,6 +221,16 @@ fn run(cli: Cli) -> Result<(), Fail> {
                 export::write_truth_csv(BufWriter::new(f), &c.truth)
                     .map_err(|e| Fail(1, format!("{}: {e}", p.display())))?;
                 eprintln!("export: {} truth rows to {}", c.truth.len(), p.display());
+            }
+            if let Some(dir) = kfgins {
+                interop::export_kfgins(&dir, &c.imu, &c.truth)
+                    .map_err(|e| Fail(1, format!("{}: {e}", dir.display())))?;
+                eprintln!(
+                    "export: KF-GINS imu.txt ({} samples) and truth.nav ({} rows) in {}",
+                    c.imu.len(),
+                    c.truth.len(),
+                    dir.display()
+                );
             }
             Ok(())
         }
@@ -143,6 +266,13 @@ fn run(cli: Cli) -> Result<(), Fail> {
             }
             Ok(())
         }
+    }
+}
+
+fn import_fail(e: ImportError) -> Fail {
+    match e {
+        ImportError::Write(_) => Fail(1, e.to_string()),
+        _ => Fail(2, e.to_string()),
     }
 }
 
