@@ -99,8 +99,12 @@ fn kfgins_export_then_import_navigates_identically() {
     let (ia, ib) = (imu(&a), imu(&b));
     for (x, y) in ia.iter().zip(&ib) {
         assert_eq!(x.t_ns, y.t_ns);
-        assert_eq!(x.d_theta_rad, y.d_theta_rad);
-        assert_eq!(x.d_v_mps, y.d_v_mps);
+        // Bit-for-bit: the text form is the shortest round-trip representation.
+        assert_eq!(
+            x.d_theta_rad.map(f64::to_bits),
+            y.d_theta_rad.map(f64::to_bits)
+        );
+        assert_eq!(x.d_v_mps.map(f64::to_bits), y.d_v_mps.map(f64::to_bits));
         assert!((x.dt_s - y.dt_s).abs() < 1e-12);
     }
     let na = navigate(&a);
