@@ -1,1 +1,2 @@
-//! Helpers shared by the workspace-level integration tests.
+//! Workspace-level integration tests live in `tests/tests/`: they exercise
+//! the crates together (simulator → navlog → navigator → evaluator).

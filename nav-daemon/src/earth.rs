@@ -272,6 +272,19 @@ mod tests {
     }
 
     #[test]
+    fn ecef_z_uses_the_corrected_eq_23_term() {
+        // papers/001 eq (23) erratum: z = (R_N(1 − e²) + h) sin L, and R_N(1 − e²) = R_N(1 − f)².
+        assert!(((1.0 - E2) - (1.0 - F).powi(2)).abs() < 1e-16);
+        let g = Geodetic::from_deg(60.0, 0.0, 0.0);
+        let (_, rn) = radii(g.lat_rad);
+        let z = geodetic_to_ecef(&g).z;
+        assert!((z - rn * (1.0 - F).powi(2) * g.lat_rad.sin()).abs() < 1e-8);
+        // The extraction's R_N(1 − f²) would put the point ~21 km off the ellipsoid.
+        let wrong = rn * (1.0 - F * F) * g.lat_rad.sin();
+        assert!((wrong - z).abs() > 10_000.0);
+    }
+
+    #[test]
     fn exact_poles_give_plus_minus_ninety() {
         for (z_sign, lat) in [(1.0, FRAC_PI_2), (-1.0, -FRAC_PI_2)] {
             let r = Vector3::new(0.0, 0.0, z_sign * (B + 18_000.0));

@@ -5,7 +5,7 @@ use std::io::BufReader;
 use std::path::Path;
 
 use msgs::navlog::{Header, NavlogReader, ReadReport, Record};
-use msgs::{BaroSample, CnsFix, ImuSample, InitState, SrsSample, TruthRecord};
+use msgs::{BaroSample, CnsFix, ImuSample, InitState, Solution, SrsSample, TruthRecord};
 
 /// Every intact record of a log, grouped by kind.
 #[derive(Debug, Default, Clone)]
@@ -17,6 +17,7 @@ pub struct LogContents {
     pub cns: Vec<CnsFix>,
     pub baro: Vec<BaroSample>,
     pub truth: Vec<TruthRecord>,
+    pub solution: Vec<Solution>,
     pub report: ReadReport,
 }
 
@@ -56,7 +57,8 @@ pub fn load(path: &Path) -> Result<LogContents, LoadError> {
             Record::Cns(x) => c.cns.push(x),
             Record::Baro(x) => c.baro.push(x),
             Record::Truth(x) => c.truth.push(x),
-            Record::Solution(_) | Record::Status(_) => {}
+            Record::Solution(x) => c.solution.push(x),
+            Record::Status(_) => {}
         }
     }
     c.report = r.report().clone();

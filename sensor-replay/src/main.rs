@@ -41,6 +41,9 @@ enum Cmd {
         log: PathBuf,
         #[arg(long)]
         truth_csv: Option<PathBuf>,
+        /// Write the log's solution records (e.g. a recorded live run) as a solution CSV.
+        #[arg(long)]
+        solution_csv: Option<PathBuf>,
         /// Write KF-GINS imu.txt and truth.nav into this directory.
         #[arg(long)]
         kfgins: Option<PathBuf>,
@@ -210,6 +213,7 @@ fn run(cli: Cli) -> Result<(), Fail> {
         Cmd::Export {
             log,
             truth_csv,
+            solution_csv,
             kfgins,
         } => {
             let c = logfile::load(&log).map_err(|e| bad(e.to_string()))?;
@@ -221,6 +225,22 @@ fn run(cli: Cli) -> Result<(), Fail> {
                 export::write_truth_csv(BufWriter::new(f), &c.truth)
                     .map_err(|e| Fail(1, format!("{}: {e}", p.display())))?;
                 eprintln!("export: {} truth rows to {}", c.truth.len(), p.display());
+            }
+            if let Some(p) = solution_csv {
+                let mut f = BufWriter::new(
+                    File::create(&p).map_err(|e| Fail(1, format!("{}: {e}", p.display())))?,
+                );
+                let io = |e: std::io::Error| Fail(1, format!("{}: {e}", p.display()));
+                writeln!(f, "{}", polarnav::solution_csv::HEADER).map_err(io)?;
+                for s in &c.solution {
+                    polarnav::solution_csv::write_row(&mut f, s).map_err(io)?;
+                }
+                f.flush().map_err(io)?;
+                eprintln!(
+                    "export: {} solution rows to {}",
+                    c.solution.len(),
+                    p.display()
+                );
             }
             if let Some(dir) = kfgins {
                 interop::export_kfgins(&dir, &c.imu, &c.truth)

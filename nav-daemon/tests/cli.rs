@@ -1,0 +1,188 @@
+//! The nav-daemon command-line contract: exit codes, messages that name the
+//! file and key, and a damaged log replayed up to every intact record.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+use msgs::navlog::{Header, NavlogWriter, Record};
+use msgs::{ImuSample, InitState};
+use nalgebra::{UnitQuaternion, Vector3};
+use polarnav::earth::{self, Geodetic};
+use polarnav::frames;
+
+fn bin() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_nav-daemon"))
+}
+
+fn temp_dir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("polarnav-cli-{name}-{}", std::process::id()));
+    std::fs::create_dir_all(&d).expect("temp dir");
+    d
+}
+
+/// A stationary, level vehicle at 45° N: init record and exact increments.
+fn stationary_log(n: u64, with_init: bool) -> Vec<u8> {
+    let geo = Geodetic::from_deg(45.0, 7.0, 300.0);
+    let c_e_g = frames::c_e_g(geo.lat_rad, geo.lon_rad);
+    let dt = 0.01;
+    let w_b = c_e_g * earth::omega_ie_e();
+    let f_b = Vector3::new(0.0, 0.0, earth::normal_gravity(geo.lat_rad, geo.h_m));
+    let q = UnitQuaternion::from_matrix(&c_e_g.transpose()).into_inner();
+    let mut w =
+        NavlogWriter::new(Vec::new(), Header::new("test", "stationary", 0, "")).expect("header");
+    if with_init {
+        w.write(&Record::Init(InitState {
+            r_e_m: earth::geodetic_to_ecef(&geo).into(),
+            q_b_e: [q.w, q.i, q.j, q.k],
+            sigma_pos_h_m: 1.0,
+            ..Default::default()
+        }))
+        .expect("init");
+    }
+    for k in 1..=n {
+        w.write(&Record::Imu(ImuSample {
+            t_ns: k * 10_000_000,
+            seq: k - 1,
+            dt_s: dt,
+            d_theta_rad: (w_b * dt).into(),
+            d_v_mps: (f_b * dt).into(),
+        }))
+        .expect("imu");
+    }
+    w.finish().expect("finish")
+}
+
+fn run_batch(dir: &Path, log: &[u8], extra: &[&str]) -> (i32, String, Vec<String>) {
+    let log_path = dir.join("in.navlog");
+    let out = dir.join("out.csv");
+    std::fs::write(&log_path, log).expect("write log");
+    let o = bin()
+        .args(["batch", "--log"])
+        .arg(&log_path)
+        .arg("--out")
+        .arg(&out)
+        .args(extra)
+        .output()
+        .expect("run nav-daemon");
+    let rows = std::fs::read_to_string(&out)
+        .unwrap_or_default()
+        .lines()
+        .map(str::to_owned)
+        .collect();
+    (
+        o.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&o.stderr).into_owned(),
+        rows,
+    )
+}
+
+#[test]
+fn batch_writes_the_design_header_and_one_row_per_imu_sample() {
+    let dir = temp_dir("rows");
+    let (code, err, rows) = run_batch(&dir, &stationary_log(500, true), &["--aids", "none"]);
+    assert_eq!(code, 0, "{err}");
+    assert_eq!(rows[0], polarnav::solution_csv::HEADER);
+    assert_eq!(rows.len(), 501);
+    // Stationary and exact: still at 45° N after 5 s.
+    let last: Vec<&str> = rows[500].split(',').collect();
+    assert_eq!(last[1], "g");
+    assert!((last[2].parse::<f64>().expect("lat") - 45.0).abs() < 1e-9);
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn truncated_log_is_navigated_up_to_the_last_intact_record_and_the_damage_reported() {
+    let dir = temp_dir("trunc");
+    let full = stationary_log(300, true);
+    // Cut inside the last record and flip a bit in the middle of the file.
+    let mut damaged = full[..full.len() - 7].to_vec();
+    let mid = damaged.len() / 2;
+    damaged[mid] ^= 0x10;
+    let (code, err, rows) = run_batch(&dir, &damaged, &[]);
+    assert_eq!(code, 0, "{err}");
+    // 300 samples: one lost to truncation, one or two to the flipped byte.
+    let n = rows.len() - 1;
+    assert!((297..=298).contains(&n), "{n} rows");
+    assert!(err.contains("skipped"), "damage not reported: {err}");
+    assert!(err.contains("truncated 1"), "{err}");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn log_without_init_is_refused_with_exit_2() {
+    let dir = temp_dir("noinit");
+    let (code, err, _) = run_batch(&dir, &stationary_log(10, false), &[]);
+    assert_eq!(code, 2);
+    assert!(
+        err.contains("no init record") && err.contains("in.navlog"),
+        "{err}"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn unavailable_aids_and_bad_options_exit_2_with_a_clear_message() {
+    let dir = temp_dir("opts");
+    let log = stationary_log(10, true);
+    let (code, err, _) = run_batch(&dir, &log, &["--aids", "srs,cns"]);
+    assert_eq!(code, 2);
+    assert!(err.contains("--aids srs,cns"), "{err}");
+    let (code, err, _) = run_batch(&dir, &log, &["--aids", "gps"]);
+    assert_eq!(code, 2);
+    assert!(err.contains("gps"), "{err}");
+    let (code, err, _) = run_batch(&dir, &log, &["--conversion", "magic"]);
+    assert_eq!(code, 2);
+    assert!(err.contains("--conversion"), "{err}");
+    let (code, err, _) = run_batch(&dir, &log, &["--force-switch", "5,2"]);
+    assert_eq!(code, 2);
+    assert!(err.contains("force_switch_s"), "{err}");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn forced_switch_times_switch_the_frame_in_batch() {
+    let dir = temp_dir("forced");
+    let (code, err, rows) = run_batch(&dir, &stationary_log(400, true), &["--force-switch", "1,3"]);
+    assert_eq!(code, 0, "{err}");
+    let frame = |i: usize| rows[i].split(',').nth(1).expect("frame").to_owned();
+    assert_eq!(frame(50), "g"); // t = 0.5 s
+    assert_eq!(frame(200), "G"); // t = 2.0 s
+    assert_eq!(frame(350), "g"); // t = 3.5 s
+    assert!(err.contains("2 frame switch"), "{err}");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn check_config_accepts_the_shipped_file_and_names_a_bad_key() {
+    let shipped = Path::new(env!("CARGO_MANIFEST_DIR")).join("../config/nav-daemon.toml");
+    let o = bin()
+        .arg("--check-config")
+        .arg(&shipped)
+        .output()
+        .expect("run");
+    assert_eq!(
+        o.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    let dir = temp_dir("cfg");
+    let bad = dir.join("bad.toml");
+    std::fs::write(&bad, "[frame]\nswitch_enter_deg = \"seventy\"\n").expect("write");
+    let o = bin().arg("--check-config").arg(&bad).output().expect("run");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2));
+    assert!(
+        err.contains("bad.toml") && err.contains("switch_enter_deg"),
+        "{err}"
+    );
+    // A malformed --config is also exit 2 for batch.
+    let o = bin()
+        .arg("--config")
+        .arg(&bad)
+        .args(["batch", "--log", "x", "--out", "y"])
+        .output()
+        .expect("run");
+    assert_eq!(o.status.code(), Some(2));
+    std::fs::remove_dir_all(&dir).ok();
+}
