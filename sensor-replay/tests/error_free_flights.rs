@@ -200,6 +200,8 @@ fn lowlat_vehicle_in_g_stays_on_truth() {
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
         .join("../config/scenarios/lowlat-vehicle.toml");
     let text = std::fs::read_to_string(path).expect("shipped scenario");
+    // The scenario is 1200 s; the acceptance asks for 1800 s, so cruise 600 s more.
+    let text = format!("{text}\n[[segment]]\nkind = \"cruise\"\nduration_s = 600.0\n");
     let o = fly(&text);
     assert_eq!(o.frames_seen, vec![FrameKind::Geographic]);
     assert!(o.max_abs_lat_deg < 33.0);
