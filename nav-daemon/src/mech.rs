@@ -304,26 +304,23 @@ impl AnyNav {
         v_e: &Vector3<f64>,
         q_b_e: &UnitQuaternion<f64>,
     ) -> Self {
+        fn build<F: NavFrame>(
+            geo: &Geodetic,
+            v_e: &Vector3<f64>,
+            q_b_e: &UnitQuaternion<f64>,
+            pos: F::Pos,
+        ) -> Nav<F> {
+            let c_e_n = F::c_e_n(geo);
+            Nav {
+                q_b_n: UnitQuaternion::from_matrix(&c_e_n) * q_b_e,
+                v_n: c_e_n * v_e,
+                pos,
+            }
+        }
         let geo = earth::ecef_to_geodetic(r_e);
         match kind {
-            FrameKind::Geographic => {
-                let c = frames::c_e_g(geo.lat_rad, geo.lon_rad);
-                let q_e_n = UnitQuaternion::from_matrix(&c);
-                AnyNav::Geographic(Nav {
-                    q_b_n: q_e_n * q_b_e,
-                    v_n: c * v_e,
-                    pos: geo,
-                })
-            }
-            FrameKind::Grid => {
-                let c = frames::c_e_grid(geo.lat_rad, geo.lon_rad);
-                let q_e_n = UnitQuaternion::from_matrix(&c);
-                AnyNav::Grid(Nav {
-                    q_b_n: q_e_n * q_b_e,
-                    v_n: c * v_e,
-                    pos: *r_e,
-                })
-            }
+            FrameKind::Geographic => AnyNav::Geographic(build::<Geo>(&geo, v_e, q_b_e, geo)),
+            FrameKind::Grid => AnyNav::Grid(build::<Grid>(&geo, v_e, q_b_e, *r_e)),
         }
     }
 

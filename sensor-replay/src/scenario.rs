@@ -229,23 +229,9 @@ impl Segment {
     }
 }
 
-/// Errors of loading a scenario.
-#[derive(Debug, thiserror::Error)]
-pub enum ScenarioError {
-    #[error("{path}: cannot read: {source}")]
-    Io {
-        path: String,
-        source: std::io::Error,
-    },
-    #[error("{path}: {message}")]
-    Parse { path: String, message: String },
-    #[error("{path}: key `{key}`: {message}")]
-    Invalid {
-        path: String,
-        key: String,
-        message: String,
-    },
-}
+/// Errors of loading a scenario: the same shape as a config error (file,
+/// key, what was expected), so both are reported the same way.
+pub type ScenarioError = polarnav::config::ConfigError;
 
 impl Scenario {
     /// Loads and validates a scenario file.
