@@ -7,7 +7,7 @@
 use nalgebra::{Matrix3, SMatrix, Vector3};
 
 use crate::earth::{self, Geodetic};
-use crate::frames::skew;
+use crate::frames::{self, skew};
 
 /// Offsets of the state blocks.
 pub mod idx {
@@ -135,6 +135,91 @@ pub fn f_geo(pos: &Geodetic, v: &Vector3<f64>, c_b_g: &Matrix3<f64>, f_g: &Vecto
     f
 }
 
+/// Rotation of the grid axes caused by a position change: C_e^G(r + δr) =
+/// (I − (C_P δr)×) C_e^G(r). Because the grid axes are a function of the
+/// ellipsoid normal only, C_P δr is the grid transport-rate formula with δr
+/// in place of the velocity (so C_P = ∂ω_eG^G/∂v^e).
+pub fn c_p_grid(geo: &Geodetic) -> Matrix3<f64> {
+    Matrix3::from_columns(&[
+        frames::transport_rate_grid(geo, &Vector3::x()),
+        frames::transport_rate_grid(geo, &Vector3::y()),
+        frames::transport_rate_grid(geo, &Vector3::z()),
+    ])
+}
+
+/// ∂ω_eG^G/∂r^e at fixed Earth-relative ECEF velocity `v_e` (curvature change
+/// along the position). Of order |v|/R² ≈ 6e-12 rad/s per metre; it has no
+/// compact closed form on the ellipsoid, so it is the central difference
+/// (±1 m) of the exact closed-form transport rate.
+fn d_transport_rate_dr(r_e: &Vector3<f64>, v_e: &Vector3<f64>) -> Matrix3<f64> {
+    let step = 1.0;
+    let col = |k: usize| {
+        let mut d = Vector3::zeros();
+        d[k] = step;
+        let p = earth::ecef_to_geodetic(&(r_e + d));
+        let m = earth::ecef_to_geodetic(&(r_e - d));
+        (frames::transport_rate_grid(&p, v_e) - frames::transport_rate_grid(&m, v_e)) / (2.0 * step)
+    };
+    Matrix3::from_columns(&[col(0), col(1), col(2)])
+}
+
+/// F in the grid frame for X = [φ^G δv^G δr^e ε ∇] (derived here rather than
+/// taken from the doubtful extraction of papers/001 eq 18; every block is
+/// checked against finite differences of the exact nonlinear dynamics):
+/// - φ̇ = −ω_iG×φ + C_v δv + ([ω_ie^G×] C_P + ∂ω_eG/∂r) δr − C_b^G ε, with C_v = C_P C_G^e
+/// - δv̇ = f^G×φ + ([v×] C_v − [(2ω_ie + ω_eG)×]) δv + ([v×](2[ω_ie×] C_P + ∂ω_eG/∂r) + ∂g/∂r) δr + C_b^G ∇
+/// - δṙ = C_G^e δv − C_G^e [v^G×] C_P δr
+pub fn f_grid(
+    r_e: &Vector3<f64>,
+    v_grid: &Vector3<f64>,
+    c_b_grid: &Matrix3<f64>,
+    f_grid_vec: &Vector3<f64>,
+) -> Mat15 {
+    use idx::*;
+    let geo = earth::ecef_to_geodetic(r_e);
+    let c_e_grid = frames::c_e_grid(geo.lat_rad, geo.lon_rad);
+    let c_grid_e = c_e_grid.transpose();
+    let v_e = c_grid_e * v_grid;
+    let omega_ie = c_e_grid * earth::omega_ie_e();
+    let omega_eg = frames::transport_rate_grid(&geo, &v_e);
+    let c_p = c_p_grid(&geo);
+    // ω_eG^G = C_P C_G^e v^G: linear in v.
+    let c_v = c_p * c_grid_e;
+    // Total ∂ω_eG^G/∂r: curvature change at fixed v^e, plus v^e = C_G^e(r) v^G turning with the frame.
+    let d_omega_eg_dr = d_transport_rate_dr(r_e, &v_e) - c_v * skew(v_grid) * c_p;
+    let d_omega_ie_dr = skew(&omega_ie) * c_p;
+    // Gravity: g^G = [0, 0, −γ(L, h)]; δL = N·δr/(R_M+h), δh = u·δr (true-north axes).
+    let [_, n_g, u] = frames::enu_axes_e(geo.lat_rad, geo.lon_rad);
+    let (rm, _) = earth::radii(geo.lat_rad);
+    let (dg_dl, dg_dh) = gravity_derivatives(geo.lat_rad, geo.h_m);
+    let dg_dr = -(n_g.transpose() * (dg_dl / (rm + geo.h_m)) + u.transpose() * dg_dh);
+    let mut mgp = Matrix3::zeros();
+    mgp.set_row(2, &dg_dr);
+
+    let mut f = Mat15::zeros();
+    let mut set =
+        |r: usize, c: usize, m: &Matrix3<f64>| f.fixed_view_mut::<3, 3>(r, c).copy_from(m);
+    set(PHI, PHI, &-skew(&(omega_ie + omega_eg)));
+    set(PHI, DV, &c_v);
+    set(PHI, DP, &(d_omega_ie_dr + d_omega_eg_dr));
+    set(PHI, BG, &-c_b_grid);
+    set(DV, PHI, &skew(f_grid_vec));
+    set(
+        DV,
+        DV,
+        &(skew(v_grid) * c_v - skew(&(omega_ie * 2.0 + omega_eg))),
+    );
+    set(
+        DV,
+        DP,
+        &(skew(v_grid) * (d_omega_ie_dr * 2.0 + d_omega_eg_dr) + mgp),
+    );
+    set(DV, BA, c_b_grid);
+    set(DP, DV, &c_grid_e);
+    set(DP, DP, &(-c_grid_e * skew(v_grid) * c_p));
+    f
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -228,6 +313,78 @@ mod tests {
                     f[(i, j)],
                     col[i]
                 );
+            }
+        }
+    }
+
+    /// Exact nonlinear dynamics in G, written independently of F.
+    fn nonlinear_rates_grid(
+        r: &Vector3<f64>,
+        v: &Vector3<f64>,
+        c_b: &Matrix3<f64>,
+        f_b: &Vector3<f64>,
+        w_ib_b: &Vector3<f64>,
+    ) -> (Matrix3<f64>, Vector3<f64>, Vector3<f64>) {
+        let geo = earth::ecef_to_geodetic(r);
+        let c_e_n = crate::frames::c_e_grid(geo.lat_rad, geo.lon_rad);
+        let w_ie = c_e_n * earth::omega_ie_e();
+        let w_en = crate::frames::transport_rate_grid(&geo, &(c_e_n.transpose() * v));
+        let g = Vector3::new(0.0, 0.0, -earth::normal_gravity(geo.lat_rad, geo.h_m));
+        let c_dot = c_b * skew(w_ib_b) - skew(&(w_ie + w_en)) * c_b;
+        let v_dot = c_b * f_b - (w_ie * 2.0 + w_en).cross(v) + g;
+        (c_dot, v_dot, c_e_n.transpose() * v)
+    }
+
+    #[test]
+    fn f_grid_matches_finite_differences_of_the_nonlinear_dynamics_including_the_pole() {
+        for &(lat, lon) in &[
+            (75.0_f64, 20.0_f64),
+            (89.9999, -100.0),
+            (90.0, 0.0),
+            (-86.0, 170.0),
+            (31.94, 118.79),
+        ] {
+            let r = earth::geodetic_to_ecef(&Geodetic::from_deg(lat, lon, 18_000.0));
+            let v = Vector3::new(180.0, -150.0, 4.0);
+            let c_b = crate::frames::c_b_n_from_euler(2.0, 0.05, -0.2);
+            let f_b = Vector3::new(0.3, 0.6, 9.9);
+            let w_ib_b = Vector3::new(1e-3, -2e-3, 3e-3);
+            let f = f_grid(&r, &v, &c_b, &(c_b * f_b));
+            let rate_of_error = |x: &SMatrix<f64, 15, 1>| -> SMatrix<f64, 15, 1> {
+                let phi = x.fixed_rows::<3>(idx::PHI).into_owned();
+                let dv = x.fixed_rows::<3>(idx::DV).into_owned();
+                let dr = x.fixed_rows::<3>(idx::DP).into_owned();
+                let eps = x.fixed_rows::<3>(idx::BG).into_owned();
+                let nab = x.fixed_rows::<3>(idx::BA).into_owned();
+                let c_c = (Matrix3::identity() - skew(&phi)) * c_b;
+                let (cd_c, vd_c, rd_c) =
+                    nonlinear_rates_grid(&(r + dr), &(v + dv), &c_c, &(f_b + nab), &(w_ib_b + eps));
+                let (cd_t, vd_t, rd_t) = nonlinear_rates_grid(&r, &v, &c_b, &f_b, &w_ib_b);
+                let phidot = -(cd_c * c_b.transpose() + c_c * cd_t.transpose());
+                let mut out = SMatrix::<f64, 15, 1>::zeros();
+                out.fixed_rows_mut::<3>(idx::PHI)
+                    .copy_from(&crate::frames::unskew(&phidot));
+                out.fixed_rows_mut::<3>(idx::DV).copy_from(&(vd_c - vd_t));
+                out.fixed_rows_mut::<3>(idx::DP).copy_from(&(rd_c - rd_t));
+                out
+            };
+            let scale = [
+                1e-6, 1e-6, 1e-6, 1e-3, 1e-3, 1e-3, 10.0, 10.0, 10.0, 1e-8, 1e-8, 1e-8, 1e-5, 1e-5,
+                1e-5,
+            ];
+            for (j, &h) in scale.iter().enumerate() {
+                let mut e = SMatrix::<f64, 15, 1>::zeros();
+                e[j] = h;
+                let col = (rate_of_error(&e) - rate_of_error(&-e)) / (2.0 * h);
+                for blk in [idx::PHI, idx::DV, idx::DP] {
+                    let fb = f.fixed_view::<3, 1>(blk, j).into_owned();
+                    let cb = col.fixed_rows::<3>(blk).into_owned();
+                    let tol = 1e-6 * fb.amax().max(cb.amax()) + 1e-16;
+                    assert!(
+                        (fb - cb).amax() < tol,
+                        "at {lat},{lon}: F[{blk}.., {j}] = {fb} vs FD {cb}"
+                    );
+                }
             }
         }
     }
