@@ -252,9 +252,9 @@ mod tests {
         w_ib_b: &Vector3<f64>,
     ) -> (Matrix3<f64>, Vector3<f64>, Vector3<f64>) {
         let (rm, rn) = earth::radii(pos.lat_rad);
-        let c_e_g = crate::frames::c_e_g(pos.lat_rad, pos.lon_rad);
+        let c_e_g = frames::c_e_g(pos.lat_rad, pos.lon_rad);
         let w_ie = c_e_g * earth::omega_ie_e();
-        let w_en = crate::frames::transport_rate_g(pos, v);
+        let w_en = frames::transport_rate_g(pos, v);
         let g = Vector3::new(0.0, 0.0, -earth::normal_gravity(pos.lat_rad, pos.h_m));
         let c_dot = c_b_g * skew(w_ib_b) - skew(&(w_ie + w_en)) * c_b_g;
         let v_dot = c_b_g * f_b - (w_ie * 2.0 + w_en).cross(v) + g;
@@ -270,7 +270,7 @@ mod tests {
     fn f_geo_matches_finite_differences_of_the_nonlinear_dynamics() {
         let pos = Geodetic::from_deg(55.0, 20.0, 12_000.0);
         let v = Vector3::new(180.0, -120.0, 4.0);
-        let c_b_g = crate::frames::c_b_n_from_euler(0.8, 0.05, 0.2);
+        let c_b_g = frames::c_b_n_from_euler(0.8, 0.05, 0.2);
         let f_b = Vector3::new(0.3, 0.6, 9.9);
         let w_ib_b = Vector3::new(1e-3, -2e-3, 3e-3);
         let f = f_geo(&pos, &v, &c_b_g, &(c_b_g * f_b));
@@ -291,7 +291,7 @@ mod tests {
             let phidot = -(cdot_c * c_b_g.transpose() + c_c * cdot_t.transpose());
             let mut out = SMatrix::<f64, 15, 1>::zeros();
             out.fixed_rows_mut::<3>(idx::PHI)
-                .copy_from(&crate::frames::unskew(&phidot));
+                .copy_from(&frames::unskew(&phidot));
             out.fixed_rows_mut::<3>(idx::DV)
                 .copy_from(&(vdot_c - vdot_t));
             out.fixed_rows_mut::<3>(idx::DP)
@@ -326,9 +326,9 @@ mod tests {
         w_ib_b: &Vector3<f64>,
     ) -> (Matrix3<f64>, Vector3<f64>, Vector3<f64>) {
         let geo = earth::ecef_to_geodetic(r);
-        let c_e_n = crate::frames::c_e_grid(geo.lat_rad, geo.lon_rad);
+        let c_e_n = frames::c_e_grid(geo.lat_rad, geo.lon_rad);
         let w_ie = c_e_n * earth::omega_ie_e();
-        let w_en = crate::frames::transport_rate_grid(&geo, &(c_e_n.transpose() * v));
+        let w_en = frames::transport_rate_grid(&geo, &(c_e_n.transpose() * v));
         let g = Vector3::new(0.0, 0.0, -earth::normal_gravity(geo.lat_rad, geo.h_m));
         let c_dot = c_b * skew(w_ib_b) - skew(&(w_ie + w_en)) * c_b;
         let v_dot = c_b * f_b - (w_ie * 2.0 + w_en).cross(v) + g;
@@ -346,7 +346,7 @@ mod tests {
         ] {
             let r = earth::geodetic_to_ecef(&Geodetic::from_deg(lat, lon, 18_000.0));
             let v = Vector3::new(180.0, -150.0, 4.0);
-            let c_b = crate::frames::c_b_n_from_euler(2.0, 0.05, -0.2);
+            let c_b = frames::c_b_n_from_euler(2.0, 0.05, -0.2);
             let f_b = Vector3::new(0.3, 0.6, 9.9);
             let w_ib_b = Vector3::new(1e-3, -2e-3, 3e-3);
             let f = f_grid(&r, &v, &c_b, &(c_b * f_b));
@@ -363,7 +363,7 @@ mod tests {
                 let phidot = -(cd_c * c_b.transpose() + c_c * cd_t.transpose());
                 let mut out = SMatrix::<f64, 15, 1>::zeros();
                 out.fixed_rows_mut::<3>(idx::PHI)
-                    .copy_from(&crate::frames::unskew(&phidot));
+                    .copy_from(&frames::unskew(&phidot));
                 out.fixed_rows_mut::<3>(idx::DV).copy_from(&(vd_c - vd_t));
                 out.fixed_rows_mut::<3>(idx::DP).copy_from(&(rd_c - rd_t));
                 out
