@@ -19,3 +19,4 @@ pub mod frames;
 pub mod mech;
 pub mod navigator;
 pub mod solution_csv;
+pub mod switch;
