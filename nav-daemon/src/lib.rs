@@ -14,6 +14,7 @@ pub mod batch;
 pub mod config;
 pub mod earth;
 pub mod error_model;
+pub mod filter;
 pub mod frame_select;
 pub mod frames;
 pub mod mech;

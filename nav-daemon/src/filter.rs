@@ -1,0 +1,252 @@
+//! The 15-state error-state Kalman filter: covariance propagation and the
+//! measurement update. Static-size matrices only; nothing here allocates.
+//!
+//! Closed loop: after every update the estimated error is fed back into the
+//! nominal state by the caller and the error state is reset to zero, so the
+//! filter carries only P between updates.
+
+use nalgebra::{SMatrix, SVector};
+
+use crate::error_model::{Mat15, idx};
+
+/// Process noise densities (continuous time).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ProcessNoise {
+    /// Angle random walk (rad/√s).
+    pub arw: f64,
+    /// Velocity random walk (m/s/√s).
+    pub vrw: f64,
+    /// Gyro bias instability as a first-order Gauss–Markov process: σ (rad/s), τ (s).
+    pub gyro_bias_sigma: f64,
+    pub gyro_bias_tau_s: f64,
+    /// Accelerometer bias: σ (m/s²), τ (s).
+    pub accel_bias_sigma: f64,
+    pub accel_bias_tau_s: f64,
+}
+
+impl ProcessNoise {
+    /// Adds the bias Gauss–Markov decay −1/τ to F.
+    pub fn add_bias_dynamics(&self, f: &mut Mat15) {
+        for i in 0..3 {
+            if self.gyro_bias_tau_s.is_finite() {
+                f[(idx::BG + i, idx::BG + i)] = -1.0 / self.gyro_bias_tau_s;
+            }
+            if self.accel_bias_tau_s.is_finite() {
+                f[(idx::BA + i, idx::BA + i)] = -1.0 / self.accel_bias_tau_s;
+            }
+        }
+    }
+
+    /// Diagonal of G Q Gᵀ (the attitude/velocity noise enters through C_b^n,
+    /// which preserves the isotropic densities).
+    fn density(&self) -> SVector<f64, 15> {
+        let mut q = SVector::<f64, 15>::zeros();
+        let gm = |s: f64, tau: f64| {
+            if tau.is_finite() && tau > 0.0 {
+                2.0 * s * s / tau
+            } else {
+                0.0
+            }
+        };
+        for i in 0..3 {
+            q[idx::PHI + i] = self.arw * self.arw;
+            q[idx::DV + i] = self.vrw * self.vrw;
+            q[idx::BG + i] = gm(self.gyro_bias_sigma, self.gyro_bias_tau_s);
+            q[idx::BA + i] = gm(self.accel_bias_sigma, self.accel_bias_tau_s);
+        }
+        q
+    }
+}
+
+/// Second-order transition matrix Φ = I + FΔt + (FΔt)²/2.
+pub fn transition(f: &Mat15, dt: f64) -> Mat15 {
+    let fdt = f * dt;
+    Mat15::identity() + fdt + fdt * fdt * 0.5
+}
+
+/// Propagates P over `dt` with system matrix `f`: P ← Φ P Φᵀ + Q_d, with the
+/// trapezoidal Q_d = ½(Φ Q Φᵀ + Q)Δt matching the second-order Φ.
+pub fn propagate(p: &mut Mat15, f: &Mat15, noise: &ProcessNoise, dt: f64) {
+    if dt <= 0.0 {
+        return;
+    }
+    let phi = transition(f, dt);
+    let q = Mat15::from_diagonal(&noise.density());
+    let qd = (phi * q * phi.transpose() + q) * (0.5 * dt);
+    *p = phi * *p * phi.transpose() + qd;
+    symmetrize(p);
+}
+
+/// Forces exact symmetry (P = (P + Pᵀ)/2).
+pub fn symmetrize(p: &mut Mat15) {
+    for i in 0..15 {
+        for j in (i + 1)..15 {
+            let m = 0.5 * (p[(i, j)] + p[(j, i)]);
+            p[(i, j)] = m;
+            p[(j, i)] = m;
+        }
+    }
+}
+
+/// Outcome of one measurement update.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct UpdateOutcome<const M: usize> {
+    /// Innovation y = z − H x (x = 0 in closed loop: y = z).
+    pub innovation: SVector<f64, M>,
+    /// Diagonal of S.
+    pub innovation_var: SVector<f64, M>,
+    /// Normalized innovation squared yᵀ S⁻¹ y.
+    pub nis: f64,
+    /// NIS divided by the gate threshold (≤ 1 passes).
+    pub test_ratio: f64,
+    /// The estimated error state (zero when rejected).
+    pub dx: SVector<f64, 15>,
+    /// False when the gate rejected the measurement (P unchanged).
+    pub fused: bool,
+}
+
+/// χ² innovation test and Joseph-form update for an M-dimensional
+/// measurement z = H δx + v, v ~ N(0, R). With `gate` = ∞ nothing is rejected.
+/// Returns None when S is not positive definite (measurement skipped).
+pub fn update<const M: usize>(
+    p: &mut Mat15,
+    z: &SVector<f64, M>,
+    h: &SMatrix<f64, M, 15>,
+    r: &SMatrix<f64, M, M>,
+    gate: f64,
+) -> Option<UpdateOutcome<M>> {
+    let pht = *p * h.transpose();
+    let s = h * pht + r;
+    let chol = s.cholesky()?;
+    let s_inv_z = chol.solve(z);
+    let nis = z.dot(&s_inv_z);
+    let test_ratio = nis / gate;
+    let innovation_var = s.diagonal();
+    if !(nis.is_finite() && test_ratio <= 1.0) {
+        return Some(UpdateOutcome {
+            innovation: *z,
+            innovation_var,
+            nis,
+            test_ratio,
+            dx: SVector::zeros(),
+            fused: false,
+        });
+    }
+    // K = P Hᵀ S⁻¹ (through the Cholesky factor: S is symmetric).
+    let k = chol.solve(&pht.transpose()).transpose();
+    let dx = k * z;
+    let ikh = Mat15::identity() - k * h;
+    *p = ikh * *p * ikh.transpose() + k * r * k.transpose();
+    symmetrize(p);
+    Some(UpdateOutcome {
+        innovation: *z,
+        innovation_var,
+        nis,
+        test_ratio,
+        dx,
+        fused: true,
+    })
+}
+
+/// χ² quantiles at 99.9 % for 1–3 degrees of freedom (the default gates).
+pub fn chi2_999(dof: usize) -> f64 {
+    match dof {
+        1 => 10.828,
+        2 => 13.816,
+        3 => 16.266,
+        _ => f64::INFINITY,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::{SMatrix, SVector};
+
+    fn noise() -> ProcessNoise {
+        ProcessNoise {
+            arw: 1e-5,
+            vrw: 1e-4,
+            gyro_bias_sigma: 1e-7,
+            gyro_bias_tau_s: 3600.0,
+            accel_bias_sigma: 1e-4,
+            accel_bias_tau_s: f64::INFINITY,
+        }
+    }
+
+    #[test]
+    fn second_order_transition_matches_the_matrix_exponential() {
+        // A Schuler-like oscillator block, far longer than Δt: Φ(Δt) vs exp(FΔt) by series.
+        let mut f = Mat15::zeros();
+        f[(3, 6)] = -9.8;
+        f[(6, 3)] = 1.0 / 6.4e6;
+        f[(0, 3)] = 1e-6;
+        let dt = 0.05;
+        let mut exp = Mat15::identity();
+        let mut term = Mat15::identity();
+        for k in 1..20 {
+            term = term * f * (dt / f64::from(k));
+            exp += term;
+        }
+        let phi = transition(&f, dt);
+        assert!(
+            (phi - exp).amax() < 1e-8 * exp.amax(),
+            "{}",
+            (phi - exp).amax()
+        );
+    }
+
+    #[test]
+    fn propagated_covariance_matches_the_analytic_variances() {
+        // A 1-D random walk in φ_x and a Gauss-Markov gyro bias feeding it: the
+        // analytic variance after n steps equals the propagated P.
+        let nz = noise();
+        let mut f = Mat15::zeros();
+        f[(0, 9)] = -1.0;
+        nz.add_bias_dynamics(&mut f);
+        // Every other state starts with a small variance, so P is positive definite.
+        let mut p = Mat15::identity() * 1e-20;
+        p[(0, 0)] = 0.0;
+        p[(9, 9)] = 1e-14;
+        let dt = 0.1;
+        for _ in 0..36_000 {
+            propagate(&mut p, &f, &nz, dt);
+        }
+        // Stationary bias variance is σ² = 1e-14 and stays there.
+        assert!((p[(9, 9)] - 1e-14).abs() < 1e-3 * 1e-14, "{}", p[(9, 9)]);
+        // Attitude variance from ARW alone is arw²·t; the bias adds a positive part.
+        let arw_part = 1e-10 * 3600.0;
+        assert!(p[(0, 0)] > arw_part && p[(0, 0)] < arw_part + 1e-14 * 3600.0 * 3600.0 * 1.01);
+        // Symmetric, positive definite.
+        assert!((p - p.transpose()).amax() < f64::MIN_POSITIVE);
+        assert!(p.cholesky().is_some());
+    }
+
+    #[test]
+    fn joseph_update_matches_the_information_form_and_gates() {
+        let mut p = Mat15::identity() * 4.0;
+        p[(6, 7)] = 1.0;
+        p[(7, 6)] = 1.0;
+        let mut h = SMatrix::<f64, 2, 15>::zeros();
+        h[(0, 6)] = 1.0;
+        h[(1, 7)] = 1.0;
+        let r = SMatrix::<f64, 2, 2>::identity() * 2.0;
+        let z = SVector::<f64, 2>::new(1.0, -0.5);
+        let p0 = p;
+        let out = update(&mut p, &z, &h, &r, chi2_999(2)).expect("S positive definite");
+        assert!(out.fused);
+        // Information form: P⁺ = (P⁻¹ + Hᵀ R⁻¹ H)⁻¹, x = P⁺ Hᵀ R⁻¹ z.
+        let info =
+            p0.try_inverse().expect("inv") + h.transpose() * r.try_inverse().expect("inv") * h;
+        let p_info = info.try_inverse().expect("inv");
+        assert!((p - p_info).amax() < 1e-12);
+        let x_info = p_info * h.transpose() * r.try_inverse().expect("inv") * z;
+        assert!((out.dx - x_info).amax() < 1e-12);
+        // A 50σ innovation is rejected and leaves P untouched.
+        let mut p2 = p0;
+        let big = SVector::<f64, 2>::new(150.0, 0.0);
+        let out = update(&mut p2, &big, &h, &r, chi2_999(2)).expect("S");
+        assert!(!out.fused && out.test_ratio > 1.0);
+        assert_eq!(p2, p0);
+    }
+}
