@@ -10,6 +10,7 @@
 //!
 //! Units are SI (rad, m, s) inside the math; names carry units at the boundaries.
 
+pub mod aids;
 pub mod batch;
 pub mod config;
 pub mod earth;

@@ -345,6 +345,37 @@ impl AnyNav {
         }
     }
 
+    /// C_e^n of the current frame at the current position.
+    pub fn c_e_n(&self) -> Matrix3<f64> {
+        let geo = self.geodetic();
+        match self {
+            AnyNav::Geographic(_) => Geo::c_e_n(&geo),
+            AnyNav::Grid(_) => Grid::c_e_n(&geo),
+        }
+    }
+
+    /// Closed-loop feedback of an estimated error (φ, δv, δp of this frame):
+    /// C_b^n ← R(φ) C_b^c (inverse of C_b^c = (I − φ×) C_b^n), v ← v − δv, p ← p − δp.
+    pub fn correct(&mut self, phi: &Vector3<f64>, dv: &Vector3<f64>, dp: &Vector3<f64>) {
+        let rot = UnitQuaternion::from_scaled_axis(*phi);
+        match self {
+            AnyNav::Geographic(s) => {
+                s.q_b_n = rot * s.q_b_n;
+                s.v_n -= dv;
+                s.pos = Geodetic::new(
+                    s.pos.lat_rad - dp.x,
+                    earth::wrap_pi(s.pos.lon_rad - dp.y),
+                    s.pos.h_m - dp.z,
+                );
+            }
+            AnyNav::Grid(s) => {
+                s.q_b_n = rot * s.q_b_n;
+                s.v_n -= dv;
+                s.pos -= dp;
+            }
+        }
+    }
+
     /// Nav-frame velocity.
     pub fn v_n(&self) -> Vector3<f64> {
         match self {
