@@ -10,8 +10,8 @@ echo "== building (release)"
 cargo build --release --bins
 echo "== simulating $scenario"
 ./target/release/sensor-replay simulate --scenario "$scenario" --out "$out/flight.navlog" --seed 1
-echo "== navigating (pure inertial: aid fusion arrives with the estimator)"
-./target/release/nav-daemon batch --log "$out/flight.navlog" --out "$out/solution.csv" --aids none --progress 600
+echo "== navigating: SINS + SRS/CNS/baro error-state filter, g/G frame switching"
+./target/release/nav-daemon batch --log "$out/flight.navlog" --out "$out/solution.csv" --aids srs,cns,baro --progress 600
 echo "== accuracy"
 ./target/release/sensor-replay eval --log "$out/flight.navlog" --solution "$out/solution.csv" --out "$out"
 echo "== outputs in $out/"

@@ -4,53 +4,11 @@ use std::io::{BufRead, Write};
 
 use msgs::navlog::{NavlogReader, ReadReport, Record};
 
-use crate::config::{Config, ConfigError, FrameConfig, ScenarioOverrides};
-use crate::navigator::{Navigator, SwitchEvent};
+use crate::config::{Config, ConfigError, FilterSettings, FrameConfig, ScenarioOverrides};
+use crate::navigator::{Navigator, NavigatorConfig, SwitchEvent};
 use crate::solution_csv;
 
-/// Which aids to fuse.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub struct AidSet {
-    pub srs: bool,
-    pub cns: bool,
-    pub baro: bool,
-}
-
-impl AidSet {
-    /// Parses `srs,cns,baro` (any subset) or `none`.
-    pub fn parse(s: &str) -> Result<Self, String> {
-        let mut a = AidSet::default();
-        if s.trim() == "none" {
-            return Ok(a);
-        }
-        for part in s.split(',').map(str::trim) {
-            match part {
-                "srs" => a.srs = true,
-                "cns" => a.cns = true,
-                "baro" => a.baro = true,
-                other => {
-                    return Err(format!(
-                        "unknown aid {other:?}: expected a list of srs, cns, baro, or none"
-                    ));
-                }
-            }
-        }
-        Ok(a)
-    }
-    pub fn any(&self) -> bool {
-        self.srs || self.cns || self.baro
-    }
-}
-
-/// Filter parameter conversion at a frame switch.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub enum Conversion {
-    /// X and P converted (papers/001 eqs 32–38).
-    #[default]
-    Paper,
-    /// Nominal parameters converted, X and P carried over unchanged (baseline).
-    None,
-}
+pub use crate::navigator::{AidSet, Conversion};
 
 /// Options of one batch run beyond the config file.
 #[derive(Debug, Clone, Default)]
@@ -71,10 +29,15 @@ pub struct BatchReport {
     pub imu_rejected: u64,
     /// IMU samples before the init record (cannot be navigated).
     pub imu_before_init: u64,
-    /// Aid records present in the log but not fused in this run.
+    /// Aid records fused, rejected (gate, content or time), and present but not selected.
+    pub aid_fused: u64,
+    pub aid_rejected: u64,
     pub aid_records_unused: u64,
+    /// SRS solutions that excluded a faulty line.
+    pub srs_exclusions: u64,
     pub switches: Vec<SwitchEvent>,
     pub frame: FrameConfig,
+    pub filter: FilterSettings,
     pub first_t_ns: u64,
     pub last_t_ns: u64,
 }
@@ -87,9 +50,6 @@ pub enum BatchError {
     /// The log has no init record and no initial state was configured (exit 2).
     #[error("{0}: no init record before the first IMU sample; the log cannot be navigated")]
     NoInit(String),
-    /// The requested aids are not available in this build (exit 2).
-    #[error("--aids {0}: aid fusion is not available in this build; use --aids none")]
-    AidsUnavailable(String),
     /// Reading the log failed (exit 1).
     #[error("{path}: {source}")]
     Read {
@@ -105,7 +65,7 @@ impl BatchError {
     /// Process exit status per DESIGN.
     pub fn exit_code(&self) -> i32 {
         match self {
-            BatchError::Config(_) | BatchError::NoInit(_) | BatchError::AidsUnavailable(_) => 2,
+            BatchError::Config(_) | BatchError::NoInit(_) => 2,
             BatchError::Read { .. } | BatchError::Write(_) => 1,
         }
     }
@@ -120,18 +80,6 @@ pub fn run<R: BufRead, W: Write>(
     config: &Config,
     opts: &BatchOptions,
 ) -> Result<BatchReport, BatchError> {
-    if opts.aids.any() {
-        let list: Vec<&str> = [
-            ("srs", opts.aids.srs),
-            ("cns", opts.aids.cns),
-            ("baro", opts.aids.baro),
-        ]
-        .iter()
-        .filter(|(_, on)| *on)
-        .map(|(n, _)| *n)
-        .collect();
-        return Err(BatchError::AidsUnavailable(list.join(",")));
-    }
     let mut reader = NavlogReader::new(log);
     let mut report = BatchReport {
         frame: config.frame.clone(),
@@ -152,6 +100,8 @@ pub fn run<R: BufRead, W: Write>(
             Record::Header(h) => {
                 if let Some(o) = ScenarioOverrides::from_metadata(&h.metadata)? {
                     o.apply(&mut report.frame);
+                    o.apply_filter(&mut report.filter);
+                    report.filter.validate(log_name)?;
                 }
                 if let Some(f) = &opts.force_switch_s {
                     report.frame.force_switch_s.clone_from(f);
@@ -162,8 +112,13 @@ pub fn run<R: BufRead, W: Write>(
                 if opts.force_switch_s.is_some() && nav.is_none() {
                     report.frame.validate("--force-switch", "frame")?;
                 }
-                let mut cfg = config.navigator();
-                cfg.frame_policy = report.frame.policy();
+                let cfg = NavigatorConfig {
+                    frame_policy: report.frame.policy(),
+                    conversion: opts.conversion,
+                    aids: opts.aids,
+                    filter: report.filter.clone(),
+                    aid_settings: config.aids.clone(),
+                };
                 if nav.is_some() {
                     tracing::info!(t_ns = init.t_ns, "new init record: re-initializing");
                 }
@@ -211,7 +166,40 @@ pub fn run<R: BufRead, W: Write>(
                     }
                 }
             }
-            Record::Srs(_) | Record::Cns(_) | Record::Baro(_) => report.aid_records_unused += 1,
+            Record::Srs(_) | Record::Cns(_) | Record::Baro(_) => {
+                let selected = match &rec {
+                    Record::Srs(_) => opts.aids.srs,
+                    Record::Cns(_) => opts.aids.cns,
+                    _ => opts.aids.baro,
+                };
+                let Some(n) = nav.as_mut().filter(|_| selected) else {
+                    report.aid_records_unused += 1;
+                    continue;
+                };
+                let out = match &rec {
+                    Record::Srs(x) => n.on_srs(x),
+                    Record::Cns(x) => n.on_cns(x),
+                    Record::Baro(x) => n.on_baro(x),
+                    _ => unreachable!("matched above"),
+                };
+                match out {
+                    Ok(o) if o.fused => {
+                        report.aid_fused += 1;
+                        report.srs_exclusions += u64::from(o.excluded_body.is_some());
+                    }
+                    Ok(_) => report.aid_rejected += 1,
+                    Err(e) => {
+                        report.aid_rejected += 1;
+                        if rejected_logged < 10 {
+                            rejected_logged += 1;
+                            tracing::warn!(
+                                t_ns = rec.t_ns().unwrap_or(0),
+                                "{log_name}: aid sample rejected: {e}"
+                            );
+                        }
+                    }
+                }
+            }
             Record::Truth(_) | Record::Solution(_) | Record::Status(_) => {}
         }
     }

@@ -17,6 +17,77 @@ pub struct Config {
     pub prefix: String,
     #[serde(default)]
     pub frame: FrameConfig,
+    #[serde(default)]
+    pub filter: FilterSettings,
+    #[serde(default)]
+    pub aids: AidSettings,
+}
+
+/// `[filter]`: IMU noise model and initial bias uncertainty, in datasheet units.
+#[derive(Debug, Clone, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields, default)]
+pub struct FilterSettings {
+    /// Angle random walk (deg/√h).
+    pub arw_dpsh: f64,
+    /// Velocity random walk (µg/√Hz).
+    pub vrw_ug_psqhz: f64,
+    /// Initial 1-σ of the gyro bias (deg/h) and accelerometer bias (µg).
+    pub gyro_bias_dph: f64,
+    pub accel_bias_ug: f64,
+    /// Bias instability as first-order Gauss–Markov: σ (deg/h, µg) and τ (s); σ = 0 means constant biases.
+    pub gyro_bias_instability_dph: f64,
+    pub gyro_bias_tau_s: f64,
+    pub accel_bias_instability_ug: f64,
+    pub accel_bias_tau_s: f64,
+    /// Covariance propagation interval (s); the mechanization runs every IMU sample.
+    pub covariance_interval_s: f64,
+}
+
+impl Default for FilterSettings {
+    fn default() -> Self {
+        // papers/001 Table 1.
+        Self {
+            arw_dpsh: 0.001,
+            vrw_ug_psqhz: 10.0,
+            gyro_bias_dph: 0.01,
+            accel_bias_ug: 100.0,
+            gyro_bias_instability_dph: 0.0,
+            gyro_bias_tau_s: 3600.0,
+            accel_bias_instability_ug: 0.0,
+            accel_bias_tau_s: 3600.0,
+            covariance_interval_s: 0.05,
+        }
+    }
+}
+
+/// `[aids]`: χ² gates (thresholds on the normalized innovation squared),
+/// timeouts after which an aid is stale, and the latest an aid may arrive.
+#[derive(Debug, Clone, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields, default)]
+pub struct AidSettings {
+    pub srs_gate: f64,
+    pub cns_gate: f64,
+    pub baro_gate: f64,
+    pub srs_timeout_s: f64,
+    pub cns_timeout_s: f64,
+    pub baro_timeout_s: f64,
+    /// Aids older than this relative to the newest IMU sample are rejected as late (s).
+    pub max_latency_s: f64,
+}
+
+impl Default for AidSettings {
+    fn default() -> Self {
+        // 99.9 % χ² quantiles for 3, 2 and 1 degrees of freedom.
+        Self {
+            srs_gate: 16.266,
+            cns_gate: 13.816,
+            baro_gate: 10.828,
+            srs_timeout_s: 3.0,
+            cns_timeout_s: 3.0,
+            baro_timeout_s: 1.0,
+            max_latency_s: 0.1,
+        }
+    }
 }
 
 fn default_prefix() -> String {
@@ -28,6 +99,8 @@ impl Default for Config {
         Self {
             prefix: default_prefix(),
             frame: FrameConfig::default(),
+            filter: FilterSettings::default(),
+            aids: AidSettings::default(),
         }
     }
 }
@@ -70,6 +143,96 @@ pub enum ConfigError {
         key: String,
         message: String,
     },
+}
+
+fn check(origin: &str, key: &str, v: f64, ok: bool, expected: &str) -> Result<(), ConfigError> {
+    if v.is_finite() && ok {
+        Ok(())
+    } else {
+        Err(ConfigError::Invalid {
+            path: origin.to_owned(),
+            key: key.to_owned(),
+            message: format!("expected {expected}, got {v}"),
+        })
+    }
+}
+
+impl FilterSettings {
+    pub fn validate(&self, origin: &str) -> Result<(), ConfigError> {
+        for (k, v) in [
+            ("filter.arw_dpsh", self.arw_dpsh),
+            ("filter.vrw_ug_psqhz", self.vrw_ug_psqhz),
+            (
+                "filter.gyro_bias_instability_dph",
+                self.gyro_bias_instability_dph,
+            ),
+            (
+                "filter.accel_bias_instability_ug",
+                self.accel_bias_instability_ug,
+            ),
+        ] {
+            check(origin, k, v, v >= 0.0, "a number ≥ 0")?;
+        }
+        for (k, v) in [
+            ("filter.gyro_bias_dph", self.gyro_bias_dph),
+            ("filter.accel_bias_ug", self.accel_bias_ug),
+            ("filter.gyro_bias_tau_s", self.gyro_bias_tau_s),
+            ("filter.accel_bias_tau_s", self.accel_bias_tau_s),
+        ] {
+            check(origin, k, v, v > 0.0, "a positive number")?;
+        }
+        let c = self.covariance_interval_s;
+        check(
+            origin,
+            "filter.covariance_interval_s",
+            c,
+            c > 0.0 && c <= 1.0,
+            "an interval in (0, 1] s",
+        )
+    }
+
+    /// Process noise in SI units.
+    pub fn process_noise(&self) -> crate::filter::ProcessNoise {
+        let dph = std::f64::consts::PI / 180.0 / 3600.0;
+        let ug = 1e-6 * crate::earth::G0;
+        crate::filter::ProcessNoise {
+            arw: self.arw_dpsh * std::f64::consts::PI / 180.0 / 60.0,
+            vrw: self.vrw_ug_psqhz * ug,
+            gyro_bias_sigma: self.gyro_bias_instability_dph * dph,
+            gyro_bias_tau_s: if self.gyro_bias_instability_dph > 0.0 {
+                self.gyro_bias_tau_s
+            } else {
+                f64::INFINITY
+            },
+            accel_bias_sigma: self.accel_bias_instability_ug * ug,
+            accel_bias_tau_s: if self.accel_bias_instability_ug > 0.0 {
+                self.accel_bias_tau_s
+            } else {
+                f64::INFINITY
+            },
+        }
+    }
+}
+
+impl AidSettings {
+    pub fn validate(&self, origin: &str) -> Result<(), ConfigError> {
+        for (k, v) in [
+            ("aids.srs_gate", self.srs_gate),
+            ("aids.cns_gate", self.cns_gate),
+            ("aids.baro_gate", self.baro_gate),
+        ] {
+            check(origin, k, v, v > 0.0, "a positive χ² threshold")?;
+        }
+        for (k, v) in [
+            ("aids.srs_timeout_s", self.srs_timeout_s),
+            ("aids.cns_timeout_s", self.cns_timeout_s),
+            ("aids.baro_timeout_s", self.baro_timeout_s),
+            ("aids.max_latency_s", self.max_latency_s),
+        ] {
+            check(origin, k, v, v > 0.0, "a positive time in seconds")?;
+        }
+        Ok(())
+    }
 }
 
 impl FrameConfig {
@@ -151,6 +314,8 @@ impl Config {
             });
         }
         c.frame.validate(origin, "frame")?;
+        c.filter.validate(origin)?;
+        c.aids.validate(origin)?;
         Ok(c)
     }
 
@@ -166,6 +331,9 @@ impl Config {
     pub fn navigator(&self) -> NavigatorConfig {
         NavigatorConfig {
             frame_policy: self.frame.policy(),
+            filter: self.filter.clone(),
+            aid_settings: self.aids.clone(),
+            ..Default::default()
         }
     }
 }
@@ -177,6 +345,11 @@ pub struct ScenarioOverrides {
     pub switch_enter_deg: Option<f64>,
     pub switch_leave_deg: Option<f64>,
     pub force_switch_s: Option<Vec<f64>>,
+    /// IMU noise model of the scenario's sensor class (replaces `[filter]` values that are set).
+    pub gyro_bias_dph: Option<f64>,
+    pub accel_bias_ug: Option<f64>,
+    pub arw_dpsh: Option<f64>,
+    pub vrw_ug_psqhz: Option<f64>,
 }
 
 impl ScenarioOverrides {
@@ -212,6 +385,20 @@ impl ScenarioOverrides {
         }
         if let Some(v) = &self.force_switch_s {
             frame.force_switch_s.clone_from(v);
+        }
+    }
+
+    /// Applies the IMU-noise overrides on top of `filter`.
+    pub fn apply_filter(&self, filter: &mut FilterSettings) {
+        for (dst, src) in [
+            (&mut filter.gyro_bias_dph, self.gyro_bias_dph),
+            (&mut filter.accel_bias_ug, self.accel_bias_ug),
+            (&mut filter.arw_dpsh, self.arw_dpsh),
+            (&mut filter.vrw_ug_psqhz, self.vrw_ug_psqhz),
+        ] {
+            if let Some(v) = src {
+                *dst = v;
+            }
         }
     }
 }

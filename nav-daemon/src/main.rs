@@ -44,7 +44,7 @@ enum Cmd {
         #[arg(long, value_delimiter = ',')]
         force_switch: Option<Vec<f64>>,
         /// Aids to fuse: a list of srs, cns, baro, or none.
-        #[arg(long, default_value = "none")]
+        #[arg(long, default_value = "srs,cns,baro")]
         aids: String,
         /// Print a progress line every this many seconds of flight (0 = quiet).
         #[arg(long, default_value_t = 0.0)]
@@ -152,7 +152,7 @@ fn main() -> ExitCode {
                     let wall = t0.elapsed().as_secs_f64();
                     let span = (r.last_t_ns.saturating_sub(r.first_t_ns)) as f64 * 1e-9;
                     eprintln!(
-                        "batch: {} rows, {:.1} s of flight in {:.2} s ({:.0}x real time), {} frame switch(es), {} IMU rejected, {} IMU before init; log: {}",
+                        "batch: {} rows, {:.1} s of flight in {:.2} s ({:.0}x real time), {} frame switch(es), {} IMU rejected, {} IMU before init; aids: {} fused, {} rejected, {} not selected, {} SRS line exclusions; log: {}",
                         r.rows,
                         span,
                         wall,
@@ -160,6 +160,10 @@ fn main() -> ExitCode {
                         r.switches.len(),
                         r.imu_rejected,
                         r.imu_before_init,
+                        r.aid_fused,
+                        r.aid_rejected,
+                        r.aid_records_unused,
+                        r.srs_exclusions,
                         r.read
                     );
                     ExitCode::SUCCESS

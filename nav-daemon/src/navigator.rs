@@ -1,20 +1,109 @@
 //! The navigator core: a value fed time-stamped inputs, read for solutions.
 //! Both the live daemon and `batch` drive this same code.
 //!
-//! This build runs the strapdown INS with the live frame switch; the
-//! error-state filter and aids attach here (see the Estimator issue).
+//! Per IMU sample: bias compensation, mechanization, accumulation of the
+//! interval for covariance propagation (every `covariance_interval_s`, and
+//! before any update or frame switch). Per aid sample: covariance brought to
+//! the current time, measurement model at the aid's own time stamp (the
+//! nominal position moved back along the velocity by the aid's age), χ²
+//! gate, Joseph update, closed-loop feedback. At a frame switch the
+//! nominal state is converted and, with `Conversion::Paper`, P = Φ P Φᵀ.
+//! Nothing in the steady-state loop allocates.
 
-use msgs::{ImuSample, InitState, Solution, StreamCounters, solution_flags};
-use nalgebra::{UnitQuaternion, Vector3};
+use msgs::{
+    AidStatus, BaroSample, CnsFix, ImuSample, InitState, Solution, SrsSample, Status,
+    StreamCounters, solution_flags,
+};
+use nalgebra::{Matrix3, SMatrix, UnitQuaternion, Vector3};
 
+use crate::aids::control::AidControl;
+use crate::aids::{self, AidError, Measurement};
+use crate::config::{AidSettings, FilterSettings};
+use crate::earth;
+use crate::error_model::{self, Mat15, idx};
+use crate::filter::{self, ProcessNoise};
 use crate::frame_select::{FramePolicy, FrameSelector};
 use crate::frames;
 use crate::mech::{AnyNav, FrameKind, Increment};
+use crate::switch;
+
+/// Filter parameter conversion at a frame switch.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+pub enum Conversion {
+    /// X and P converted (papers/001 eqs 32–38).
+    #[default]
+    Paper,
+    /// Nominal parameters converted, P carried over unchanged (the papers' baseline).
+    None,
+}
+
+/// Which aids to fuse.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct AidSet {
+    pub srs: bool,
+    pub cns: bool,
+    pub baro: bool,
+}
+
+impl Default for AidSet {
+    fn default() -> Self {
+        Self {
+            srs: true,
+            cns: true,
+            baro: true,
+        }
+    }
+}
+
+impl AidSet {
+    pub const NONE: AidSet = AidSet {
+        srs: false,
+        cns: false,
+        baro: false,
+    };
+
+    /// Parses `srs,cns,baro` (any subset) or `none`.
+    pub fn parse(s: &str) -> Result<Self, String> {
+        if s.trim() == "none" {
+            return Ok(Self::NONE);
+        }
+        let mut a = Self::NONE;
+        for part in s.split(',').map(str::trim) {
+            match part {
+                "srs" => a.srs = true,
+                "cns" => a.cns = true,
+                "baro" => a.baro = true,
+                other => {
+                    return Err(format!(
+                        "unknown aid {other:?}: expected a list of srs, cns, baro, or none"
+                    ));
+                }
+            }
+        }
+        Ok(a)
+    }
+}
 
 /// Navigator settings.
-#[derive(Debug, Clone, Default, PartialEq)]
+#[derive(Debug, Clone, PartialEq)]
 pub struct NavigatorConfig {
     pub frame_policy: FramePolicy,
+    pub conversion: Conversion,
+    pub aids: AidSet,
+    pub filter: FilterSettings,
+    pub aid_settings: AidSettings,
+}
+
+impl Default for NavigatorConfig {
+    fn default() -> Self {
+        Self {
+            frame_policy: FramePolicy::default(),
+            conversion: Conversion::Paper,
+            aids: AidSet::default(),
+            filter: FilterSettings::default(),
+            aid_settings: AidSettings::default(),
+        }
+    }
 }
 
 /// A frame switch, reported to consumers.
@@ -40,6 +129,15 @@ pub enum InputRejection {
     /// The interval length is not positive or disagrees with the time stamps.
     #[error("interval dt = {dt_s} s inconsistent with the time stamps")]
     BadInterval { dt_s: f64 },
+    /// An aid older than the allowed latency.
+    #[error("aid at {t_ns} ns is {age_s:.3} s behind the IMU (limit {limit_s} s)")]
+    TooLate { t_ns: u64, age_s: f64, limit_s: f64 },
+    /// An aid ahead of the newest IMU sample (the caller must feed IMU first).
+    #[error("aid at {t_ns} ns is ahead of the newest IMU sample at {imu_ns} ns")]
+    AheadOfImu { t_ns: u64, imu_ns: u64 },
+    /// The aid's content could not be used.
+    #[error(transparent)]
+    Aid(#[from] AidError),
 }
 
 /// Outcome of one accepted IMU sample.
@@ -48,17 +146,44 @@ pub struct ImuOutcome {
     pub switch: Option<SwitchEvent>,
 }
 
+/// Outcome of one aid sample that reached the gate.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct AidOutcome {
+    pub fused: bool,
+    pub test_ratio: f64,
+    /// SRS only: the body excluded by fault detection.
+    pub excluded_body: Option<u32>,
+}
+
 /// The navigator state.
 #[derive(Debug, Clone)]
 pub struct Navigator {
     nav: AnyNav,
     prev_inc: Option<Increment>,
     selector: FrameSelector,
+    conversion: Conversion,
+    aid_set: AidSet,
+    noise: ProcessNoise,
+    cov_interval_s: f64,
+    max_latency_ns: u64,
     t_ns: u64,
     seq: u64,
     switch_count: u32,
     last_switch_t_ns: u64,
     imu: StreamCounters,
+    p: Mat15,
+    gyro_bias: Vector3<f64>,
+    accel_bias: Vector3<f64>,
+    acc_dt: f64,
+    acc_dv_b: Vector3<f64>,
+    srs: AidControl,
+    cns: AidControl,
+    baro: AidControl,
+    last_rejected: bool,
+}
+
+fn secs_to_ns(s: f64) -> u64 {
+    (s * 1e9).round() as u64
 }
 
 impl Navigator {
@@ -69,17 +194,34 @@ impl Navigator {
         let [w, x, y, z] = init.q_b_e;
         let q_b_e = UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(w, x, y, z));
         let selector = FrameSelector::new(config.frame_policy.clone());
-        let lat = crate::earth::ecef_to_geodetic(&r_e).lat_rad;
+        let lat = earth::ecef_to_geodetic(&r_e).lat_rad;
         let kind = selector.initial(lat);
+        let nav = AnyNav::from_frame_free(kind, &r_e, &v_e, &q_b_e);
+        let a = &config.aid_settings;
+        let f = &config.filter;
         Self {
-            nav: AnyNav::from_frame_free(kind, &r_e, &v_e, &q_b_e),
+            p: initial_covariance(&nav, init, f),
+            nav,
             prev_inc: None,
             selector,
+            conversion: config.conversion,
+            aid_set: config.aids,
+            noise: f.process_noise(),
+            cov_interval_s: f.covariance_interval_s,
+            max_latency_ns: secs_to_ns(a.max_latency_s),
             t_ns: init.t_ns,
             seq: 0,
             switch_count: 0,
             last_switch_t_ns: 0,
             imu: StreamCounters::default(),
+            gyro_bias: Vector3::zeros(),
+            accel_bias: Vector3::zeros(),
+            acc_dt: 0.0,
+            acc_dv_b: Vector3::zeros(),
+            srs: AidControl::new(a.srs_gate, secs_to_ns(a.srs_timeout_s)),
+            cns: AidControl::new(a.cns_gate, secs_to_ns(a.cns_timeout_s)),
+            baro: AidControl::new(a.baro_gate, secs_to_ns(a.baro_timeout_s)),
+            last_rejected: false,
         }
     }
 
@@ -94,6 +236,14 @@ impl Navigator {
     }
     pub fn switch_count(&self) -> u32 {
         self.switch_count
+    }
+    /// The error covariance in the current frame.
+    pub fn covariance(&self) -> &Mat15 {
+        &self.p
+    }
+    /// Estimated gyro (rad/s) and accelerometer (m/s²) biases.
+    pub fn biases(&self) -> (Vector3<f64>, Vector3<f64>) {
+        (self.gyro_bias, self.accel_bias)
     }
 
     fn validate(&self, s: &ImuSample) -> Result<Increment, InputRejection> {
@@ -124,9 +274,11 @@ impl Navigator {
         if s.dt_s <= 0.0 || s.dt_s > span_s * 1.01 {
             return Err(InputRejection::BadInterval { dt_s: s.dt_s });
         }
+        let d_theta = Vector3::from(s.d_theta_rad) - self.gyro_bias * s.dt_s;
+        let d_v = Vector3::from(s.d_v_mps) - self.accel_bias * s.dt_s;
         Ok(Increment {
-            d_theta: Vector3::from(s.d_theta_rad),
-            d_v: Vector3::from(s.d_v_mps),
+            d_theta,
+            d_v,
             dt_s: s.dt_s,
         })
     }
@@ -151,23 +303,256 @@ impl Navigator {
         self.prev_inc = Some(inc);
         self.t_ns = s.t_ns;
         self.seq += 1;
+        self.acc_dt += inc.dt_s;
+        self.acc_dv_b += inc.d_v;
+        if self.acc_dt >= self.cov_interval_s * (1.0 - 1e-9) {
+            self.propagate_covariance();
+        }
 
         let from = self.nav.kind();
         let lat = self.nav.geodetic().lat_rad;
         let to = self.selector.decide(from, lat, self.t_ns);
-        let switch = (to != from).then(|| {
-            self.nav = self.nav.converted(to);
-            self.switch_count += 1;
-            self.last_switch_t_ns = self.t_ns;
-            SwitchEvent {
-                t_ns: self.t_ns,
-                from,
-                to,
-                count: self.switch_count,
-                lat_rad: lat,
-            }
-        });
+        let switch = (to != from).then(|| self.switch_frame(to, lat));
         Ok(ImuOutcome { switch })
+    }
+
+    /// P brought up to the current time with the mean specific force of the interval.
+    fn propagate_covariance(&mut self) {
+        if self.acc_dt <= 0.0 {
+            return;
+        }
+        let f_b = self.acc_dv_b / self.acc_dt;
+        let mut f = match &self.nav {
+            AnyNav::Geographic(s) => {
+                let c = s.q_b_n.to_rotation_matrix().into_inner();
+                error_model::f_geo(&s.pos, &s.v_n, &c, &(c * f_b))
+            }
+            AnyNav::Grid(s) => {
+                let c = s.q_b_n.to_rotation_matrix().into_inner();
+                error_model::f_grid(&s.pos, &s.v_n, &c, &(c * f_b))
+            }
+        };
+        self.noise.add_bias_dynamics(&mut f);
+        filter::propagate(&mut self.p, &f, &self.noise, self.acc_dt);
+        self.acc_dt = 0.0;
+        self.acc_dv_b = Vector3::zeros();
+    }
+
+    fn switch_frame(&mut self, to: FrameKind, lat: f64) -> SwitchEvent {
+        self.propagate_covariance();
+        let from = self.nav.kind();
+        let before = self.nav;
+        self.nav = self.nav.converted(to);
+        if self.conversion == Conversion::Paper {
+            let geo = before.geodetic();
+            let v_grid = match (&before, &self.nav) {
+                (AnyNav::Grid(g), _) | (_, AnyNav::Grid(g)) => g.v_n,
+                _ => unreachable!("a switch always involves the grid frame"),
+            };
+            let phi = match to {
+                FrameKind::Grid => switch::phi_geo_to_grid(&geo, &v_grid),
+                FrameKind::Geographic => switch::phi_grid_to_geo(&geo, &v_grid),
+            };
+            self.p = phi * self.p * phi.transpose();
+            filter::symmetrize(&mut self.p);
+        }
+        self.switch_count += 1;
+        self.last_switch_t_ns = self.t_ns;
+        SwitchEvent {
+            t_ns: self.t_ns,
+            from,
+            to,
+            count: self.switch_count,
+            lat_rad: lat,
+        }
+    }
+
+    /// Checks an aid's time stamp; returns its age behind the IMU (s).
+    fn aid_age(&self, t_ns: u64) -> Result<f64, InputRejection> {
+        if t_ns > self.t_ns {
+            return Err(InputRejection::AheadOfImu {
+                t_ns,
+                imu_ns: self.t_ns,
+            });
+        }
+        let age = self.t_ns - t_ns;
+        if age > self.max_latency_ns {
+            return Err(InputRejection::TooLate {
+                t_ns,
+                age_s: age as f64 * 1e-9,
+                limit_s: self.max_latency_ns as f64 * 1e-9,
+            });
+        }
+        Ok(age as f64 * 1e-9)
+    }
+
+    /// The nominal state at the aid's time: position moved back along the velocity by `age_s`.
+    fn state_at_age(&self, age_s: f64) -> AnyNav {
+        if age_s == 0.0 {
+            return self.nav;
+        }
+        let ff = self.nav.frame_free();
+        AnyNav::from_frame_free(
+            self.nav.kind(),
+            &(ff.r_e - ff.v_e * age_s),
+            &ff.v_e,
+            &ff.q_b_e,
+        )
+    }
+
+    /// Gate, update and feedback for one measurement.
+    fn fuse<const M: usize>(
+        &mut self,
+        which: AidKind,
+        t_ns: u64,
+        m: &Measurement<M>,
+    ) -> AidOutcome {
+        let gate = self.control(which).gate;
+        let Some(out) = filter::update(&mut self.p, &m.z, &m.h, &m.r, gate) else {
+            self.control_mut(which).rejected_invalid();
+            return AidOutcome {
+                fused: false,
+                test_ratio: f64::NAN,
+                excluded_body: None,
+            };
+        };
+        self.control_mut(which).record(t_ns, &out);
+        self.last_rejected = !out.fused;
+        if out.fused {
+            let dx = out.dx;
+            let part = |o: usize| Vector3::new(dx[o], dx[o + 1], dx[o + 2]);
+            self.nav
+                .correct(&part(idx::PHI), &part(idx::DV), &part(idx::DP));
+            self.gyro_bias += part(idx::BG);
+            self.accel_bias += part(idx::BA);
+        }
+        AidOutcome {
+            fused: out.fused,
+            test_ratio: out.test_ratio,
+            excluded_body: None,
+        }
+    }
+
+    fn control(&self, which: AidKind) -> &AidControl {
+        match which {
+            AidKind::Srs => &self.srs,
+            AidKind::Cns => &self.cns,
+            AidKind::Baro => &self.baro,
+        }
+    }
+    fn control_mut(&mut self, which: AidKind) -> &mut AidControl {
+        match which {
+            AidKind::Srs => &mut self.srs,
+            AidKind::Cns => &mut self.cns,
+            AidKind::Baro => &mut self.baro,
+        }
+    }
+
+    /// Common path of every aid: counters, time check, model, fusion.
+    fn on_aid<const M: usize>(
+        &mut self,
+        which: AidKind,
+        t_ns: u64,
+        model: impl FnOnce(&AnyNav) -> Result<(Measurement<M>, Option<u32>), AidError>,
+    ) -> Result<AidOutcome, InputRejection> {
+        self.control_mut(which).received();
+        let enabled = match which {
+            AidKind::Srs => self.aid_set.srs,
+            AidKind::Cns => self.aid_set.cns,
+            AidKind::Baro => self.aid_set.baro,
+        };
+        if !enabled {
+            return Ok(AidOutcome {
+                fused: false,
+                test_ratio: f64::NAN,
+                excluded_body: None,
+            });
+        }
+        let age = match self.aid_age(t_ns) {
+            Ok(a) => a,
+            Err(e) => {
+                self.control_mut(which).rejected_time();
+                return Err(e);
+            }
+        };
+        if t_ns <= self.control(which).counters.last_t_ns
+            && self.control(which).counters.accepted > 0
+        {
+            self.control_mut(which).rejected_time();
+            return Err(InputRejection::TimeNotIncreasing {
+                t_ns,
+                prev_ns: self.control(which).counters.last_t_ns,
+            });
+        }
+        self.propagate_covariance();
+        let at = self.state_at_age(age);
+        let (m, excluded) = match model(&at) {
+            Ok(x) => x,
+            Err(e) => {
+                self.control_mut(which).rejected_invalid();
+                return Err(e.into());
+            }
+        };
+        let mut out = self.fuse(which, t_ns, &m);
+        out.excluded_body = excluded;
+        Ok(out)
+    }
+
+    pub fn on_srs(&mut self, s: &SrsSample) -> Result<AidOutcome, InputRejection> {
+        self.on_aid(AidKind::Srs, s.t_ns, |n| {
+            aids::srs::measurement(n, s).map(|(m, sol)| (m, sol.excluded_body))
+        })
+    }
+    pub fn on_cns(&mut self, c: &CnsFix) -> Result<AidOutcome, InputRejection> {
+        self.on_aid(AidKind::Cns, c.t_ns, |n| {
+            aids::cns::measurement(n, c).map(|m| (m, None))
+        })
+    }
+    pub fn on_baro(&mut self, b: &BaroSample) -> Result<AidOutcome, InputRejection> {
+        self.on_aid(AidKind::Baro, b.t_ns, |n| {
+            aids::baro::measurement(n, b).map(|m| (m, None))
+        })
+    }
+
+    /// 1-σ of position in local east/north/up (m).
+    pub fn sigma_pos_enu(&self) -> Vector3<f64> {
+        let pp = self.p.fixed_view::<3, 3>(idx::DP, idx::DP).into_owned();
+        let cov_enu = match &self.nav {
+            AnyNav::Geographic(s) => {
+                let (rm, rn) = earth::radii(s.pos.lat_rad);
+                let d = Matrix3::from_diagonal(&Vector3::new(
+                    (rn + s.pos.h_m) * s.pos.lat_rad.cos(),
+                    rm + s.pos.h_m,
+                    1.0,
+                ));
+                // δp order is (L, λ, h): swap to (E, N, U).
+                let swap = Matrix3::new(0.0, 1.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0);
+                d * swap * pp * swap.transpose() * d
+            }
+            AnyNav::Grid(_) => {
+                let geo = self.nav.geodetic();
+                let c = frames::c_e_g(geo.lat_rad, geo.lon_rad);
+                c * pp * c.transpose()
+            }
+        };
+        cov_enu.diagonal().map(|v| v.max(0.0).sqrt())
+    }
+
+    fn flags(&self) -> u32 {
+        let mut f = solution_flags::ALIGNED;
+        if self.srs.fresh(self.t_ns) {
+            f |= solution_flags::SRS_FRESH;
+        }
+        if self.cns.fresh(self.t_ns) {
+            f |= solution_flags::CNS_FRESH;
+        }
+        if self.baro.fresh(self.t_ns) {
+            f |= solution_flags::BARO_FRESH;
+        }
+        if self.last_rejected {
+            f |= solution_flags::LAST_INNOVATION_REJECTED;
+        }
+        f
     }
 
     /// The current solution.
@@ -181,7 +566,14 @@ impl Navigator {
         let sigma = frames::grid_angle(geo.lat_rad, geo.lon_rad);
         let grid_heading = (heading - sigma).rem_euclid(std::f64::consts::TAU);
         let q = ff.q_b_e.into_inner();
-        let nan3 = [f64::NAN; 3];
+        let diag_sqrt = |o: usize| {
+            Vector3::new(
+                self.p[(o, o)],
+                self.p[(o + 1, o + 1)],
+                self.p[(o + 2, o + 2)],
+            )
+            .map(|v| v.max(0.0).sqrt())
+        };
         Solution {
             t_ns: self.t_ns,
             seq: self.seq,
@@ -198,16 +590,101 @@ impl Navigator {
             grid_heading_rad: grid_heading,
             pitch_rad: pitch,
             roll_rad: roll,
-            // No covariance is propagated without the filter: reported as unknown.
-            sigma_pos_enu_m: nan3,
-            sigma_vel_mps: nan3,
-            sigma_att_rad: nan3,
-            gyro_bias_rps: [0.0; 3],
-            accel_bias_mps2: [0.0; 3],
-            flags: solution_flags::ALIGNED,
+            sigma_pos_enu_m: self.sigma_pos_enu().into(),
+            sigma_vel_mps: diag_sqrt(idx::DV).into(),
+            sigma_att_rad: diag_sqrt(idx::PHI).into(),
+            gyro_bias_rps: self.gyro_bias.into(),
+            accel_bias_mps2: self.accel_bias.into(),
+            flags: self.flags(),
             switch_count: self.switch_count,
             frame: self.nav.kind().to_wire() as u8,
             _pad: [0; 7],
         }
     }
+
+    /// Health record (loop timing is filled in by the live driver).
+    pub fn status(&self) -> Status {
+        let aid = |c: &AidControl| -> (StreamCounters, AidStatus) {
+            (c.counters, c.status_at(self.t_ns))
+        };
+        let (srs, srs_aid) = aid(&self.srs);
+        let (cns, cns_aid) = aid(&self.cns);
+        let (baro, baro_aid) = aid(&self.baro);
+        Status {
+            t_ns: self.t_ns,
+            imu: self.imu,
+            srs,
+            cns,
+            baro,
+            srs_aid,
+            cns_aid,
+            baro_aid,
+            last_switch_t_ns: self.last_switch_t_ns,
+            switch_count: self.switch_count,
+            flags: self.flags(),
+            frame: self.nav.kind().to_wire() as u8,
+            ..Default::default()
+        }
+    }
+}
+
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum AidKind {
+    Srs,
+    Cns,
+    Baro,
+}
+
+/// P₀ in the frame the navigator starts in, from the init record's σ and the
+/// configured bias uncertainty.
+fn initial_covariance(nav: &AnyNav, init: &InitState, f: &FilterSettings) -> Mat15 {
+    let mut p = Mat15::zeros();
+    let sq = |x: f64| x * x;
+    let mut set_diag = |o: usize, v: [f64; 3]| {
+        for (i, x) in v.iter().enumerate() {
+            p[(o + i, o + i)] = *x;
+        }
+    };
+    set_diag(
+        idx::PHI,
+        [
+            sq(init.sigma_tilt_rad),
+            sq(init.sigma_tilt_rad),
+            sq(init.sigma_heading_rad),
+        ],
+    );
+    set_diag(
+        idx::DV,
+        [
+            sq(init.sigma_vel_h_mps),
+            sq(init.sigma_vel_h_mps),
+            sq(init.sigma_vel_v_mps),
+        ],
+    );
+    let dph = std::f64::consts::PI / 180.0 / 3600.0;
+    let ug = 1e-6 * earth::G0;
+    set_diag(idx::BG, [sq(f.gyro_bias_dph * dph); 3]);
+    set_diag(idx::BA, [sq(f.accel_bias_ug * ug); 3]);
+    let (h, v) = (sq(init.sigma_pos_h_m), sq(init.sigma_pos_v_m));
+    let geo = nav.geodetic();
+    let pos: SMatrix<f64, 3, 3> = match nav {
+        AnyNav::Geographic(_) => {
+            let (rm, rn) = earth::radii(geo.lat_rad);
+            Matrix3::from_diagonal(&Vector3::new(
+                h / sq(rm + geo.h_m),
+                h / sq((rn + geo.h_m) * geo.lat_rad.cos()),
+                v,
+            ))
+        }
+        AnyNav::Grid(_) => {
+            let c = frames::c_e_g(geo.lat_rad, geo.lon_rad).transpose();
+            c * Matrix3::from_diagonal(&Vector3::new(h, h, v)) * c.transpose()
+        }
+    };
+    p.fixed_view_mut::<3, 3>(idx::DP, idx::DP).copy_from(&pos);
+    // Variances of zero (an exact init) would make P singular: floor them.
+    for i in 0..15 {
+        p[(i, i)] = p[(i, i)].max(1e-30);
+    }
+    p
 }

@@ -190,6 +190,11 @@ pub struct NavigatorOverrides {
     pub switch_leave_deg: Option<f64>,
     /// Forced frame-switch times (s from the start); disables the latitude rule.
     pub force_switch_s: Option<Vec<f64>>,
+    /// The navigator's IMU noise model (datasheet values of the scenario's IMU class).
+    pub gyro_bias_dph: Option<f64>,
+    pub accel_bias_ug: Option<f64>,
+    pub arw_dpsh: Option<f64>,
+    pub vrw_ug_psqhz: Option<f64>,
 }
 
 /// One trajectory segment. Changes ramp in and out smoothly over `ramp_s`.
