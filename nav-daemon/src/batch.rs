@@ -15,7 +15,8 @@ pub use crate::navigator::{AidSet, Conversion};
 pub struct BatchOptions {
     pub aids: AidSet,
     pub conversion: Conversion,
-    /// `--force-switch` times (s), overriding config and scenario.
+    /// `--force-switch` times (s), overriding config and scenario; an empty
+    /// list means never switch (`--no-switch`).
     pub force_switch_s: Option<Vec<f64>>,
     /// Print a progress line to stderr every this many seconds of flight (0 = quiet).
     pub progress_every_s: f64,
@@ -71,6 +72,13 @@ impl BatchError {
     }
 }
 
+fn apply_cli_frame(opts: &BatchOptions, frame: &mut FrameConfig) {
+    if let Some(f) = &opts.force_switch_s {
+        frame.force_switch_s.clone_from(f);
+        frame.never_switch = f.is_empty();
+    }
+}
+
 /// Runs the navigator over `log`, writing the solution CSV to `out`.
 /// `log_name` names the log in errors.
 pub fn run<R: BufRead, W: Write>(
@@ -103,9 +111,7 @@ pub fn run<R: BufRead, W: Write>(
                     o.apply_filter(&mut report.filter);
                     report.filter.validate(log_name)?;
                 }
-                if let Some(f) = &opts.force_switch_s {
-                    report.frame.force_switch_s.clone_from(f);
-                }
+                apply_cli_frame(opts, &mut report.frame);
                 report.frame.validate(log_name, "navigator")?;
             }
             Record::Init(init) => {

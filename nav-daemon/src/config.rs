@@ -115,6 +115,8 @@ pub struct FrameConfig {
     pub switch_leave_deg: f64,
     /// Forced switch times (s); when non-empty the latitude rule is off.
     pub force_switch_s: Vec<f64>,
+    /// Stay in g for the whole run (reference runs of the switching experiments).
+    pub never_switch: bool,
 }
 
 impl Default for FrameConfig {
@@ -123,6 +125,7 @@ impl Default for FrameConfig {
             switch_enter_deg: 70.0,
             switch_leave_deg: 69.5,
             force_switch_s: Vec::new(),
+            never_switch: false,
         }
     }
 }
@@ -280,7 +283,9 @@ impl FrameConfig {
 
     /// The frame policy these settings describe.
     pub fn policy(&self) -> FramePolicy {
-        if self.force_switch_s.is_empty() {
+        if self.never_switch {
+            FramePolicy::Forced(Vec::new())
+        } else if self.force_switch_s.is_empty() {
             FramePolicy::Latitude(SwitchLatitudes {
                 enter_rad: self.switch_enter_deg.to_radians(),
                 leave_rad: self.switch_leave_deg.to_radians(),

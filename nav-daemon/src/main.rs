@@ -43,6 +43,9 @@ enum Cmd {
         /// Forced frame-switch times in seconds, comma-separated (disables the latitude rule).
         #[arg(long, value_delimiter = ',')]
         force_switch: Option<Vec<f64>>,
+        /// Never switch frames: stay in g throughout (the reference run of the switching experiments).
+        #[arg(long, conflicts_with = "force_switch")]
+        no_switch: bool,
         /// Aids to fuse: a list of srs, cns, baro, or none.
         #[arg(long, default_value = "srs,cns,baro")]
         aids: String,
@@ -110,6 +113,7 @@ fn main() -> ExitCode {
             force_switch,
             aids,
             progress,
+            no_switch,
         }) => {
             let usage = |m: String| {
                 eprintln!("error: {m}");
@@ -131,7 +135,11 @@ fn main() -> ExitCode {
             let opts = BatchOptions {
                 aids,
                 conversion,
-                force_switch_s: force_switch,
+                force_switch_s: if no_switch {
+                    Some(Vec::new())
+                } else {
+                    force_switch
+                },
                 progress_every_s: progress,
             };
             let log_name = log.display().to_string();

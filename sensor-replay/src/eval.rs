@@ -142,3 +142,155 @@ pub fn markdown(title: &str, s: &Summary) -> String {
     }
     m
 }
+
+/// How a frame switch disturbed the solution: maximum deviation of the
+/// heading error and of the velocity-error magnitude from their linear trend
+/// over the `before_s` preceding the switch, within `after_s` after it.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SwitchTransient {
+    pub t_s: f64,
+    pub from: char,
+    pub to: char,
+    pub heading_dev_arcmin: f64,
+    pub velocity_dev_mps: f64,
+    pub horizontal_dev_m: f64,
+}
+
+fn linear_fit(pts: &[(f64, f64)]) -> (f64, f64) {
+    let n = pts.len() as f64;
+    let (sx, sy) = pts.iter().fold((0.0, 0.0), |a, p| (a.0 + p.0, a.1 + p.1));
+    let (mx, my) = (sx / n, sy / n);
+    let (sxy, sxx) = pts.iter().fold((0.0, 0.0), |a, p| {
+        (a.0 + (p.0 - mx) * (p.1 - my), a.1 + (p.0 - mx).powi(2))
+    });
+    let slope = if sxx > 0.0 { sxy / sxx } else { 0.0 };
+    (slope, my - slope * mx)
+}
+
+fn max_dev(ep: &[Epoch], t_sw: f64, before_s: f64, after_s: f64, f: impl Fn(&Epoch) -> f64) -> f64 {
+    let pre: Vec<(f64, f64)> = ep
+        .iter()
+        .filter(|e| e.t_s > t_sw - before_s && e.t_s <= t_sw)
+        .map(|e| (e.t_s, f(e)))
+        .collect();
+    if pre.len() < 2 {
+        return f64::NAN;
+    }
+    let (a, b) = linear_fit(&pre);
+    ep.iter()
+        .filter(|e| e.t_s > t_sw && e.t_s <= t_sw + after_s)
+        .map(|e| (f(e) - (a * e.t_s + b)).abs())
+        .fold(0.0, f64::max)
+}
+
+/// Transients at every frame change in the solution rows.
+pub fn switch_transients(
+    rows: &[Row],
+    ep: &[Epoch],
+    before_s: f64,
+    after_s: f64,
+) -> Vec<SwitchTransient> {
+    let arcmin = 60.0 * 180.0 / std::f64::consts::PI;
+    rows.windows(2)
+        .filter(|w| w[0].frame != w[1].frame)
+        .map(|w| {
+            let t = w[1].t_s;
+            SwitchTransient {
+                t_s: t,
+                from: w[0].frame,
+                to: w[1].frame,
+                heading_dev_arcmin: max_dev(ep, t, before_s, after_s, |e| e.att_enu.z * arcmin),
+                velocity_dev_mps: max_dev(ep, t, before_s, after_s, |e| e.vel_enu.norm()),
+                horizontal_dev_m: max_dev(ep, t, before_s, after_s, |e| e.pos_enu.xy().norm()),
+            }
+        })
+        .collect()
+}
+
+/// Markdown table of switch transients.
+pub fn transients_markdown(title: &str, t: &[SwitchTransient]) -> String {
+    let mut m = format!(
+        "### {title}: switch transients (deviation from the 60 s pre-switch trend, 200 s after)\n\n"
+    );
+    if t.is_empty() {
+        m.push_str("no frame switch\n");
+        return m;
+    }
+    m.push_str("| t (s) | switch | heading (′) | velocity (m/s) | horizontal (m) |\n|---|---|---|---|---|\n");
+    for x in t {
+        m.push_str(&format!(
+            "| {:.2} | {}→{} | {:.4} | {:.4} | {:.3} |\n",
+            x.t_s, x.from, x.to, x.heading_dev_arcmin, x.velocity_dev_mps, x.horizontal_dev_m
+        ));
+    }
+    m
+}
+
+/// Deviation of one run from a reference run (e.g. never switching) after
+/// each switch of the first: maxima over `after_s` of the attitude
+/// difference about the local vertical, the velocity and position differences.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct RunDeviation {
+    pub t_s: f64,
+    pub from: char,
+    pub to: char,
+    pub heading_arcmin: f64,
+    pub tilt_arcmin: f64,
+    pub velocity_mps: f64,
+    pub position_m: f64,
+}
+
+pub fn deviation_after_switches(a: &[Row], b: &[Row], after_s: f64) -> Vec<RunDeviation> {
+    let key = |t_s: f64| (t_s * 1e6).round() as i64;
+    let by_time: HashMap<i64, &Row> = b.iter().map(|r| (key(r.t_s), r)).collect();
+    let arcmin = 60.0 * 180.0 / std::f64::consts::PI;
+    a.windows(2)
+        .filter(|w| w[0].frame != w[1].frame)
+        .map(|w| {
+            let t0 = w[1].t_s;
+            let mut d = RunDeviation {
+                t_s: t0,
+                from: w[0].frame,
+                to: w[1].frame,
+                heading_arcmin: 0.0,
+                tilt_arcmin: 0.0,
+                velocity_mps: 0.0,
+                position_m: 0.0,
+            };
+            for ra in a.iter().filter(|r| r.t_s >= t0 && r.t_s <= t0 + after_s) {
+                let Some(rb) = by_time.get(&key(ra.t_s)) else {
+                    continue;
+                };
+                let r = Vector3::from(rb.r_e_m);
+                let g = earth::ecef_to_geodetic(&r);
+                let c = frames::c_e_g(g.lat_rad, g.lon_rad);
+                let att = c * (quat(&ra.q_b_e) * quat(&rb.q_b_e).inverse()).scaled_axis();
+                d.heading_arcmin = d.heading_arcmin.max(att.z.abs() * arcmin);
+                d.tilt_arcmin = d.tilt_arcmin.max(att.xy().norm() * arcmin);
+                d.velocity_mps = d
+                    .velocity_mps
+                    .max((Vector3::from(ra.v_e_mps) - Vector3::from(rb.v_e_mps)).norm());
+                d.position_m = d.position_m.max((Vector3::from(ra.r_e_m) - r).norm());
+            }
+            d
+        })
+        .collect()
+}
+
+pub fn deviation_markdown(t: &[RunDeviation], after_s: f64) -> String {
+    let mut m = format!(
+        "### Deviation of solution from compare after each switch of solution (max over {after_s:.0} s)\n\n"
+    );
+    if t.is_empty() {
+        m.push_str("no frame switch in solution\n");
+        return m;
+    }
+    m.push_str("| t (s) | switch | heading (′) | tilt (′) | velocity (m/s) | position (m) |\n|---|---|---|---|---|---|\n");
+    for x in t {
+        m.push_str(&format!(
+            "| {:.2} | {}→{} | {:.5} | {:.5} | {:.5} | {:.4} |\n",
+            x.t_s, x.from, x.to, x.heading_arcmin, x.tilt_arcmin, x.velocity_mps, x.position_m
+        ));
+    }
+    m
+}

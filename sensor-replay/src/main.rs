@@ -73,6 +73,9 @@ enum Cmd {
         log: PathBuf,
         #[arg(long)]
         solution: PathBuf,
+        /// A second solution to compare (e.g. --conversion none).
+        #[arg(long)]
+        compare: Option<PathBuf>,
         /// Directory for summary.md.
         #[arg(long)]
         out: Option<PathBuf>,
@@ -254,26 +257,51 @@ fn run(cli: Cli) -> Result<(), Fail> {
             }
             Ok(())
         }
-        Cmd::Eval { log, solution, out } => {
+        Cmd::Eval {
+            log,
+            solution,
+            compare,
+            out,
+        } => {
             let c = logfile::load(&log).map_err(|e| bad(e.to_string()))?;
             if !c.report.is_clean() {
                 eprintln!("warning: {}: {}", log.display(), c.report);
             }
-            let rows = polarnav::solution_csv::read(&solution).map_err(|e| bad(e.to_string()))?;
-            let ep = eval::epochs(&rows, &c.truth);
-            if ep.is_empty() {
-                return Err(bad(format!(
-                    "{}: no solution row matches a truth epoch of {}",
-                    solution.display(),
-                    log.display()
-                )));
-            }
-            let s = eval::summarize(&rows, &ep);
             let name = c
                 .header
                 .as_ref()
                 .map_or("solution".to_owned(), |h| h.scenario.clone());
-            let md = eval::markdown(&format!("Accuracy: {name}"), &s);
+            let mut md = String::new();
+            for (label, path) in std::iter::once(("solution", &solution))
+                .chain(compare.as_ref().map(|p| ("compare", p)))
+            {
+                let rows = polarnav::solution_csv::read(path).map_err(|e| bad(e.to_string()))?;
+                let ep = eval::epochs(&rows, &c.truth);
+                if ep.is_empty() {
+                    return Err(bad(format!(
+                        "{}: no solution row matches a truth epoch of {}",
+                        path.display(),
+                        log.display()
+                    )));
+                }
+                let s = eval::summarize(&rows, &ep);
+                let title = format!("Accuracy: {name} ({label}: {})", path.display());
+                md.push_str(&eval::markdown(&title, &s));
+                md.push('\n');
+                md.push_str(&eval::transients_markdown(
+                    label,
+                    &eval::switch_transients(&rows, &ep, 60.0, 200.0),
+                ));
+                md.push('\n');
+            }
+            if let Some(cmp) = &compare {
+                let a = polarnav::solution_csv::read(&solution).map_err(|e| bad(e.to_string()))?;
+                let b = polarnav::solution_csv::read(cmp).map_err(|e| bad(e.to_string()))?;
+                md.push_str(&eval::deviation_markdown(
+                    &eval::deviation_after_switches(&a, &b, 200.0),
+                    200.0,
+                ));
+            }
             println!("{md}");
             if let Some(dir) = out {
                 std::fs::create_dir_all(&dir)
