@@ -20,6 +20,9 @@ pub struct BatchOptions {
     pub force_switch_s: Option<Vec<f64>>,
     /// Print a progress line to stderr every this many seconds of flight (0 = quiet).
     pub progress_every_s: f64,
+    /// Stationary coarse alignment over this many seconds of IMU data after
+    /// the init record, whose position is kept and whose attitude is replaced.
+    pub align_s: Option<f64>,
 }
 
 /// What a batch run did.
@@ -40,6 +43,10 @@ pub struct BatchReport {
     pub frame: FrameConfig,
     pub filter: FilterSettings,
     pub first_t_ns: u64,
+    /// The alignment, when `align_s` was given.
+    pub alignment: Option<crate::align::Alignment>,
+    /// IMU samples consumed by the alignment.
+    pub imu_aligning: u64,
     pub last_t_ns: u64,
 }
 
@@ -51,6 +58,16 @@ pub enum BatchError {
     /// The log has no init record and no initial state was configured (exit 2).
     #[error("{0}: no init record before the first IMU sample; the log cannot be navigated")]
     NoInit(String),
+    /// The alignment could not be solved (exit 1).
+    #[error("{0}: alignment failed: {1}")]
+    Align(String, crate::align::AlignError),
+    /// The log ended before the alignment window was complete (exit 2).
+    #[error("{log}: only {have_s:.1} s of IMU data for a {need_s:.1} s alignment")]
+    AlignIncomplete {
+        log: String,
+        have_s: f64,
+        need_s: f64,
+    },
     /// Reading the log failed (exit 1).
     #[error("{path}: {source}")]
     Read {
@@ -66,10 +83,42 @@ impl BatchError {
     /// Process exit status per DESIGN.
     pub fn exit_code(&self) -> i32 {
         match self {
-            BatchError::Config(_) | BatchError::NoInit(_) => 2,
-            BatchError::Read { .. } | BatchError::Write(_) => 1,
+            BatchError::Config(_) | BatchError::NoInit(_) | BatchError::AlignIncomplete { .. } => 2,
+            BatchError::Read { .. } | BatchError::Write(_) | BatchError::Align(..) => 1,
         }
     }
+}
+
+/// The init record with the aligned attitude (position kept, at rest), valid at `t_ns`.
+fn finish_alignment(
+    init: &msgs::InitState,
+    cfg: &NavigatorConfig,
+    acc: &crate::align::AlignmentAccumulator,
+    t_ns: u64,
+) -> Result<(msgs::InitState, crate::align::Alignment), crate::align::AlignError> {
+    let r_e = nalgebra::Vector3::from(init.r_e_m);
+    let geo = crate::earth::ecef_to_geodetic(&r_e);
+    let noise = cfg.filter.process_noise();
+    let dph = std::f64::consts::PI / 180.0 / 3600.0;
+    let ug = 1e-6 * crate::earth::G0;
+    let budget = crate::align::AlignmentBudget {
+        gyro_bias_rps: cfg.filter.gyro_bias_dph * dph,
+        accel_bias_mps2: cfg.filter.accel_bias_ug * ug,
+        arw: noise.arw,
+        vrw: noise.vrw,
+    };
+    let a = acc.solve(geo.lat_rad, geo.h_m, &budget)?;
+    let c_b_e = crate::frames::c_e_g(geo.lat_rad, geo.lon_rad).transpose() * a.c_b_g;
+    let q = nalgebra::UnitQuaternion::from_matrix(&c_b_e).into_inner();
+    let aligned = msgs::InitState {
+        t_ns,
+        v_e_mps: [0.0; 3],
+        q_b_e: [q.w, q.i, q.j, q.k],
+        sigma_tilt_rad: a.sigma_tilt_rad,
+        sigma_heading_rad: a.sigma_heading_rad,
+        ..*init
+    };
+    Ok((aligned, a))
 }
 
 fn apply_cli_frame(opts: &BatchOptions, frame: &mut FrameConfig) {
@@ -100,6 +149,12 @@ pub fn run<R: BufRead, W: Write>(
     writeln!(out, "{}", solution_csv::HEADER)?;
 
     let mut nav: Option<Navigator> = None;
+    // Alignment in progress: the init record it started from, its configuration and the accumulator.
+    let mut aligning: Option<(
+        msgs::InitState,
+        NavigatorConfig,
+        crate::align::AlignmentAccumulator,
+    )> = None;
     let mut rejected_logged = 0u32;
     let progress_ns = (opts.progress_every_s.max(0.0) * 1e9) as u64;
     let mut next_progress_ns = progress_ns;
@@ -128,10 +183,44 @@ pub fn run<R: BufRead, W: Write>(
                 if nav.is_some() {
                     tracing::info!(t_ns = init.t_ns, "new init record: re-initializing");
                 }
-                nav = Some(Navigator::new(&init, &cfg));
                 report.first_t_ns = init.t_ns;
+                if opts.align_s.is_some() {
+                    nav = None;
+                    aligning = Some((init, cfg, crate::align::AlignmentAccumulator::default()));
+                } else {
+                    nav = Some(Navigator::new(&init, &cfg));
+                }
             }
             Record::Imu(s) => {
+                if let Some((init, _, acc)) = aligning.as_mut() {
+                    let ok = s.t_ns > init.t_ns
+                        && s.dt_s > 0.0
+                        && s.d_theta_rad
+                            .iter()
+                            .chain(&s.d_v_mps)
+                            .all(|x| x.is_finite());
+                    if ok {
+                        acc.add(&s.d_theta_rad.into(), &s.d_v_mps.into(), s.dt_s);
+                        report.imu_aligning += 1;
+                    }
+                    if acc.time_s() >= opts.align_s.unwrap_or(0.0) {
+                        let (init, cfg, acc) = aligning.take().expect("aligning");
+                        let (aligned, a) = finish_alignment(&init, &cfg, &acc, s.t_ns)
+                            .map_err(|e| BatchError::Align(log_name.to_owned(), e))?;
+                        tracing::info!(
+                            heading_deg = a.heading_rad.to_degrees(),
+                            pitch_deg = a.pitch_rad.to_degrees(),
+                            roll_deg = a.roll_rad.to_degrees(),
+                            sigma_tilt_arcmin = a.sigma_tilt_rad.to_degrees() * 60.0,
+                            sigma_heading_arcmin = a.sigma_heading_rad.to_degrees() * 60.0,
+                            time_s = a.time_s,
+                            "stationary alignment"
+                        );
+                        report.alignment = Some(a);
+                        nav = Some(Navigator::new(&aligned, &cfg));
+                    }
+                    continue;
+                }
                 let Some(n) = nav.as_mut() else {
                     report.imu_before_init += 1;
                     continue;
@@ -210,6 +299,13 @@ pub fn run<R: BufRead, W: Write>(
         }
     }
     report.read = reader.report().clone();
+    if let Some((_, _, acc)) = &aligning {
+        return Err(BatchError::AlignIncomplete {
+            log: log_name.to_owned(),
+            have_s: acc.time_s(),
+            need_s: opts.align_s.unwrap_or(0.0),
+        });
+    }
     if nav.is_none() {
         return Err(BatchError::NoInit(log_name.to_owned()));
     }

@@ -11,6 +11,7 @@
 //! Units are SI (rad, m, s) inside the math; names carry units at the boundaries.
 
 pub mod aids;
+pub mod align;
 pub mod batch;
 pub mod config;
 pub mod earth;

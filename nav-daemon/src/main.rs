@@ -43,6 +43,10 @@ enum Cmd {
         /// Forced frame-switch times in seconds, comma-separated (disables the latitude rule).
         #[arg(long, value_delimiter = ',')]
         force_switch: Option<Vec<f64>>,
+        /// Stationary coarse alignment over this many seconds after the init record
+        /// (its position is kept, its attitude replaced).
+        #[arg(long, value_name = "SECONDS")]
+        align: Option<f64>,
         /// Never switch frames: stay in g throughout (the reference run of the switching experiments).
         #[arg(long, conflicts_with = "force_switch")]
         no_switch: bool,
@@ -114,6 +118,7 @@ fn main() -> ExitCode {
             aids,
             progress,
             no_switch,
+            align,
         }) => {
             let usage = |m: String| {
                 eprintln!("error: {m}");
@@ -141,6 +146,7 @@ fn main() -> ExitCode {
                     force_switch
                 },
                 progress_every_s: progress,
+                align_s: align,
             };
             let log_name = log.display().to_string();
             let input = match File::open(&log) {

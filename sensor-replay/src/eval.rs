@@ -288,7 +288,7 @@ pub fn deviation_markdown(t: &[RunDeviation], after_s: f64) -> String {
     m.push_str("| t (s) | switch | heading (′) | tilt (′) | velocity (m/s) | position (m) |\n|---|---|---|---|---|---|\n");
     for x in t {
         m.push_str(&format!(
-            "| {:.2} | {}→{} | {:.5} | {:.5} | {:.5} | {:.4} |\n",
+            "| {:.2} | {}→{} | {:.2e} | {:.2e} | {:.2e} | {:.2e} |\n",
             x.t_s, x.from, x.to, x.heading_arcmin, x.tilt_arcmin, x.velocity_mps, x.position_m
         ));
     }
