@@ -1,2 +1,169 @@
-//! Workspace-level integration tests live in `tests/tests/`: they exercise
-//! the crates together (simulator → navlog → navigator → evaluator).
+//! Helpers for the workspace-level integration tests in `tests/tests/`:
+//! simulate in memory, run the navigator, compare with the truth or with
+//! another run at the truth epochs.
+
+use std::path::{Path, PathBuf};
+
+use msgs::navlog::{Record, read_all};
+use msgs::{InitState, TruthRecord};
+use nalgebra::{Matrix3, Quaternion, UnitQuaternion, Vector3};
+use polarnav::earth;
+use polarnav::frames;
+use polarnav::navigator::{Navigator, NavigatorConfig, SwitchEvent};
+use sensor_replay::scenario::Scenario;
+use sensor_replay::simulate::{SimOptions, simulate};
+
+/// Path of a file in the repository.
+pub fn repo(rel: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("..").join(rel)
+}
+
+/// Simulates scenario text into navlog records.
+pub fn simulate_records(text: &str, seed: u64) -> Vec<Record> {
+    let s = Scenario::parse(text, "test scenario").expect("scenario");
+    let mut buf = Vec::new();
+    simulate(
+        &s,
+        text,
+        SimOptions {
+            seed,
+            ..Default::default()
+        },
+        &mut buf,
+    )
+    .expect("simulate");
+    let (records, report) = read_all(&buf);
+    assert!(report.is_clean());
+    records
+}
+
+/// The navigator state at one truth epoch.
+#[derive(Debug, Clone, Copy)]
+pub struct Snapshot {
+    pub t_ns: u64,
+    pub r_e: Vector3<f64>,
+    pub v_e: Vector3<f64>,
+    pub q_b_e: UnitQuaternion<f64>,
+    pub cov_pos: Matrix3<f64>,
+    pub cov_vel: Matrix3<f64>,
+    pub cov_att: Matrix3<f64>,
+    pub frame: u8,
+}
+
+/// One run: snapshots at every truth epoch, switches, aid accounting.
+#[derive(Debug, Clone, Default)]
+pub struct Run {
+    pub snaps: Vec<Snapshot>,
+    pub truth: Vec<TruthRecord>,
+    pub switches: Vec<SwitchEvent>,
+    pub fused: u64,
+    pub rejected: u64,
+}
+
+pub fn quat(q: &[f64; 4]) -> UnitQuaternion<f64> {
+    UnitQuaternion::from_quaternion(Quaternion::new(q[0], q[1], q[2], q[3]))
+}
+
+/// Runs the navigator over records; `init` replaces the log's init record when given.
+pub fn run(records: &[Record], cfg: &NavigatorConfig, init: Option<InitState>) -> Run {
+    let init = init.unwrap_or_else(|| {
+        records
+            .iter()
+            .find_map(|r| {
+                if let Record::Init(i) = r {
+                    Some(*i)
+                } else {
+                    None
+                }
+            })
+            .expect("init")
+    });
+    let mut nav = Navigator::new(&init, cfg);
+    let mut out = Run::default();
+    let count =
+        |r: Result<polarnav::navigator::AidOutcome, polarnav::navigator::InputRejection>,
+         out: &mut Run| match r {
+            Ok(o) if o.fused => out.fused += 1,
+            Ok(_) | Err(_) => out.rejected += 1,
+        };
+    for rec in records {
+        match rec {
+            Record::Imu(s) if s.t_ns > init.t_ns => {
+                if let Some(sw) = nav.on_imu(s).expect("valid IMU").switch {
+                    out.switches.push(sw);
+                }
+            }
+            Record::Srs(x) if x.t_ns > init.t_ns => count(nav.on_srs(x), &mut out),
+            Record::Cns(x) if x.t_ns > init.t_ns => count(nav.on_cns(x), &mut out),
+            Record::Baro(x) if x.t_ns > init.t_ns => count(nav.on_baro(x), &mut out),
+            Record::Truth(t) if t.t_ns > init.t_ns && t.t_ns == nav.t_ns() => {
+                let ff = nav.state().frame_free();
+                let (cov_pos, cov_vel, cov_att) = nav.covariances_enu();
+                out.snaps.push(Snapshot {
+                    t_ns: t.t_ns,
+                    r_e: ff.r_e,
+                    v_e: ff.v_e,
+                    q_b_e: ff.q_b_e,
+                    cov_pos,
+                    cov_vel,
+                    cov_att,
+                    frame: nav.solution().frame,
+                });
+                out.truth.push(*t);
+            }
+            _ => {}
+        }
+    }
+    out
+}
+
+/// Errors of a snapshot against its truth, in local ENU: position (m), velocity (m/s), attitude φ (rad).
+pub fn errors(s: &Snapshot, t: &TruthRecord) -> (Vector3<f64>, Vector3<f64>, Vector3<f64>) {
+    let r = Vector3::from(t.r_e_m);
+    let g = earth::ecef_to_geodetic(&r);
+    let c = frames::c_e_g(g.lat_rad, g.lon_rad);
+    let att = c * -(s.q_b_e * quat(&t.q_b_e).inverse()).scaled_axis();
+    (c * (s.r_e - r), c * (s.v_e - Vector3::from(t.v_e_mps)), att)
+}
+
+pub const ARCMIN: f64 = std::f64::consts::PI / 180.0 / 60.0;
+
+/// Maximum deviation of run `a` from reference run `b` within `after_s` after each switch of `a`:
+/// (heading ′, velocity m/s, position m) per switch.
+pub fn deviation_after_switches(a: &Run, b: &Run, after_s: f64) -> Vec<(f64, f64, f64)> {
+    a.switches
+        .iter()
+        .map(|sw| {
+            let (t0, t1) = (sw.t_ns, sw.t_ns + (after_s * 1e9) as u64);
+            let mut d = (0.0f64, 0.0f64, 0.0f64);
+            for (x, y) in a
+                .snaps
+                .iter()
+                .zip(&b.snaps)
+                .filter(|(x, _)| x.t_ns >= t0 && x.t_ns <= t1)
+            {
+                assert_eq!(x.t_ns, y.t_ns);
+                let g = earth::ecef_to_geodetic(&y.r_e);
+                let c = frames::c_e_g(g.lat_rad, g.lon_rad);
+                let att = c * (x.q_b_e * y.q_b_e.inverse()).scaled_axis();
+                d.0 = d.0.max(att.z.abs() / ARCMIN);
+                d.1 = d.1.max((x.v_e - y.v_e).norm());
+                d.2 = d.2.max((x.r_e - y.r_e).norm());
+            }
+            d
+        })
+        .collect()
+}
+
+/// RMSE of horizontal position, vertical position and velocity against the truth.
+pub fn rmse(r: &Run) -> (f64, f64, f64) {
+    let n = r.snaps.len() as f64;
+    let (mut h, mut v, mut vel) = (0.0, 0.0, 0.0);
+    for (s, t) in r.snaps.iter().zip(&r.truth) {
+        let (p, dv, _) = errors(s, t);
+        h += p.xy().norm_squared();
+        v += p.z * p.z;
+        vel += dv.norm_squared();
+    }
+    ((h / n).sqrt(), (v / n).sqrt(), (vel / n).sqrt())
+}

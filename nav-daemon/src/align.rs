@@ -177,6 +177,39 @@ impl AlignmentAccumulator {
     }
 }
 
+/// The init record with the aligned attitude (position kept, at rest),
+/// valid at `t_ns`, with the alignment's σ and the bias budget of `filter`.
+pub fn aligned_init(
+    init: &msgs::InitState,
+    filter: &crate::config::FilterSettings,
+    acc: &AlignmentAccumulator,
+    t_ns: u64,
+) -> Result<(msgs::InitState, Alignment), AlignError> {
+    let r_e = Vector3::from(init.r_e_m);
+    let geo = earth::ecef_to_geodetic(&r_e);
+    let noise = filter.process_noise();
+    let dph = std::f64::consts::PI / 180.0 / 3600.0;
+    let ug = 1e-6 * earth::G0;
+    let budget = AlignmentBudget {
+        gyro_bias_rps: filter.gyro_bias_dph * dph,
+        accel_bias_mps2: filter.accel_bias_ug * ug,
+        arw: noise.arw,
+        vrw: noise.vrw,
+    };
+    let a = acc.solve(geo.lat_rad, geo.h_m, &budget)?;
+    let c_b_e = crate::frames::c_e_g(geo.lat_rad, geo.lon_rad).transpose() * a.c_b_g;
+    let q = nalgebra::UnitQuaternion::from_matrix(&c_b_e).into_inner();
+    let aligned = msgs::InitState {
+        t_ns,
+        v_e_mps: [0.0; 3],
+        q_b_e: [q.w, q.i, q.j, q.k],
+        sigma_tilt_rad: a.sigma_tilt_rad,
+        sigma_heading_rad: a.sigma_heading_rad,
+        ..*init
+    };
+    Ok((aligned, a))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

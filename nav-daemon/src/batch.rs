@@ -89,38 +89,6 @@ impl BatchError {
     }
 }
 
-/// The init record with the aligned attitude (position kept, at rest), valid at `t_ns`.
-fn finish_alignment(
-    init: &msgs::InitState,
-    cfg: &NavigatorConfig,
-    acc: &crate::align::AlignmentAccumulator,
-    t_ns: u64,
-) -> Result<(msgs::InitState, crate::align::Alignment), crate::align::AlignError> {
-    let r_e = nalgebra::Vector3::from(init.r_e_m);
-    let geo = crate::earth::ecef_to_geodetic(&r_e);
-    let noise = cfg.filter.process_noise();
-    let dph = std::f64::consts::PI / 180.0 / 3600.0;
-    let ug = 1e-6 * crate::earth::G0;
-    let budget = crate::align::AlignmentBudget {
-        gyro_bias_rps: cfg.filter.gyro_bias_dph * dph,
-        accel_bias_mps2: cfg.filter.accel_bias_ug * ug,
-        arw: noise.arw,
-        vrw: noise.vrw,
-    };
-    let a = acc.solve(geo.lat_rad, geo.h_m, &budget)?;
-    let c_b_e = crate::frames::c_e_g(geo.lat_rad, geo.lon_rad).transpose() * a.c_b_g;
-    let q = nalgebra::UnitQuaternion::from_matrix(&c_b_e).into_inner();
-    let aligned = msgs::InitState {
-        t_ns,
-        v_e_mps: [0.0; 3],
-        q_b_e: [q.w, q.i, q.j, q.k],
-        sigma_tilt_rad: a.sigma_tilt_rad,
-        sigma_heading_rad: a.sigma_heading_rad,
-        ..*init
-    };
-    Ok((aligned, a))
-}
-
 fn apply_cli_frame(opts: &BatchOptions, frame: &mut FrameConfig) {
     if let Some(f) = &opts.force_switch_s {
         frame.force_switch_s.clone_from(f);
@@ -205,8 +173,9 @@ pub fn run<R: BufRead, W: Write>(
                     }
                     if acc.time_s() >= opts.align_s.unwrap_or(0.0) {
                         let (init, cfg, acc) = aligning.take().expect("aligning");
-                        let (aligned, a) = finish_alignment(&init, &cfg, &acc, s.t_ns)
-                            .map_err(|e| BatchError::Align(log_name.to_owned(), e))?;
+                        let (aligned, a) =
+                            crate::align::aligned_init(&init, &cfg.filter, &acc, s.t_ns)
+                                .map_err(|e| BatchError::Align(log_name.to_owned(), e))?;
                         tracing::info!(
                             heading_deg = a.heading_rad.to_degrees(),
                             pitch_deg = a.pitch_rad.to_degrees(),

@@ -514,28 +514,47 @@ impl Navigator {
         })
     }
 
-    /// 1-σ of position in local east/north/up (m).
-    pub fn sigma_pos_enu(&self) -> Vector3<f64> {
-        let pp = self.p.fixed_view::<3, 3>(idx::DP, idx::DP).into_owned();
-        let cov_enu = match &self.nav {
+    /// Covariances of position (m²), velocity (m²/s²) and attitude error (rad²),
+    /// all in local east/north/up axes: the filter's P mapped out of its frame.
+    pub fn covariances_enu(&self) -> (Matrix3<f64>, Matrix3<f64>, Matrix3<f64>) {
+        let block = |o: usize| self.p.fixed_view::<3, 3>(o, o).into_owned();
+        let geo = self.nav.geodetic();
+        // Position map δp → ENU metres, and nav axes → ENU.
+        let (pos_map, nav_to_enu) = match &self.nav {
             AnyNav::Geographic(s) => {
                 let (rm, rn) = earth::radii(s.pos.lat_rad);
-                let d = Matrix3::from_diagonal(&Vector3::new(
+                let m = Matrix3::new(
+                    0.0,
                     (rn + s.pos.h_m) * s.pos.lat_rad.cos(),
+                    0.0,
                     rm + s.pos.h_m,
+                    0.0,
+                    0.0,
+                    0.0,
+                    0.0,
                     1.0,
-                ));
-                // δp order is (L, λ, h): swap to (E, N, U).
-                let swap = Matrix3::new(0.0, 1.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0);
-                d * swap * pp * swap.transpose() * d
+                );
+                (m, Matrix3::identity())
             }
             AnyNav::Grid(_) => {
-                let geo = self.nav.geodetic();
-                let c = frames::c_e_g(geo.lat_rad, geo.lon_rad);
-                c * pp * c.transpose()
+                let c_e_g = frames::c_e_g(geo.lat_rad, geo.lon_rad);
+                (c_e_g, c_e_g * self.nav.c_e_n().transpose())
             }
         };
-        cov_enu.diagonal().map(|v| v.max(0.0).sqrt())
+        let t = |m: &Matrix3<f64>, p: Matrix3<f64>| m * p * m.transpose();
+        (
+            t(&pos_map, block(idx::DP)),
+            t(&nav_to_enu, block(idx::DV)),
+            t(&nav_to_enu, block(idx::PHI)),
+        )
+    }
+
+    /// 1-σ of position in local east/north/up (m).
+    pub fn sigma_pos_enu(&self) -> Vector3<f64> {
+        self.covariances_enu()
+            .0
+            .diagonal()
+            .map(|v| v.max(0.0).sqrt())
     }
 
     fn flags(&self) -> u32 {
