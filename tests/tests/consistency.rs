@@ -1,0 +1,108 @@
+//! Filter consistency by Monte Carlo: 30 seeds of a 900 s flight through the
+//! North Pole (Table 1 sensor errors drawn per seed, initial errors drawn from
+//! the init record's σ). The average NEES of position, velocity and attitude
+//! (3 degrees of freedom each) over the 30 runs must lie in the 95 % χ² band
+//! [χ²₀.₀₂₅(90)/30, χ²₀.₉₇₅(90)/30] = [2.188, 3.938].
+
+use polarnav::navigator::NavigatorConfig;
+use polarnav_tests::{Run, errors, run, simulate_records};
+
+const WINDOW: &str = r#"
+name = "pole-window"
+description = "900 s through the North Pole for Monte Carlo consistency"
+[start]
+lat_deg = 89.0
+lon_deg = 40.0
+h_m = 18000.0
+heading_deg = 0.0
+speed_mps = 250.0
+[imu]
+rate_hz = 200.0
+gyro_bias_dph = 0.01
+accel_bias_ug = 100.0
+arw_dpsh = 0.001
+vrw_ug_psqhz = 10.0
+[truth]
+rate_hz = 1.0
+[srs]
+rate_hz = 1.0
+sigma_mps = 0.5
+[cns]
+rate_hz = 1.0
+sigma_m = 20.0
+[baro]
+rate_hz = 10.0
+sigma_m = 10.0
+[init_error]
+pos_h_m = 10.0
+pos_v_m = 10.0
+vel_h_mps = 0.1
+vel_v_mps = 0.1
+tilt_arcmin = 1.0
+heading_arcmin = 3.0
+[[segment]]
+kind = "cruise"
+duration_s = 900.0
+"#;
+
+const RUNS: u64 = 30;
+const LO: f64 = 65.647 / 30.0;
+const HI: f64 = 118.136 / 30.0;
+
+fn nees(r: &Run) -> Vec<[f64; 3]> {
+    r.snaps
+        .iter()
+        .zip(&r.truth)
+        .map(|(s, t)| {
+            let (p, v, a) = errors(s, t);
+            let q = |e: nalgebra::Vector3<f64>, c: &nalgebra::Matrix3<f64>| {
+                e.dot(&(c.try_inverse().expect("P invertible") * e))
+            };
+            [q(p, &s.cov_pos), q(v, &s.cov_vel), q(a, &s.cov_att)]
+        })
+        .collect()
+}
+
+#[test]
+fn thirty_seed_average_nees_is_inside_the_95_percent_chi2_band() {
+    let per_seed: Vec<Vec<[f64; 3]>> = std::thread::scope(|scope| {
+        let handles: Vec<_> = (0..2u64)
+            .map(|k| {
+                scope.spawn(move || {
+                    (0..RUNS)
+                        .filter(|s| s % 2 == k)
+                        .map(|seed| {
+                            nees(&run(
+                                &simulate_records(WINDOW, 100 + seed),
+                                &NavigatorConfig::default(),
+                                None,
+                            ))
+                        })
+                        .collect::<Vec<_>>()
+                })
+            })
+            .collect();
+        handles
+            .into_iter()
+            .flat_map(|h| h.join().expect("thread"))
+            .collect()
+    });
+    assert_eq!(per_seed.len() as u64, RUNS);
+    let epochs = per_seed[0].len();
+    let names = ["position", "velocity", "attitude"];
+    for (i, name) in names.iter().enumerate() {
+        let anees: Vec<f64> = (0..epochs)
+            .map(|k| per_seed.iter().map(|r| r[k][i]).sum::<f64>() / RUNS as f64)
+            .collect();
+        let mean = anees.iter().sum::<f64>() / epochs as f64;
+        let inside = anees.iter().filter(|a| (LO..=HI).contains(*a)).count() as f64 / epochs as f64;
+        eprintln!(
+            "{name}: average NEES {mean:.3} (band [{LO:.3}, {HI:.3}], ideal 3); epochs with ANEES inside the band {:.1} %",
+            100.0 * inside
+        );
+        assert!(
+            (LO..=HI).contains(&mean),
+            "{name} average NEES {mean} outside [{LO}, {HI}]"
+        );
+    }
+}
