@@ -198,7 +198,7 @@ pub fn aligned_init(
     };
     let a = acc.solve(geo.lat_rad, geo.h_m, &budget)?;
     let c_b_e = crate::frames::c_e_g(geo.lat_rad, geo.lon_rad).transpose() * a.c_b_g;
-    let q = nalgebra::UnitQuaternion::from_matrix(&c_b_e).into_inner();
+    let q = crate::frames::quat_from_dcm(&c_b_e).into_inner();
     let aligned = msgs::InitState {
         t_ns,
         v_e_mps: [0.0; 3],

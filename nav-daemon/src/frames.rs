@@ -4,7 +4,7 @@
 //! unit(**n** × **ŷ**_e), grid east = grid north × up. It is well defined at
 //! both poles and singular only on the equator at λ = ±90°.
 
-use nalgebra::{Matrix3, Rotation3, Vector3};
+use nalgebra::{Matrix3, Quaternion, Rotation3, UnitQuaternion, Vector3};
 
 use crate::earth::{self, Geodetic};
 
@@ -113,6 +113,49 @@ pub fn transport_rate_grid(pos: &Geodetic, v_e: &Vector3<f64>) -> Vector3<f64> {
     )
 }
 
+/// Unit quaternion of an orthonormal DCM, closed form (Shepperd): the
+/// largest of the four squared components is taken from the diagonal and
+/// the others from off-diagonal sums, so it is stable for every rotation.
+/// For matrices that are orthonormal to rounding (all DCMs built here);
+/// nalgebra's `from_matrix` iterates and is ~20× slower.
+pub fn quat_from_dcm(m: &Matrix3<f64>) -> UnitQuaternion<f64> {
+    let tr = m[(0, 0)] + m[(1, 1)] + m[(2, 2)];
+    let q = if tr > m[(0, 0)].max(m[(1, 1)]).max(m[(2, 2)]) {
+        let s = (1.0 + tr).sqrt() * 2.0;
+        Quaternion::new(
+            0.25 * s,
+            (m[(2, 1)] - m[(1, 2)]) / s,
+            (m[(0, 2)] - m[(2, 0)]) / s,
+            (m[(1, 0)] - m[(0, 1)]) / s,
+        )
+    } else if m[(0, 0)] >= m[(1, 1)] && m[(0, 0)] >= m[(2, 2)] {
+        let s = (1.0 + m[(0, 0)] - m[(1, 1)] - m[(2, 2)]).sqrt() * 2.0;
+        Quaternion::new(
+            (m[(2, 1)] - m[(1, 2)]) / s,
+            0.25 * s,
+            (m[(0, 1)] + m[(1, 0)]) / s,
+            (m[(0, 2)] + m[(2, 0)]) / s,
+        )
+    } else if m[(1, 1)] >= m[(2, 2)] {
+        let s = (1.0 + m[(1, 1)] - m[(0, 0)] - m[(2, 2)]).sqrt() * 2.0;
+        Quaternion::new(
+            (m[(0, 2)] - m[(2, 0)]) / s,
+            (m[(0, 1)] + m[(1, 0)]) / s,
+            0.25 * s,
+            (m[(1, 2)] + m[(2, 1)]) / s,
+        )
+    } else {
+        let s = (1.0 + m[(2, 2)] - m[(0, 0)] - m[(1, 1)]).sqrt() * 2.0;
+        Quaternion::new(
+            (m[(1, 0)] - m[(0, 1)]) / s,
+            (m[(0, 2)] + m[(2, 0)]) / s,
+            (m[(1, 2)] + m[(2, 1)]) / s,
+            0.25 * s,
+        )
+    };
+    UnitQuaternion::from_quaternion(q)
+}
+
 /// Body→nav DCM from heading (clockwise from the nav frame's north), pitch
 /// and roll (rad), for body axes x right, y forward, z up and an
 /// east-north-up-type nav frame: C_b^n = R_z(−ψ)·R_x(θ)·R_y(φ).
@@ -214,6 +257,36 @@ mod tests {
             assert!((c * c.transpose() - Matrix3::identity()).abs().max() < 1e-15);
             // Independent of the (meaningless) longitude at the pole.
             assert!((c - c_e_grid(lat.to_radians(), -2.0)).abs().max() < 1e-15);
+        }
+    }
+
+    #[test]
+    fn closed_form_quaternion_matches_nalgebra_for_every_branch() {
+        // Rotations whose largest quaternion component is w, x, y and z in turn, and near-180° cases.
+        let axes = [
+            Vector3::new(0.3, -0.2, 0.9),
+            Vector3::x(),
+            Vector3::y(),
+            Vector3::z(),
+            Vector3::new(1.0, 1.0, -1.0),
+        ];
+        for axis in axes {
+            for angle in [
+                0.0,
+                0.4,
+                1.7,
+                3.0,
+                std::f64::consts::PI - 1e-9,
+                std::f64::consts::PI,
+            ] {
+                let q =
+                    UnitQuaternion::from_axis_angle(&nalgebra::Unit::new_normalize(axis), angle);
+                let m = q.to_rotation_matrix().into_inner();
+                let back = quat_from_dcm(&m);
+                assert!(back.angle_to(&q) < 1e-12, "axis {axis} angle {angle}");
+                let na = UnitQuaternion::from_matrix(&m);
+                assert!(back.angle_to(&na) < 1e-12);
+            }
         }
     }
 

@@ -63,6 +63,7 @@ pub trait NavFrame: Copy + std::fmt::Debug + PartialEq {
     /// frame geometry evaluated at `mid` (start) and `end` (predicted end).
     fn advance(
         pos: &Self::Pos,
+        start: &Geodetic,
         mid: &Geodetic,
         end: &Geodetic,
         v0: &Vector3<f64>,
@@ -99,6 +100,7 @@ impl NavFrame for Geo {
     }
     fn advance(
         pos: &Geodetic,
+        _start: &Geodetic,
         mid: &Geodetic,
         _end: &Geodetic,
         v0: &Vector3<f64>,
@@ -132,6 +134,7 @@ impl NavFrame for Grid {
     }
     fn advance(
         pos: &Vector3<f64>,
+        start: &Geodetic,
         _mid: &Geodetic,
         end: &Geodetic,
         v0: &Vector3<f64>,
@@ -139,7 +142,7 @@ impl NavFrame for Grid {
         dt: f64,
     ) -> Vector3<f64> {
         // v0 is expressed in the grid frame at the start, v1 at the end.
-        let c_n_e0 = Self::c_e_n(&Self::geodetic(pos)).transpose();
+        let c_n_e0 = Self::c_e_n(start).transpose();
         let c_n_e1 = Self::c_e_n(end).transpose();
         pos + (c_n_e0 * v0 + c_n_e1 * v1) * (0.5 * dt)
     }
@@ -200,14 +203,24 @@ fn velocity_update<F: NavFrame>(
 /// One mechanization step: the state at t_k from the state at t_{k-1}, the
 /// previous increment (for coning/sculling) and the current one.
 pub fn mechanize<F: NavFrame>(s: &Nav<F>, prev: &Increment, cur: &Increment) -> Nav<F> {
+    mechanize_at(s, &F::geodetic(&s.pos), prev, cur)
+}
+
+/// [`mechanize`] with the geodetic position of `s` already known (`geo0`).
+pub fn mechanize_at<F: NavFrame>(
+    s: &Nav<F>,
+    geo0: &Geodetic,
+    prev: &Increment,
+    cur: &Increment,
+) -> Nav<F> {
+    let geo0 = *geo0;
     let dt = cur.dt_s;
     let dv_sf_b = compensated_dv(prev, cur);
-    let geo0 = F::geodetic(&s.pos);
 
     // Predictor with the start-of-interval environment.
     let env0 = Environment::at::<F>(&geo0, &s.v_n);
     let v_pred = velocity_update(s, &dv_sf_b, &env0, &s.v_n, dt);
-    let pos_pred = F::advance(&s.pos, &geo0, &geo0, &s.v_n, &v_pred, dt);
+    let pos_pred = F::advance(&s.pos, &geo0, &geo0, &geo0, &s.v_n, &v_pred, dt);
 
     // Corrector at the predicted mid-interval point.
     let geo_end = F::geodetic(&pos_pred);
@@ -215,7 +228,7 @@ pub fn mechanize<F: NavFrame>(s: &Nav<F>, prev: &Increment, cur: &Increment) -> 
     let v_mid_pred = (s.v_n + v_pred) * 0.5;
     let env_mid = Environment::at::<F>(&geo_mid, &v_mid_pred);
     let v1 = velocity_update(s, &dv_sf_b, &env_mid, &v_mid_pred, dt);
-    let pos1 = F::advance(&s.pos, &geo_mid, &geo_end, &s.v_n, &v1, dt);
+    let pos1 = F::advance(&s.pos, &geo0, &geo_mid, &geo_end, &s.v_n, &v1, dt);
 
     // Attitude: body rotation with coning correction, nav-frame rotation at mid-interval.
     let phi_b = cur.d_theta + prev.d_theta.cross(&cur.d_theta) / 12.0;
@@ -245,7 +258,7 @@ impl NormalizeUnit for UnitQuaternion<f64> {
 pub fn geo_to_grid(s: &Nav<Geo>) -> Nav<Grid> {
     let sigma = frames::grid_angle(s.pos.lat_rad, s.pos.lon_rad);
     let c_g_grid = frames::c_g_grid(sigma);
-    let q_g_grid = UnitQuaternion::from_matrix(&c_g_grid);
+    let q_g_grid = frames::quat_from_dcm(&c_g_grid);
     Nav {
         q_b_n: q_g_grid * s.q_b_n,
         v_n: c_g_grid * s.v_n,
@@ -258,7 +271,7 @@ pub fn grid_to_geo(s: &Nav<Grid>) -> Nav<Geo> {
     let geo = earth::ecef_to_geodetic(&s.pos);
     let sigma = frames::grid_angle(geo.lat_rad, geo.lon_rad);
     let c_grid_g = frames::c_g_grid(sigma).transpose();
-    let q_grid_g = UnitQuaternion::from_matrix(&c_grid_g);
+    let q_grid_g = frames::quat_from_dcm(&c_grid_g);
     Nav {
         q_b_n: q_grid_g * s.q_b_n,
         v_n: c_grid_g * s.v_n,
@@ -312,7 +325,7 @@ impl AnyNav {
         ) -> Nav<F> {
             let c_e_n = F::c_e_n(geo);
             Nav {
-                q_b_n: UnitQuaternion::from_matrix(&c_e_n) * q_b_e,
+                q_b_n: frames::quat_from_dcm(&c_e_n) * q_b_e,
                 v_n: c_e_n * v_e,
                 pos,
             }
@@ -336,7 +349,7 @@ impl AnyNav {
             ),
             AnyNav::Grid(s) => (Grid::c_e_n(&geo), s.q_b_n, s.v_n, s.pos),
         };
-        let q_n_e = UnitQuaternion::from_matrix(&c_e_n.transpose());
+        let q_n_e = frames::quat_from_dcm(&c_e_n.transpose());
         FrameFree {
             geo,
             r_e,
@@ -386,9 +399,37 @@ impl AnyNav {
 
     /// One mechanization step in the current frame.
     pub fn mechanize(&self, prev: &Increment, cur: &Increment) -> Self {
+        self.mechanize_at(&self.geodetic(), prev, cur)
+    }
+
+    /// [`AnyNav::mechanize`] with the current geodetic position already known.
+    pub fn mechanize_at(&self, geo: &Geodetic, prev: &Increment, cur: &Increment) -> Self {
         match self {
-            AnyNav::Geographic(s) => AnyNav::Geographic(mechanize(s, prev, cur)),
-            AnyNav::Grid(s) => AnyNav::Grid(mechanize(s, prev, cur)),
+            AnyNav::Geographic(s) => AnyNav::Geographic(mechanize_at(s, geo, prev, cur)),
+            AnyNav::Grid(s) => AnyNav::Grid(mechanize_at(s, geo, prev, cur)),
+        }
+    }
+
+    /// Frame-free view when the geodetic position and C_e^n are already known.
+    pub fn frame_free_at(&self, geo: &Geodetic, c_e_n: &Matrix3<f64>) -> FrameFree {
+        let (q_b_n, v_n, r_e) = match self {
+            AnyNav::Geographic(s) => (s.q_b_n, s.v_n, earth::geodetic_to_ecef(&s.pos)),
+            AnyNav::Grid(s) => (s.q_b_n, s.v_n, s.pos),
+        };
+        let q_n_e = frames::quat_from_dcm(&c_e_n.transpose());
+        FrameFree {
+            geo: *geo,
+            r_e,
+            v_e: c_e_n.transpose() * v_n,
+            q_b_e: q_n_e * q_b_n,
+        }
+    }
+
+    /// C_e^n at a known geodetic position.
+    pub fn c_e_n_at(&self, geo: &Geodetic) -> Matrix3<f64> {
+        match self {
+            AnyNav::Geographic(_) => Geo::c_e_n(geo),
+            AnyNav::Grid(_) => Grid::c_e_n(geo),
         }
     }
 

@@ -159,6 +159,8 @@ pub struct AidOutcome {
 #[derive(Debug, Clone)]
 pub struct Navigator {
     nav: AnyNav,
+    /// Geodetic position of `nav`, kept current after every change of `nav`.
+    geo: earth::Geodetic,
     prev_inc: Option<Increment>,
     selector: FrameSelector,
     conversion: Conversion,
@@ -201,6 +203,7 @@ impl Navigator {
         let f = &config.filter;
         Self {
             p: initial_covariance(&nav, init, f),
+            geo: nav.geodetic(),
             nav,
             prev_inc: None,
             selector,
@@ -299,7 +302,8 @@ impl Navigator {
         self.imu.accepted += 1;
         self.imu.last_t_ns = s.t_ns;
         let prev = self.prev_inc.unwrap_or(inc);
-        self.nav = self.nav.mechanize(&prev, &inc);
+        self.nav = self.nav.mechanize_at(&self.geo, &prev, &inc);
+        self.geo = self.nav.geodetic();
         self.prev_inc = Some(inc);
         self.t_ns = s.t_ns;
         self.seq += 1;
@@ -310,7 +314,7 @@ impl Navigator {
         }
 
         let from = self.nav.kind();
-        let lat = self.nav.geodetic().lat_rad;
+        let lat = self.geo.lat_rad;
         let to = self.selector.decide(from, lat, self.t_ns);
         let switch = (to != from).then(|| self.switch_frame(to, lat));
         Ok(ImuOutcome { switch })
@@ -343,6 +347,7 @@ impl Navigator {
         let from = self.nav.kind();
         let before = self.nav;
         self.nav = self.nav.converted(to);
+        self.geo = self.nav.geodetic();
         if self.conversion == Conversion::Paper {
             let geo = before.geodetic();
             let v_grid = match (&before, &self.nav) {
@@ -517,8 +522,19 @@ impl Navigator {
     /// Covariances of position (m²), velocity (m²/s²) and attitude error (rad²),
     /// all in local east/north/up axes: the filter's P mapped out of its frame.
     pub fn covariances_enu(&self) -> (Matrix3<f64>, Matrix3<f64>, Matrix3<f64>) {
+        let geo = self.geo;
+        self.covariances_enu_at(
+            &self.nav.c_e_n_at(&geo),
+            &frames::c_e_g(geo.lat_rad, geo.lon_rad),
+        )
+    }
+
+    fn covariances_enu_at(
+        &self,
+        c_e_n: &Matrix3<f64>,
+        c_e_g: &Matrix3<f64>,
+    ) -> (Matrix3<f64>, Matrix3<f64>, Matrix3<f64>) {
         let block = |o: usize| self.p.fixed_view::<3, 3>(o, o).into_owned();
-        let geo = self.nav.geodetic();
         // Position map δp → ENU metres, and nav axes → ENU.
         let (pos_map, nav_to_enu) = match &self.nav {
             AnyNav::Geographic(s) => {
@@ -536,10 +552,7 @@ impl Navigator {
                 );
                 (m, Matrix3::identity())
             }
-            AnyNav::Grid(_) => {
-                let c_e_g = frames::c_e_g(geo.lat_rad, geo.lon_rad);
-                (c_e_g, c_e_g * self.nav.c_e_n().transpose())
-            }
+            AnyNav::Grid(_) => (*c_e_g, c_e_g * c_e_n.transpose()),
         };
         let t = |m: &Matrix3<f64>, p: Matrix3<f64>| m * p * m.transpose();
         (
@@ -576,13 +589,27 @@ impl Navigator {
 
     /// The current solution.
     pub fn solution(&self) -> Solution {
-        let ff = self.nav.frame_free();
-        let geo = ff.geo;
-        let c_e_g = frames::c_e_g(geo.lat_rad, geo.lon_rad);
+        let geo = self.geo;
+        let c_e_n = self.nav.c_e_n_at(&geo);
+        let c_e_g = match &self.nav {
+            AnyNav::Geographic(_) => c_e_n,
+            AnyNav::Grid(_) => frames::c_e_g(geo.lat_rad, geo.lon_rad),
+        };
+        let ff = self.nav.frame_free_at(&geo, &c_e_n);
         let c_b_e = ff.q_b_e.to_rotation_matrix().into_inner();
         let c_b_g = c_e_g * c_b_e;
         let (heading, pitch, roll) = frames::euler_from_c_b_n(&c_b_g);
-        let sigma = frames::grid_angle(geo.lat_rad, geo.lon_rad);
+        // σ from grid north's components on the local east and north axes.
+        let sigma = match &self.nav {
+            AnyNav::Grid(_) => {
+                let grid_north = c_e_n.row(1);
+                grid_north
+                    .dot(&c_e_g.row(0))
+                    .atan2(grid_north.dot(&c_e_g.row(1)))
+            }
+            AnyNav::Geographic(_) => frames::grid_angle(geo.lat_rad, geo.lon_rad),
+        };
+        let (cov_pos, _, _) = self.covariances_enu_at(&c_e_n, &c_e_g);
         let grid_heading = (heading - sigma).rem_euclid(std::f64::consts::TAU);
         let q = ff.q_b_e.into_inner();
         let diag_sqrt = |o: usize| {
@@ -609,7 +636,7 @@ impl Navigator {
             grid_heading_rad: grid_heading,
             pitch_rad: pitch,
             roll_rad: roll,
-            sigma_pos_enu_m: self.sigma_pos_enu().into(),
+            sigma_pos_enu_m: cov_pos.diagonal().map(|v| v.max(0.0).sqrt()).into(),
             sigma_vel_mps: diag_sqrt(idx::DV).into(),
             sigma_att_rad: diag_sqrt(idx::PHI).into(),
             gyro_bias_rps: self.gyro_bias.into(),

@@ -129,12 +129,7 @@ fn truth_from_kfgins(
     let c_frd_ned = nalgebra::Rotation3::from_euler_angles(rpy.x, rpy.y, rpy.z).into_inner();
     let c_b_g = m * c_frd_ned * m.transpose();
     let c_e_g = frames::c_e_g(geo.lat_rad, geo.lon_rad);
-    let q = UnitQuaternion::from_matrix_eps(
-        &(c_e_g.transpose() * c_b_g),
-        1e-16,
-        100,
-        UnitQuaternion::identity(),
-    );
+    let q = frames::quat_from_dcm(&(c_e_g.transpose() * c_b_g));
     let q = q.into_inner();
     TruthRecord {
         t_ns,
@@ -469,7 +464,7 @@ pub fn import_psins<W: Write>(
         att[1].to_radians(),
     );
     let c_e_g = frames::c_e_g(geo.lat_rad, geo.lon_rad);
-    let q = UnitQuaternion::from_matrix(&(c_e_g.transpose() * c_b_g)).into_inner();
+    let q = frames::quat_from_dcm(&(c_e_g.transpose() * c_b_g)).into_inner();
     let v_e = c_e_g.transpose() * Vector3::new(att[3], att[4], att[5]);
     let truth_at = |t_ns: u64| TruthRecord {
         t_ns,

@@ -296,7 +296,7 @@ impl Flight {
     /// The truth at the current time.
     pub fn truth(&self) -> TruthSample {
         let k = kinematics(&self.cmd, self.t, &self.y.r_e, &self.y.dir_e);
-        let q = UnitQuaternion::from_matrix_eps(&k.c_b_e, 1e-15, 100, UnitQuaternion::identity());
+        let q = frames::quat_from_dcm(&k.c_b_e);
         TruthSample {
             r_e: self.y.r_e,
             v_e: k.v_e,
