@@ -162,9 +162,9 @@ fn synthesize_aids(
             }
             if let Some(s) = aids.srs_sigma_mps {
                 let mask = 10f64.to_radians();
-                out.push(Record::Srs(sensors::srs_sample(
+                out.push(Record::Srs(Box::new(sensors::srs_sample(
                     &mut rng, t.t_ns, sum.srs, &r, &v, &catalogue, mask, s, true,
-                )));
+                ))));
                 sum.srs += 1;
             }
         }

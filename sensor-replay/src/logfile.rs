@@ -50,14 +50,14 @@ pub fn load(path: &Path) -> Result<LogContents, LoadError> {
         source,
     })? {
         match rec {
-            Record::Header(h) => c.header = Some(h),
+            Record::Header(h) => c.header = Some(*h),
             Record::Init(x) => c.init.push(x),
             Record::Imu(x) => c.imu.push(x),
-            Record::Srs(x) => c.srs.push(x),
+            Record::Srs(x) => c.srs.push(*x),
             Record::Cns(x) => c.cns.push(x),
             Record::Baro(x) => c.baro.push(x),
             Record::Truth(x) => c.truth.push(x),
-            Record::Solution(x) => c.solution.push(x),
+            Record::Solution(x) => c.solution.push(*x),
             Record::Status(_) => {}
         }
     }

@@ -241,7 +241,7 @@ pub fn simulate<W: Write>(
                 spec.sigma_mps,
                 noisy,
             );
-            w.write(&Record::Srs(obs))?;
+            w.write(&Record::Srs(Box::new(obs)))?;
             sum.srs += 1;
         }
         if let (Some(sch), Some(spec)) = (cns_sched.as_mut(), s.cns.as_ref())
