@@ -4,6 +4,7 @@ pub mod eval;
 pub mod export;
 pub mod interop;
 pub mod logfile;
+pub mod plots;
 pub mod scenario;
 pub mod sensors;
 pub mod simulate;

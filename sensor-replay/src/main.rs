@@ -272,6 +272,7 @@ fn run(cli: Cli) -> Result<(), Fail> {
                 .as_ref()
                 .map_or("solution".to_owned(), |h| h.scenario.clone());
             let mut md = String::new();
+            let mut loaded = Vec::new();
             for (label, path) in std::iter::once(("solution", &solution))
                 .chain(compare.as_ref().map(|p| ("compare", p)))
             {
@@ -293,12 +294,36 @@ fn run(cli: Cli) -> Result<(), Fail> {
                     &eval::switch_transients(&rows, &ep, 60.0, 200.0),
                 ));
                 md.push('\n');
+                let file_label = path
+                    .file_name()
+                    .map_or_else(|| label.to_owned(), |f| f.to_string_lossy().into_owned());
+                loaded.push((file_label, rows, ep));
             }
-            if let Some(cmp) = &compare {
-                let a = polarnav::solution_csv::read(&solution).map_err(|e| bad(e.to_string()))?;
-                let b = polarnav::solution_csv::read(cmp).map_err(|e| bad(e.to_string()))?;
+            if let Some(dir) = &out {
+                std::fs::create_dir_all(dir)
+                    .map_err(|e| Fail(1, format!("{}: {e}", dir.display())))?;
+                let series: Vec<sensor_replay::plots::Series<'_>> = loaded
+                    .iter()
+                    .map(|(l, r, e)| sensor_replay::plots::Series {
+                        label: l,
+                        rows: r,
+                        epochs: e,
+                    })
+                    .collect();
+                let files = sensor_replay::plots::write_all(dir, &series)
+                    .map_err(|e| Fail(1, e.to_string()))?;
+                md.push_str("### Figures\n\n");
+                for f in &files {
+                    let n = f
+                        .file_name()
+                        .map_or_else(String::new, |x| x.to_string_lossy().into_owned());
+                    md.push_str(&format!("![{n}]({n})\n"));
+                }
+                md.push('\n');
+            }
+            if let [(_, a, _), (_, b, _)] = &loaded[..] {
                 md.push_str(&eval::deviation_markdown(
-                    &eval::deviation_after_switches(&a, &b, 200.0),
+                    &eval::deviation_after_switches(a, b, 200.0),
                     200.0,
                 ));
             }
