@@ -56,7 +56,9 @@ pub enum BatchError {
     #[error(transparent)]
     Config(#[from] ConfigError),
     /// The log has no init record and no initial state was configured (exit 2).
-    #[error("{0}: no init record before the first IMU sample; the log cannot be navigated")]
+    #[error(
+        "{0}: no init record before the first IMU sample and no [init] in the configuration; the log cannot be navigated"
+    )]
     NoInit(String),
     /// The alignment could not be solved (exit 1).
     #[error("{0}: alignment failed: {1}")]
@@ -189,6 +191,25 @@ pub fn run<R: BufRead, W: Write>(
                         nav = Some(Navigator::new(&aligned, &cfg));
                     }
                     continue;
+                }
+                if nav.is_none()
+                    && let Some(ci) = &config.init
+                {
+                    // No init record: start from [init] of the configuration, one sample back.
+                    let t0 = s.t_ns.saturating_sub((s.dt_s * 1e9).round() as u64);
+                    tracing::info!(
+                        t_ns = t0,
+                        "no init record before the first IMU sample: initializing from the configuration"
+                    );
+                    let cfg = NavigatorConfig {
+                        frame_policy: report.frame.policy(),
+                        conversion: opts.conversion,
+                        aids: opts.aids,
+                        filter: report.filter.clone(),
+                        aid_settings: config.aids.clone(),
+                    };
+                    nav = Some(Navigator::new(&ci.to_init(t0), &cfg));
+                    report.first_t_ns = t0;
                 }
                 let Some(n) = nav.as_mut() else {
                     report.imu_before_init += 1;

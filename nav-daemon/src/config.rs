@@ -21,6 +21,109 @@ pub struct Config {
     pub filter: FilterSettings,
     #[serde(default)]
     pub aids: AidSettings,
+    /// Initial state when no init record/message is received.
+    pub init: Option<InitSettings>,
+}
+
+/// `[init]`: the initial state from configuration (used when a log or the
+/// transport provides no init record), with its 1-σ.
+#[derive(Debug, Clone, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct InitSettings {
+    pub lat_deg: f64,
+    pub lon_deg: f64,
+    pub h_m: f64,
+    /// Velocity east, north, up (m/s).
+    #[serde(default)]
+    pub vel_enu_mps: [f64; 3],
+    pub heading_deg: f64,
+    #[serde(default)]
+    pub pitch_deg: f64,
+    #[serde(default)]
+    pub roll_deg: f64,
+    pub sigma_pos_h_m: f64,
+    pub sigma_pos_v_m: f64,
+    pub sigma_vel_mps: f64,
+    pub sigma_tilt_arcmin: f64,
+    pub sigma_heading_arcmin: f64,
+}
+
+impl InitSettings {
+    pub fn validate(&self, origin: &str) -> Result<(), ConfigError> {
+        check(
+            origin,
+            "init.lat_deg",
+            self.lat_deg,
+            self.lat_deg.abs() <= 90.0,
+            "a latitude in [-90, 90]",
+        )?;
+        check(
+            origin,
+            "init.lon_deg",
+            self.lon_deg,
+            true,
+            "a longitude in degrees",
+        )?;
+        check(
+            origin,
+            "init.h_m",
+            self.h_m,
+            self.h_m.abs() < 1e5,
+            "a height in metres",
+        )?;
+        for (i, v) in self.vel_enu_mps.iter().enumerate() {
+            check(
+                origin,
+                &format!("init.vel_enu_mps[{i}]"),
+                *v,
+                v.abs() < 2000.0,
+                "a velocity in m/s",
+            )?;
+        }
+        for (k, v) in [
+            ("init.heading_deg", self.heading_deg),
+            ("init.pitch_deg", self.pitch_deg),
+            ("init.roll_deg", self.roll_deg),
+        ] {
+            check(origin, k, v, true, "an angle in degrees")?;
+        }
+        for (k, v) in [
+            ("init.sigma_pos_h_m", self.sigma_pos_h_m),
+            ("init.sigma_pos_v_m", self.sigma_pos_v_m),
+            ("init.sigma_vel_mps", self.sigma_vel_mps),
+            ("init.sigma_tilt_arcmin", self.sigma_tilt_arcmin),
+            ("init.sigma_heading_arcmin", self.sigma_heading_arcmin),
+        ] {
+            check(origin, k, v, v > 0.0, "a positive 1-σ")?;
+        }
+        Ok(())
+    }
+
+    /// The init record these settings describe, valid at `t_ns`.
+    pub fn to_init(&self, t_ns: u64) -> msgs::InitState {
+        let geo = crate::earth::Geodetic::from_deg(self.lat_deg, self.lon_deg, self.h_m);
+        let c_e_g = crate::frames::c_e_g(geo.lat_rad, geo.lon_rad);
+        let c_b_g = crate::frames::c_b_n_from_euler(
+            self.heading_deg.to_radians(),
+            self.pitch_deg.to_radians(),
+            self.roll_deg.to_radians(),
+        );
+        let q = crate::frames::quat_from_dcm(&(c_e_g.transpose() * c_b_g)).into_inner();
+        let arcmin = std::f64::consts::PI / 180.0 / 60.0;
+        msgs::InitState {
+            t_ns,
+            seq: 0,
+            r_e_m: crate::earth::geodetic_to_ecef(&geo).into(),
+            v_e_mps: (c_e_g.transpose() * nalgebra::Vector3::from(self.vel_enu_mps)).into(),
+            q_b_e: [q.w, q.i, q.j, q.k],
+            sigma_pos_h_m: self.sigma_pos_h_m,
+            sigma_pos_v_m: self.sigma_pos_v_m,
+            sigma_vel_h_mps: self.sigma_vel_mps,
+            sigma_vel_v_mps: self.sigma_vel_mps,
+            sigma_tilt_rad: self.sigma_tilt_arcmin * arcmin,
+            sigma_heading_rad: self.sigma_heading_arcmin * arcmin,
+        }
+    }
 }
 
 /// `[filter]`: IMU noise model and initial bias uncertainty, in datasheet units.
@@ -101,6 +204,7 @@ impl Default for Config {
             frame: FrameConfig::default(),
             filter: FilterSettings::default(),
             aids: AidSettings::default(),
+            init: None,
         }
     }
 }
@@ -321,6 +425,9 @@ impl Config {
         c.frame.validate(origin, "frame")?;
         c.filter.validate(origin)?;
         c.aids.validate(origin)?;
+        if let Some(i) = &c.init {
+            i.validate(origin)?;
+        }
         Ok(c)
     }
 
@@ -417,6 +524,34 @@ mod tests {
         let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../config/nav-daemon.toml");
         let c = Config::load(&path).expect("shipped config");
         assert_eq!(c.prefix, "polarnav");
+    }
+
+    #[test]
+    fn init_from_config_builds_the_stated_attitude() {
+        let c = Config::parse(
+            "[init]\nlat_deg = 34.246048\nlon_deg = 108.909664\nh_m = 380.0\nheading_deg = 90.6\npitch_deg = 0.9\nroll_deg = 0.36\nsigma_pos_h_m = 10.0\nsigma_pos_v_m = 10.0\nsigma_vel_mps = 0.1\nsigma_tilt_arcmin = 30.0\nsigma_heading_arcmin = 300.0\n",
+            "x.toml",
+        )
+        .expect("config");
+        let init = c.init.expect("init").to_init(5);
+        let r = nalgebra::Vector3::from(init.r_e_m);
+        let g = crate::earth::ecef_to_geodetic(&r);
+        let [w, x, y, z] = init.q_b_e;
+        let c_b_e =
+            nalgebra::UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(w, x, y, z))
+                .to_rotation_matrix()
+                .into_inner();
+        let (h, p, rl) =
+            crate::frames::euler_from_c_b_n(&(crate::frames::c_e_g(g.lat_rad, g.lon_rad) * c_b_e));
+        assert!(
+            (h.to_degrees() - 90.6).abs() < 1e-9
+                && (p.to_degrees() - 0.9).abs() < 1e-9
+                && (rl.to_degrees() - 0.36).abs() < 1e-9
+        );
+        let e = Config::parse("[init]\nlat_deg = 95.0\nlon_deg = 0\nh_m = 0\nheading_deg = 0\nsigma_pos_h_m = 1\nsigma_pos_v_m = 1\nsigma_vel_mps = 1\nsigma_tilt_arcmin = 1\nsigma_heading_arcmin = 1\n", "x.toml")
+            .expect_err("bad latitude")
+            .to_string();
+        assert!(e.contains("init.lat_deg"), "{e}");
     }
 
     #[test]

@@ -109,6 +109,27 @@ fn truncated_log_is_navigated_up_to_the_last_intact_record_and_the_damage_report
 }
 
 #[test]
+fn log_without_init_starts_from_the_configured_init() {
+    let dir = temp_dir("cfginit");
+    let cfg = dir.join("nav.toml");
+    std::fs::write(
+        &cfg,
+        "[init]\nlat_deg = 45.0\nlon_deg = 7.0\nh_m = 300.0\nheading_deg = 0.0\nsigma_pos_h_m = 5.0\nsigma_pos_v_m = 5.0\nsigma_vel_mps = 0.05\nsigma_tilt_arcmin = 1.0\nsigma_heading_arcmin = 10.0\n",
+    )
+    .expect("write");
+    let cfg_arg = cfg.display().to_string();
+    let (code, err, rows) = run_batch(
+        &dir,
+        &stationary_log(100, false),
+        &["--config", &cfg_arg, "--aids", "none"],
+    );
+    assert_eq!(code, 0, "{err}");
+    assert_eq!(rows.len(), 101);
+    assert!(err.contains("initializing from the configuration"), "{err}");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
 fn log_without_init_is_refused_with_exit_2() {
     let dir = temp_dir("noinit");
     let (code, err, _) = run_batch(&dir, &stationary_log(10, false), &[]);

@@ -61,6 +61,8 @@ pub struct Summary {
     pub velocity_mps: Stat,
     pub tilt_arcmin: Stat,
     pub heading_arcmin: Stat,
+    /// Mean position NEES with the CSV's per-axis σ (diagonal approximation; ideal 3).
+    pub position_nees: f64,
     pub non_finite_rows: usize,
 }
 
@@ -98,7 +100,20 @@ pub fn epochs(rows: &[Row], truth: &[TruthRecord]) -> Vec<Epoch> {
 
 pub fn summarize(rows: &[Row], ep: &[Epoch]) -> Summary {
     let arcmin = 60.0 * 180.0 / std::f64::consts::PI;
+    let key = |t_s: f64| (t_s * 1e6).round() as i64;
+    let sig: HashMap<i64, [f64; 3]> = rows.iter().map(|r| (key(r.t_s), r.sigma_enu_m)).collect();
+    let nees: Vec<f64> = ep
+        .iter()
+        .filter_map(|e| sig.get(&key(e.t_s)).map(|s| (s, e)))
+        .map(|(s, e)| (0..3).map(|i| (e.pos_enu[i] / s[i]).powi(2)).sum::<f64>())
+        .filter(|v| v.is_finite())
+        .collect();
     Summary {
+        position_nees: if nees.is_empty() {
+            f64::NAN
+        } else {
+            nees.iter().sum::<f64>() / nees.len() as f64
+        },
         epochs: ep.len(),
         horizontal_m: Stat::of(ep.iter().map(|e| e.pos_enu.xy().norm())),
         vertical_m: Stat::of(ep.iter().map(|e| e.pos_enu.z)),
@@ -127,6 +142,10 @@ pub fn markdown(title: &str, s: &Summary) -> String {
             s.non_finite_rows
         ));
     }
+    m.push_str(&format!(
+        "; mean position NEES {:.2} (per-axis σ of the CSV; ideal 3, NaN without a filter)",
+        s.position_nees
+    ));
     m.push_str("\n\n| quantity | RMSE | max |\n|---|---|---|\n");
     for (name, st, unit) in [
         ("horizontal position", s.horizontal_m, "m"),
