@@ -158,7 +158,7 @@ impl Default for FilterSettings {
             gyro_bias_tau_s: 3600.0,
             accel_bias_instability_ug: 0.0,
             accel_bias_tau_s: 3600.0,
-            covariance_interval_s: 0.05,
+            covariance_interval_s: 0.1,
         }
     }
 }

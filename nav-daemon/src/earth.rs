@@ -50,7 +50,12 @@ impl Geodetic {
 
 /// Meridian and prime-vertical radii of curvature (R_M, R_N) at latitude `lat`.
 pub fn radii(lat_rad: f64) -> (f64, f64) {
-    let s2 = lat_rad.sin().powi(2);
+    radii_from_sin(lat_rad.sin())
+}
+
+/// [`radii`] from sin L.
+pub fn radii_from_sin(sin_lat: f64) -> (f64, f64) {
+    let s2 = sin_lat * sin_lat;
     let w2 = 1.0 - E2 * s2;
     let rn = A / w2.sqrt();
     let rm = rn * (1.0 - E2) / w2;
@@ -60,7 +65,12 @@ pub fn radii(lat_rad: f64) -> (f64, f64) {
 /// WGS-84 normal gravity magnitude at latitude `lat` and height `h`
 /// (Somigliana with the second-order height correction of DESIGN).
 pub fn normal_gravity(lat_rad: f64, h_m: f64) -> f64 {
-    let s2 = lat_rad.sin().powi(2);
+    normal_gravity_from_sin(lat_rad.sin(), h_m)
+}
+
+/// [`normal_gravity`] from sin L.
+pub fn normal_gravity_from_sin(sin_lat: f64, h_m: f64) -> f64 {
+    let s2 = sin_lat * sin_lat;
     let g0 = GAMMA_E * (1.0 + GRAVITY_K * s2) / (1.0 - E2 * s2).sqrt();
     let hf =
         1.0 - (2.0 / A) * (1.0 + F + GRAVITY_M - 2.0 * F * s2) * h_m + 3.0 * h_m * h_m / (A * A);

@@ -64,15 +64,25 @@ pub fn transition(f: &Mat15, dt: f64) -> Mat15 {
     Mat15::identity() + fdt + fdt * fdt * 0.5
 }
 
-/// Propagates P over `dt` with system matrix `f`: P ← Φ P Φᵀ + Q_d, with the
-/// trapezoidal Q_d = ½(Φ Q Φᵀ + Q)Δt matching the second-order Φ.
+/// Propagates P over `dt` with system matrix `f`: P ← Φ P Φᵀ + Q_d, with
+/// Q_d = QΔt + ½(FQ + QFᵀ)Δt², the second-order expansion of ∫Φ Q Φᵀ that
+/// matches the second-order Φ (the same order as the trapezoidal ½(ΦQΦᵀ + Q)Δt,
+/// but with Q diagonal it needs no 15×15 product).
 pub fn propagate(p: &mut Mat15, f: &Mat15, noise: &ProcessNoise, dt: f64) {
     if dt <= 0.0 {
         return;
     }
     let phi = transition(f, dt);
-    let q = Mat15::from_diagonal(&noise.density());
-    let qd = (phi * q * phi.transpose() + q) * (0.5 * dt);
+    let q = noise.density();
+    // F Q scales the columns of F by the diagonal of Q.
+    let mut fq = *f;
+    for (j, qj) in q.iter().enumerate() {
+        fq.column_mut(j).scale_mut(*qj);
+    }
+    let mut qd = (fq + fq.transpose()) * (0.5 * dt * dt);
+    for (i, qi) in q.iter().enumerate() {
+        qd[(i, i)] += qi * dt;
+    }
     *p = phi * *p * phi.transpose() + qd;
     symmetrize(p);
 }
@@ -212,6 +222,18 @@ mod tests {
         for _ in 0..36_000 {
             propagate(&mut p, &f, &nz, dt);
         }
+        // The second-order Q_d agrees with the trapezoidal form to third order in Δt.
+        let q = Mat15::from_diagonal(&nz.density());
+        let phi = transition(&f, dt);
+        let trap = (phi * q * phi.transpose() + q) * (0.5 * dt);
+        let mut p0 = Mat15::zeros();
+        propagate(&mut p0, &f, &nz, dt);
+        let p_trap = phi * Mat15::zeros() * phi.transpose() + trap;
+        assert!(
+            (p0 - p_trap).amax() < 1e-6 * p_trap.amax(),
+            "{}",
+            (p0 - p_trap).amax()
+        );
         // Stationary bias variance is σ² = 1e-14 and stays there.
         assert!((p[(9, 9)] - 1e-14).abs() < 1e-3 * 1e-14, "{}", p[(9, 9)]);
         // Attitude variance from ARW alone is arw²·t; the bias adds a positive part.

@@ -76,41 +76,109 @@ pub fn c_g_grid(sigma_rad: f64) -> Matrix3<f64> {
     Matrix3::new(c, -s, 0.0, s, c, 0.0, 0.0, 0.0, 1.0)
 }
 
-/// Rate of change of the ellipsoid normal, u̇ (ECEF), for Earth-relative
-/// velocity `v_e`: (v_E/(R_N+h))·E + (v_N/(R_M+h))·N. Frame-free and finite at
-/// the poles (there R_M = R_N, so the arbitrary meridian drops out).
+/// The local geometry of one geodetic point, computed once: the trigonometric
+/// values, geographic and grid axes in ECEF, radii and normal gravity. The
+/// mechanization evaluates C_e^n, transport rate and gravity at three points
+/// per step; computing each from this saves ~20 sin/cos per IMU sample.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Local {
+    pub geo: Geodetic,
+    pub sin_lat: f64,
+    pub cos_lat: f64,
+    pub east: Vector3<f64>,
+    pub north: Vector3<f64>,
+    pub up: Vector3<f64>,
+    pub rm: f64,
+    pub rn: f64,
+    pub gravity: f64,
+}
+
+impl Local {
+    pub fn new(geo: &Geodetic) -> Self {
+        let (sl, cl) = geo.lat_rad.sin_cos();
+        let (so, co) = geo.lon_rad.sin_cos();
+        let (rm, rn) = earth::radii_from_sin(sl);
+        Self {
+            geo: *geo,
+            sin_lat: sl,
+            cos_lat: cl,
+            east: Vector3::new(-so, co, 0.0),
+            north: Vector3::new(-sl * co, -sl * so, cl),
+            up: Vector3::new(cl * co, cl * so, sl),
+            rm,
+            rn,
+            gravity: earth::normal_gravity_from_sin(sl, geo.h_m),
+        }
+    }
+
+    /// C_e^g: rows east, north, up.
+    pub fn c_e_g(&self) -> Matrix3<f64> {
+        Matrix3::from_rows(&[
+            self.east.transpose(),
+            self.north.transpose(),
+            self.up.transpose(),
+        ])
+    }
+
+    /// Grid axes from the geometric definition (grid north = unit(up × ŷ_e)).
+    pub fn grid_axes(&self) -> [Vector3<f64>; 3] {
+        let north = self.up.cross(&Vector3::y()).normalize();
+        [north.cross(&self.up), north, self.up]
+    }
+
+    /// C_e^G: rows grid east, grid north, up.
+    pub fn c_e_grid(&self) -> Matrix3<f64> {
+        let [e, n, u] = self.grid_axes();
+        Matrix3::from_rows(&[e.transpose(), n.transpose(), u.transpose()])
+    }
+
+    /// u̇ (ECEF) for Earth-relative velocity `v_e`: (v_E/(R_N+h))·E + (v_N/(R_M+h))·N.
+    /// Frame-free and finite at the poles (there R_M = R_N, so the arbitrary meridian drops out).
+    pub fn up_rate(&self, v_e: &Vector3<f64>) -> Vector3<f64> {
+        let h = self.geo.h_m;
+        self.east * (v_e.dot(&self.east) / (self.rn + h))
+            + self.north * (v_e.dot(&self.north) / (self.rm + h))
+    }
+
+    /// ω_eg^g for ENU velocity `v_g`; singular at the poles (tan L).
+    pub fn transport_rate_g(&self, v_g: &Vector3<f64>) -> Vector3<f64> {
+        let h = self.geo.h_m;
+        Vector3::new(
+            -v_g.y / (self.rm + h),
+            v_g.x / (self.rn + h),
+            v_g.x * self.sin_lat / self.cos_lat / (self.rn + h),
+        )
+    }
+
+    /// ω_eG^G for Earth-relative velocity `v_e` (ECEF axes), from the time
+    /// derivative of the geometric grid axes: [−N_G·u̇, E_G·u̇, −E_G·(u̇ × ŷ)/|u × ŷ|].
+    pub fn transport_rate_grid(&self, v_e: &Vector3<f64>) -> Vector3<f64> {
+        let u_dot = self.up_rate(v_e);
+        let cross = self.up.cross(&Vector3::y());
+        let d = cross.norm();
+        let north = cross / d;
+        let east = north.cross(&self.up);
+        Vector3::new(
+            -north.dot(&u_dot),
+            east.dot(&u_dot),
+            -east.dot(&u_dot.cross(&Vector3::y())) / d,
+        )
+    }
+}
+
+/// Rate of change of the ellipsoid normal (see [`Local::up_rate`]).
 pub fn up_rate_e(pos: &Geodetic, v_e: &Vector3<f64>) -> Vector3<f64> {
-    let [e, n, _] = enu_axes_e(pos.lat_rad, pos.lon_rad);
-    let (rm, rn) = earth::radii(pos.lat_rad);
-    e * (v_e.dot(&e) / (rn + pos.h_m)) + n * (v_e.dot(&n) / (rm + pos.h_m))
+    Local::new(pos).up_rate(v_e)
 }
 
-/// Transport rate of the geographic frame ω_eg^g for ENU velocity `v_g`.
-/// Singular at the poles (tan L): use only where the g frame is used.
+/// Transport rate of the geographic frame (see [`Local::transport_rate_g`]).
 pub fn transport_rate_g(pos: &Geodetic, v_g: &Vector3<f64>) -> Vector3<f64> {
-    let (rm, rn) = earth::radii(pos.lat_rad);
-    Vector3::new(
-        -v_g.y / (rm + pos.h_m),
-        v_g.x / (rn + pos.h_m),
-        v_g.x * pos.lat_rad.tan() / (rn + pos.h_m),
-    )
+    Local::new(pos).transport_rate_g(v_g)
 }
 
-/// Transport rate of the grid frame ω_eG^G for Earth-relative velocity
-/// `v_e` (ECEF axes), from the time derivative of the geometric grid axes:
-/// ω = [−N_G·u̇, E_G·u̇, −E_G·(u̇ × ŷ)/|u × ŷ|]. Finite at the poles.
+/// Transport rate of the grid frame (see [`Local::transport_rate_grid`]); finite at the poles.
 pub fn transport_rate_grid(pos: &Geodetic, v_e: &Vector3<f64>) -> Vector3<f64> {
-    let up = earth::up_e(pos.lat_rad, pos.lon_rad);
-    let u_dot = up_rate_e(pos, v_e);
-    let cross = up.cross(&Vector3::y());
-    let d = cross.norm();
-    let north = cross / d;
-    let east = north.cross(&up);
-    Vector3::new(
-        -north.dot(&u_dot),
-        east.dot(&u_dot),
-        -east.dot(&u_dot.cross(&Vector3::y())) / d,
-    )
+    Local::new(pos).transport_rate_grid(v_e)
 }
 
 /// Unit quaternion of an orthonormal DCM, closed form (Shepperd): the

@@ -19,7 +19,7 @@
 use nalgebra::{Matrix3, UnitQuaternion, Vector3};
 
 use crate::earth::{self, Geodetic};
-use crate::frames;
+use crate::frames::{self, Local};
 
 /// One IMU interval: increments in body axes over `dt_s`.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -53,19 +53,21 @@ pub trait NavFrame: Copy + std::fmt::Debug + PartialEq {
     type Pos: Copy + std::fmt::Debug + PartialEq;
     const KIND: FrameKind;
     fn geodetic(pos: &Self::Pos) -> Geodetic;
-    /// C_e^n at `geo`.
-    fn c_e_n(geo: &Geodetic) -> Matrix3<f64>;
-    /// Transport rate ω_en^n for nav-frame velocity `v_n` (with `c_e_n` at `geo`).
-    fn omega_en_n(geo: &Geodetic, c_e_n: &Matrix3<f64>, v_n: &Vector3<f64>) -> Vector3<f64>;
+    /// C_e^n at a point.
+    fn c_e_n(l: &Local) -> Matrix3<f64>;
+    /// Transport rate ω_en^n for nav-frame velocity `v_n` (with `c_e_n` at `l`).
+    fn omega_en_n(l: &Local, c_e_n: &Matrix3<f64>, v_n: &Vector3<f64>) -> Vector3<f64>;
     /// Midpoint of two positions (for mid-interval evaluation).
     fn midpoint(a: &Self::Pos, b: &Self::Pos) -> Self::Pos;
-    /// Trapezoidal position update from `v0` (start) to `v1` (end) with the
-    /// frame geometry evaluated at `mid` (start) and `end` (predicted end).
+    /// Trapezoidal position update from `v0` (start, nav axes at the start) to
+    /// `v1` (end, nav axes at the end), with radii at `mid` and C_e^n at the
+    /// start (`c_e_n0`) and the predicted end (`c_e_n1`).
+    #[allow(clippy::too_many_arguments)]
     fn advance(
         pos: &Self::Pos,
-        start: &Geodetic,
-        mid: &Geodetic,
-        end: &Geodetic,
+        mid: &Local,
+        c_e_n0: &Matrix3<f64>,
+        c_e_n1: &Matrix3<f64>,
         v0: &Vector3<f64>,
         v1: &Vector3<f64>,
         dt: f64,
@@ -85,11 +87,11 @@ impl NavFrame for Geo {
     fn geodetic(pos: &Geodetic) -> Geodetic {
         *pos
     }
-    fn c_e_n(geo: &Geodetic) -> Matrix3<f64> {
-        frames::c_e_g(geo.lat_rad, geo.lon_rad)
+    fn c_e_n(l: &Local) -> Matrix3<f64> {
+        l.c_e_g()
     }
-    fn omega_en_n(geo: &Geodetic, _c_e_n: &Matrix3<f64>, v_n: &Vector3<f64>) -> Vector3<f64> {
-        frames::transport_rate_g(geo, v_n)
+    fn omega_en_n(l: &Local, _c_e_n: &Matrix3<f64>, v_n: &Vector3<f64>) -> Vector3<f64> {
+        l.transport_rate_g(v_n)
     }
     fn midpoint(a: &Geodetic, b: &Geodetic) -> Geodetic {
         Geodetic::new(
@@ -100,18 +102,18 @@ impl NavFrame for Geo {
     }
     fn advance(
         pos: &Geodetic,
-        _start: &Geodetic,
-        mid: &Geodetic,
-        _end: &Geodetic,
+        mid: &Local,
+        _c_e_n0: &Matrix3<f64>,
+        _c_e_n1: &Matrix3<f64>,
         v0: &Vector3<f64>,
         v1: &Vector3<f64>,
         dt: f64,
     ) -> Geodetic {
-        let (rm, rn) = earth::radii(mid.lat_rad);
+        let h = mid.geo.h_m;
         let v = (v0 + v1) * 0.5;
         Geodetic::new(
-            pos.lat_rad + v.y / (rm + mid.h_m) * dt,
-            earth::wrap_pi(pos.lon_rad + v.x / ((rn + mid.h_m) * mid.lat_rad.cos()) * dt),
+            pos.lat_rad + v.y / (mid.rm + h) * dt,
+            earth::wrap_pi(pos.lon_rad + v.x / ((mid.rn + h) * mid.cos_lat) * dt),
             pos.h_m + v.z * dt,
         )
     }
@@ -123,28 +125,26 @@ impl NavFrame for Grid {
     fn geodetic(pos: &Vector3<f64>) -> Geodetic {
         earth::ecef_to_geodetic(pos)
     }
-    fn c_e_n(geo: &Geodetic) -> Matrix3<f64> {
-        frames::c_e_grid(geo.lat_rad, geo.lon_rad)
+    fn c_e_n(l: &Local) -> Matrix3<f64> {
+        l.c_e_grid()
     }
-    fn omega_en_n(geo: &Geodetic, c_e_n: &Matrix3<f64>, v_n: &Vector3<f64>) -> Vector3<f64> {
-        frames::transport_rate_grid(geo, &(c_e_n.transpose() * v_n))
+    fn omega_en_n(l: &Local, c_e_n: &Matrix3<f64>, v_n: &Vector3<f64>) -> Vector3<f64> {
+        l.transport_rate_grid(&(c_e_n.transpose() * v_n))
     }
     fn midpoint(a: &Vector3<f64>, b: &Vector3<f64>) -> Vector3<f64> {
         (a + b) * 0.5
     }
     fn advance(
         pos: &Vector3<f64>,
-        start: &Geodetic,
-        _mid: &Geodetic,
-        end: &Geodetic,
+        _mid: &Local,
+        c_e_n0: &Matrix3<f64>,
+        c_e_n1: &Matrix3<f64>,
         v0: &Vector3<f64>,
         v1: &Vector3<f64>,
         dt: f64,
     ) -> Vector3<f64> {
         // v0 is expressed in the grid frame at the start, v1 at the end.
-        let c_n_e0 = Self::c_e_n(start).transpose();
-        let c_n_e1 = Self::c_e_n(end).transpose();
-        pos + (c_n_e0 * v0 + c_n_e1 * v1) * (0.5 * dt)
+        pos + (c_e_n0.tr_mul(v0) + c_e_n1.tr_mul(v1)) * (0.5 * dt)
     }
 }
 
@@ -167,11 +167,16 @@ pub struct Environment {
 
 impl Environment {
     pub fn at<F: NavFrame>(geo: &Geodetic, v_n: &Vector3<f64>) -> Self {
-        let c_e_n = F::c_e_n(geo);
+        let l = Local::new(geo);
+        Self::with::<F>(&l, &F::c_e_n(&l), v_n)
+    }
+
+    /// The environment at a point whose geometry and C_e^n are known.
+    pub fn with<F: NavFrame>(l: &Local, c_e_n: &Matrix3<f64>, v_n: &Vector3<f64>) -> Self {
         Self {
             omega_ie_n: c_e_n * earth::omega_ie_e(),
-            omega_en_n: F::omega_en_n(geo, &c_e_n, v_n),
-            g_n: Vector3::new(0.0, 0.0, -earth::normal_gravity(geo.lat_rad, geo.h_m)),
+            omega_en_n: F::omega_en_n(l, c_e_n, v_n),
+            g_n: Vector3::new(0.0, 0.0, -l.gravity),
         }
     }
     pub fn omega_in_n(&self) -> Vector3<f64> {
@@ -218,17 +223,20 @@ pub fn mechanize_at<F: NavFrame>(
     let dv_sf_b = compensated_dv(prev, cur);
 
     // Predictor with the start-of-interval environment.
-    let env0 = Environment::at::<F>(&geo0, &s.v_n);
+    let l0 = Local::new(&geo0);
+    let c0 = F::c_e_n(&l0);
+    let env0 = Environment::with::<F>(&l0, &c0, &s.v_n);
     let v_pred = velocity_update(s, &dv_sf_b, &env0, &s.v_n, dt);
-    let pos_pred = F::advance(&s.pos, &geo0, &geo0, &geo0, &s.v_n, &v_pred, dt);
+    let pos_pred = F::advance(&s.pos, &l0, &c0, &c0, &s.v_n, &v_pred, dt);
 
     // Corrector at the predicted mid-interval point.
-    let geo_end = F::geodetic(&pos_pred);
-    let geo_mid = F::geodetic(&F::midpoint(&s.pos, &pos_pred));
+    let l_end = Local::new(&F::geodetic(&pos_pred));
+    let l_mid = Local::new(&F::geodetic(&F::midpoint(&s.pos, &pos_pred)));
+    let c_mid = F::c_e_n(&l_mid);
     let v_mid_pred = (s.v_n + v_pred) * 0.5;
-    let env_mid = Environment::at::<F>(&geo_mid, &v_mid_pred);
+    let env_mid = Environment::with::<F>(&l_mid, &c_mid, &v_mid_pred);
     let v1 = velocity_update(s, &dv_sf_b, &env_mid, &v_mid_pred, dt);
-    let pos1 = F::advance(&s.pos, &geo0, &geo_mid, &geo_end, &s.v_n, &v1, dt);
+    let pos1 = F::advance(&s.pos, &l_mid, &c0, &F::c_e_n(&l_end), &s.v_n, &v1, dt);
 
     // Attitude: body rotation with coning correction, nav-frame rotation at mid-interval.
     let phi_b = cur.d_theta + prev.d_theta.cross(&cur.d_theta) / 12.0;
@@ -323,7 +331,7 @@ impl AnyNav {
             q_b_e: &UnitQuaternion<f64>,
             pos: F::Pos,
         ) -> Nav<F> {
-            let c_e_n = F::c_e_n(geo);
+            let c_e_n = F::c_e_n(&Local::new(geo));
             Nav {
                 q_b_n: frames::quat_from_dcm(&c_e_n) * q_b_e,
                 v_n: c_e_n * v_e,
@@ -342,12 +350,12 @@ impl AnyNav {
         let geo = self.geodetic();
         let (c_e_n, q_b_n, v_n, r_e) = match self {
             AnyNav::Geographic(s) => (
-                Geo::c_e_n(&geo),
+                Geo::c_e_n(&Local::new(&geo)),
                 s.q_b_n,
                 s.v_n,
                 earth::geodetic_to_ecef(&s.pos),
             ),
-            AnyNav::Grid(s) => (Grid::c_e_n(&geo), s.q_b_n, s.v_n, s.pos),
+            AnyNav::Grid(s) => (Grid::c_e_n(&Local::new(&geo)), s.q_b_n, s.v_n, s.pos),
         };
         let q_n_e = frames::quat_from_dcm(&c_e_n.transpose());
         FrameFree {
@@ -362,8 +370,8 @@ impl AnyNav {
     pub fn c_e_n(&self) -> Matrix3<f64> {
         let geo = self.geodetic();
         match self {
-            AnyNav::Geographic(_) => Geo::c_e_n(&geo),
-            AnyNav::Grid(_) => Grid::c_e_n(&geo),
+            AnyNav::Geographic(_) => Geo::c_e_n(&Local::new(&geo)),
+            AnyNav::Grid(_) => Grid::c_e_n(&Local::new(&geo)),
         }
     }
 
@@ -428,8 +436,8 @@ impl AnyNav {
     /// C_e^n at a known geodetic position.
     pub fn c_e_n_at(&self, geo: &Geodetic) -> Matrix3<f64> {
         match self {
-            AnyNav::Geographic(_) => Geo::c_e_n(geo),
-            AnyNav::Grid(_) => Grid::c_e_n(geo),
+            AnyNav::Geographic(_) => Geo::c_e_n(&Local::new(geo)),
+            AnyNav::Grid(_) => Grid::c_e_n(&Local::new(geo)),
         }
     }
 

@@ -8,40 +8,54 @@ use msgs::{Solution, WireFrame};
 pub const HEADER: &str = "t_s,frame,lat_deg,lon_deg,h_m,x_m,y_m,z_m,vx,vy,vz,ve,vn,vu,qw,qx,qy,qz,heading_deg,pitch_deg,roll_deg,sig_e_m,sig_n_m,sig_u_m";
 
 /// Writes one row. Numbers are written in their shortest round-trip form
-/// (ryu), so a row reads back to the same f64 values bit for bit; no allocation.
+/// (ryu), so a row reads back to the same f64 values bit for bit. The row
+/// is assembled in a stack buffer and written once; no allocation.
 pub fn write_row<W: Write>(out: &mut W, s: &Solution) -> std::io::Result<()> {
-    let frame = WireFrame::from_u8(s.frame).map_or('?', WireFrame::letter);
+    // 24 columns of at most 24 bytes each, plus separators.
+    let mut line = [0u8; 640];
+    let mut n = 0;
     let mut buf = ryu::Buffer::new();
-    let mut num = |out: &mut W, x: f64| -> std::io::Result<()> {
-        out.write_all(b",")?;
-        out.write_all(buf.format(x).as_bytes())
+    let mut push = |bytes: &[u8], n: &mut usize| {
+        line[*n..*n + bytes.len()].copy_from_slice(bytes);
+        *n += bytes.len();
     };
-    let t = s.t_ns as f64 * 1e-9;
-    out.write_all(ryu::Buffer::new().format(t).as_bytes())?;
-    write!(out, ",{frame}")?;
-    for x in [s.lat_rad.to_degrees(), s.lon_rad.to_degrees(), s.h_m] {
-        num(out, x)?;
-    }
-    for x in s
-        .r_e_m
-        .iter()
-        .chain(&s.v_e_mps)
-        .chain(&s.v_enu_mps)
-        .chain(&s.q_b_e)
-    {
-        num(out, *x)?;
-    }
-    for x in [
+    push(buf.format(s.t_ns as f64 * 1e-9).as_bytes(), &mut n);
+    let frame = WireFrame::from_u8(s.frame).map_or(b'?', |f| f.letter() as u8);
+    push(&[b',', frame], &mut n);
+    let [x, y, z] = s.r_e_m;
+    let [vx, vy, vz] = s.v_e_mps;
+    let [ve, vn, vu] = s.v_enu_mps;
+    let [qw, qx, qy, qz] = s.q_b_e;
+    let [se, sn, su] = s.sigma_pos_enu_m;
+    for v in [
+        s.lat_rad.to_degrees(),
+        s.lon_rad.to_degrees(),
+        s.h_m,
+        x,
+        y,
+        z,
+        vx,
+        vy,
+        vz,
+        ve,
+        vn,
+        vu,
+        qw,
+        qx,
+        qy,
+        qz,
         s.heading_rad.to_degrees(),
         s.pitch_rad.to_degrees(),
         s.roll_rad.to_degrees(),
+        se,
+        sn,
+        su,
     ] {
-        num(out, x)?;
+        push(b",", &mut n);
+        push(buf.format(v).as_bytes(), &mut n);
     }
-    for x in s.sigma_pos_enu_m {
-        num(out, x)?;
-    }
-    out.write_all(b"\n")
+    push(b"\n", &mut n);
+    out.write_all(&line[..n])
 }
 
 /// One parsed row (the columns the evaluator needs).

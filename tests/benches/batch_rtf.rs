@@ -95,6 +95,26 @@ fn main() {
         }
     }
     let navigate = t.elapsed().as_secs_f64();
+    // The same without assembling solutions, and solution assembly alone.
+    let t = Instant::now();
+    let mut nav2 = Navigator::new(&init, &NavigatorConfig::default());
+    for r in &records {
+        match r {
+            Record::Imu(x) => drop(nav2.on_imu(x).expect("imu")),
+            Record::Srs(x) => drop(nav2.on_srs(x)),
+            Record::Cns(x) => drop(nav2.on_cns(x)),
+            Record::Baro(x) => drop(nav2.on_baro(x)),
+            _ => {}
+        }
+    }
+    let filter_only = t.elapsed().as_secs_f64();
+    let t = Instant::now();
+    let mut acc = 0.0;
+    for _ in 0..sols.len() {
+        acc += std::hint::black_box(&nav2).solution().h_m;
+    }
+    std::hint::black_box(acc);
+    let solution_only = t.elapsed().as_secs_f64();
     let t = Instant::now();
     let mut sink = BufWriter::with_capacity(1 << 20, std::io::sink());
     for s in &sols {
@@ -114,10 +134,66 @@ fn main() {
         FLIGHT_S / navigate,
         FLIGHT_S / csv
     );
+    let n = sols.len() as f64;
     println!(
-        "  per IMU sample: navigator {:.2} µs, CSV {:.2} µs",
-        navigate / sols.len() as f64 * 1e6,
-        csv / sols.len() as f64 * 1e6
+        "  per IMU sample: decode {:.2} µs, navigator {:.2} µs (filter and mechanization {:.2} µs, solution {:.2} µs), CSV {:.2} µs",
+        decode / n * 1e6,
+        navigate / n * 1e6,
+        filter_only / n * 1e6,
+        solution_only / n * 1e6,
+        csv / n * 1e6
     );
+    micro(&init);
     std::fs::remove_dir_all(&dir).ok();
+}
+
+/// Cost of the pieces of one filter cycle, each timed over many calls.
+fn micro(init: &msgs::InitState) {
+    use nalgebra::Vector3;
+    use polarnav::error_model;
+    use polarnav::filter;
+    use polarnav::mech::Increment;
+    let nav = Navigator::new(init, &NavigatorConfig::default());
+    let state = *nav.state();
+    let polarnav::mech::AnyNav::Grid(g) = state else {
+        return;
+    };
+    let c = g.q_b_n.to_rotation_matrix().into_inner();
+    let f_g = Vector3::new(0.0, 0.0, 9.8);
+    let n = 20_000;
+    let time = |label: &str, k: &mut dyn FnMut()| {
+        let t = Instant::now();
+        for _ in 0..n {
+            k();
+        }
+        println!(
+            "  micro: {label}: {:.3} µs",
+            t.elapsed().as_secs_f64() / f64::from(n) * 1e6
+        );
+    };
+    let mut f = error_model::f_grid(&g.pos, &g.v_n, &c, &f_g);
+    time("F in G (f_grid)", &mut || {
+        f = std::hint::black_box(error_model::f_grid(&g.pos, &g.v_n, &c, &f_g))
+    });
+    let noise = NavigatorConfig::default().filter.process_noise();
+    let mut p = *nav.covariance();
+    time("covariance propagation (Φ, ΦPΦᵀ, Q_d)", &mut || {
+        filter::propagate(std::hint::black_box(&mut p), &f, &noise, 0.05)
+    });
+    let inc = Increment {
+        d_theta: Vector3::new(1e-7, 2e-7, 3e-7),
+        d_v: Vector3::new(0.0, 0.0, 0.049),
+        dt_s: 0.005,
+    };
+    let mut st = state;
+    time("mechanization step in G", &mut || {
+        st = std::hint::black_box(state).mechanize(&inc, &inc)
+    });
+    let geo = state.geodetic();
+    time("ecef_to_geodetic", &mut || {
+        let _ = std::hint::black_box(polarnav::earth::ecef_to_geodetic(&std::hint::black_box(
+            g.pos,
+        )));
+    });
+    let _ = (geo, st);
 }
