@@ -9,10 +9,10 @@
 //!   nav-frame rotation ζ = ω_in^n·Δt at mid-interval;
 //! - velocity: rotation (½Δθ×Δv) and sculling ((Δθ_{k-1}×Δv_k + Δv_{k-1}×Δθ_k)/12)
 //!   compensation, nav-frame rotation (I − ½ζ×), gravity and Coriolis at mid-interval;
-//! - position: trapezoidal in velocity with mid-interval radii.
+//! - position: trapezoidal in the position rates.
 //!
-//! Mid-interval quantities come from a predictor step (start-of-interval
-//! environment) followed by a corrector at the predicted midpoint, so no
+//! Mid-interval quantities are the mean of the start and of a predicted end
+//! (a predictor step with the start-of-interval environment), so no
 //! history beyond the previous increment is needed and a frame switch
 //! between two steps needs no extra conversion.
 
@@ -57,15 +57,14 @@ pub trait NavFrame: Copy + std::fmt::Debug + PartialEq {
     fn c_e_n(l: &Local) -> Matrix3<f64>;
     /// Transport rate ω_en^n for nav-frame velocity `v_n` (with `c_e_n` at `l`).
     fn omega_en_n(l: &Local, c_e_n: &Matrix3<f64>, v_n: &Vector3<f64>) -> Vector3<f64>;
-    /// Midpoint of two positions (for mid-interval evaluation).
-    fn midpoint(a: &Self::Pos, b: &Self::Pos) -> Self::Pos;
     /// Trapezoidal position update from `v0` (start, nav axes at the start) to
-    /// `v1` (end, nav axes at the end), with radii at `mid` and C_e^n at the
-    /// start (`c_e_n0`) and the predicted end (`c_e_n1`).
+    /// `v1` (end, nav axes at the end), with the geometry at the start (`l0`,
+    /// `c_e_n0`) and at the predicted end (`l1`, `c_e_n1`).
     #[allow(clippy::too_many_arguments)]
     fn advance(
         pos: &Self::Pos,
-        mid: &Local,
+        l0: &Local,
+        l1: &Local,
         c_e_n0: &Matrix3<f64>,
         c_e_n1: &Matrix3<f64>,
         v0: &Vector3<f64>,
@@ -93,28 +92,23 @@ impl NavFrame for Geo {
     fn omega_en_n(l: &Local, _c_e_n: &Matrix3<f64>, v_n: &Vector3<f64>) -> Vector3<f64> {
         l.transport_rate_g(v_n)
     }
-    fn midpoint(a: &Geodetic, b: &Geodetic) -> Geodetic {
-        Geodetic::new(
-            0.5 * (a.lat_rad + b.lat_rad),
-            a.lon_rad + 0.5 * earth::wrap_pi(b.lon_rad - a.lon_rad),
-            0.5 * (a.h_m + b.h_m),
-        )
-    }
     fn advance(
         pos: &Geodetic,
-        mid: &Local,
+        l0: &Local,
+        l1: &Local,
         _c_e_n0: &Matrix3<f64>,
         _c_e_n1: &Matrix3<f64>,
         v0: &Vector3<f64>,
         v1: &Vector3<f64>,
         dt: f64,
     ) -> Geodetic {
-        let h = mid.geo.h_m;
-        let v = (v0 + v1) * 0.5;
+        // Trapezoid of L̇ = v_N/(R_M+h), λ̇ = v_E/((R_N+h) cos L), ḣ = v_U.
+        let lat_rate = |l: &Local, v: &Vector3<f64>| v.y / (l.rm + l.geo.h_m);
+        let lon_rate = |l: &Local, v: &Vector3<f64>| v.x / ((l.rn + l.geo.h_m) * l.cos_lat);
         Geodetic::new(
-            pos.lat_rad + v.y / (mid.rm + h) * dt,
-            earth::wrap_pi(pos.lon_rad + v.x / ((mid.rn + h) * mid.cos_lat) * dt),
-            pos.h_m + v.z * dt,
+            pos.lat_rad + 0.5 * (lat_rate(l0, v0) + lat_rate(l1, v1)) * dt,
+            earth::wrap_pi(pos.lon_rad + 0.5 * (lon_rate(l0, v0) + lon_rate(l1, v1)) * dt),
+            pos.h_m + 0.5 * (v0.z + v1.z) * dt,
         )
     }
 }
@@ -131,12 +125,10 @@ impl NavFrame for Grid {
     fn omega_en_n(l: &Local, c_e_n: &Matrix3<f64>, v_n: &Vector3<f64>) -> Vector3<f64> {
         l.transport_rate_grid(&(c_e_n.transpose() * v_n))
     }
-    fn midpoint(a: &Vector3<f64>, b: &Vector3<f64>) -> Vector3<f64> {
-        (a + b) * 0.5
-    }
     fn advance(
         pos: &Vector3<f64>,
-        _mid: &Local,
+        _l0: &Local,
+        _l1: &Local,
         c_e_n0: &Matrix3<f64>,
         c_e_n1: &Matrix3<f64>,
         v0: &Vector3<f64>,
@@ -227,16 +219,21 @@ pub fn mechanize_at<F: NavFrame>(
     let c0 = F::c_e_n(&l0);
     let env0 = Environment::with::<F>(&l0, &c0, &s.v_n);
     let v_pred = velocity_update(s, &dv_sf_b, &env0, &s.v_n, dt);
-    let pos_pred = F::advance(&s.pos, &l0, &c0, &c0, &s.v_n, &v_pred, dt);
+    let pos_pred = F::advance(&s.pos, &l0, &l0, &c0, &c0, &s.v_n, &v_pred, dt);
 
-    // Corrector at the predicted mid-interval point.
-    let l_end = Local::new(&F::geodetic(&pos_pred));
-    let l_mid = Local::new(&F::geodetic(&F::midpoint(&s.pos, &pos_pred)));
-    let c_mid = F::c_e_n(&l_mid);
+    // Corrector: the mid-interval environment as the mean of the start and
+    // the predicted end (trapezoidal; second order like the midpoint rule).
+    let l1 = Local::new(&F::geodetic(&pos_pred));
+    let c1 = F::c_e_n(&l1);
+    let env1 = Environment::with::<F>(&l1, &c1, &v_pred);
+    let env_mid = Environment {
+        omega_ie_n: (env0.omega_ie_n + env1.omega_ie_n) * 0.5,
+        omega_en_n: (env0.omega_en_n + env1.omega_en_n) * 0.5,
+        g_n: (env0.g_n + env1.g_n) * 0.5,
+    };
     let v_mid_pred = (s.v_n + v_pred) * 0.5;
-    let env_mid = Environment::with::<F>(&l_mid, &c_mid, &v_mid_pred);
     let v1 = velocity_update(s, &dv_sf_b, &env_mid, &v_mid_pred, dt);
-    let pos1 = F::advance(&s.pos, &l_mid, &c0, &F::c_e_n(&l_end), &s.v_n, &v1, dt);
+    let pos1 = F::advance(&s.pos, &l0, &l1, &c0, &c1, &s.v_n, &v1, dt);
 
     // Attitude: body rotation with coning correction, nav-frame rotation at mid-interval.
     let phi_b = cur.d_theta + prev.d_theta.cross(&cur.d_theta) / 12.0;

@@ -8,13 +8,13 @@ use msgs::{Solution, WireFrame};
 pub const HEADER: &str = "t_s,frame,lat_deg,lon_deg,h_m,x_m,y_m,z_m,vx,vy,vz,ve,vn,vu,qw,qx,qy,qz,heading_deg,pitch_deg,roll_deg,sig_e_m,sig_n_m,sig_u_m";
 
 /// Writes one row. Numbers are written in their shortest round-trip form
-/// (ryu), so a row reads back to the same f64 values bit for bit. The row
+/// (zmij, Schubfach-based), so a row reads back to the same f64 values bit for bit. The row
 /// is assembled in a stack buffer and written once; no allocation.
 pub fn write_row<W: Write>(out: &mut W, s: &Solution) -> std::io::Result<()> {
     // 24 columns of at most 24 bytes each, plus separators.
     let mut line = [0u8; 640];
     let mut n = 0;
-    let mut buf = ryu::Buffer::new();
+    let mut buf = zmij::Buffer::new();
     let mut push = |bytes: &[u8], n: &mut usize| {
         line[*n..*n + bytes.len()].copy_from_slice(bytes);
         *n += bytes.len();
@@ -175,5 +175,56 @@ mod tests {
         assert!((rows[0].lat_deg - 1.2f64.to_degrees()).abs() < 1e-9);
         assert!(rows[0].sigma_enu_m[0].is_nan());
         std::fs::remove_dir_all(&dir).ok();
+    }
+
+    #[test]
+    fn numbers_read_back_bit_for_bit() {
+        let mut s = Solution {
+            t_ns: 123_456_789_012,
+            frame: 0,
+            ..Default::default()
+        };
+        s.lat_rad = 1.234_567_890_123_456_7;
+        s.lon_rad = -std::f64::consts::PI;
+        s.h_m = 18_000.000_000_123;
+        s.r_e_m = [6_378_137.123_456_789, -1.0e-300, 5.0e-324];
+        s.v_e_mps = [250.1, f64::MIN_POSITIVE, -0.0];
+        s.q_b_e = [
+            std::f64::consts::FRAC_1_SQRT_2,
+            0.0,
+            -std::f64::consts::FRAC_1_SQRT_2,
+            1e-17,
+        ];
+        s.heading_rad = std::f64::consts::TAU - 1e-12;
+        s.sigma_pos_enu_m = [3.0, 4.5e-3, 1e10];
+        let mut buf = Vec::new();
+        write_row(&mut buf, &s).expect("write");
+        let line = String::from_utf8(buf).expect("utf8");
+        let f: Vec<f64> = line
+            .trim()
+            .split(',')
+            .enumerate()
+            .filter(|(i, _)| *i != 1)
+            .map(|(_, x)| x.parse().expect("number"))
+            .collect();
+        let expect = [
+            s.t_ns as f64 * 1e-9,
+            s.lat_rad.to_degrees(),
+            s.lon_rad.to_degrees(),
+            s.h_m,
+            s.r_e_m[0],
+            s.r_e_m[1],
+            s.r_e_m[2],
+            s.v_e_mps[0],
+            s.v_e_mps[1],
+            s.v_e_mps[2],
+        ];
+        for (i, (a, b)) in f.iter().zip(expect).enumerate() {
+            assert_eq!(a.to_bits(), b.to_bits(), "column {i}: {a} vs {b}");
+        }
+        let q = &f[13..17];
+        for (a, b) in q.iter().zip(s.q_b_e) {
+            assert_eq!(a.to_bits(), b.to_bits());
+        }
     }
 }
