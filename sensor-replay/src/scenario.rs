@@ -182,20 +182,9 @@ pub struct InitErrorSpec {
     pub heading_arcmin: f64,
 }
 
-/// Navigator settings a scenario may impose.
-#[derive(Debug, Clone, Default, PartialEq, serde::Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct NavigatorOverrides {
-    pub switch_enter_deg: Option<f64>,
-    pub switch_leave_deg: Option<f64>,
-    /// Forced frame-switch times (s from the start); disables the latitude rule.
-    pub force_switch_s: Option<Vec<f64>>,
-    /// The navigator's IMU noise model (datasheet values of the scenario's IMU class).
-    pub gyro_bias_dph: Option<f64>,
-    pub accel_bias_ug: Option<f64>,
-    pub arw_dpsh: Option<f64>,
-    pub vrw_ug_psqhz: Option<f64>,
-}
+/// Navigator settings a scenario may impose: the navigator's own type, so
+/// the simulator validates exactly what `nav-daemon batch` will apply.
+pub type NavigatorOverrides = polarnav::config::ScenarioOverrides;
 
 /// One trajectory segment. Changes ramp in and out smoothly over `ramp_s`.
 #[derive(Debug, Clone, Deserialize)]
