@@ -23,3 +23,4 @@ pub mod mech;
 pub mod navigator;
 pub mod solution_csv;
 pub mod switch;
+pub mod transport;
