@@ -91,6 +91,31 @@ impl BatchError {
     }
 }
 
+fn write_solution_row<W: Write>(
+    out: &mut W,
+    n: &Navigator,
+    report: &mut BatchReport,
+    progress_ns: u64,
+    next_progress_ns: &mut u64,
+) -> std::io::Result<()> {
+    let sol = n.solution();
+    solution_csv::write_row(out, &sol)?;
+    report.rows += 1;
+    if progress_ns > 0 && sol.t_ns >= *next_progress_ns {
+        *next_progress_ns += progress_ns;
+        eprintln!(
+            "batch: t = {:7.1} s  frame {}  lat {:9.5}°  lon {:10.5}°  h {:8.1} m  heading {:6.2}°",
+            sol.t_ns as f64 * 1e-9,
+            n.state().kind().to_wire().letter(),
+            sol.lat_rad.to_degrees(),
+            sol.lon_rad.to_degrees(),
+            sol.h_m,
+            sol.heading_rad.to_degrees()
+        );
+    }
+    Ok(())
+}
+
 fn apply_cli_frame(opts: &BatchOptions, frame: &mut FrameConfig) {
     if let Some(f) = &opts.force_switch_s {
         frame.force_switch_s.clone_from(f);
@@ -128,6 +153,7 @@ pub fn run<R: BufRead, W: Write>(
     let mut rejected_logged = 0u32;
     let progress_ns = (opts.progress_every_s.max(0.0) * 1e9) as u64;
     let mut next_progress_ns = progress_ns;
+    let mut row_pending = false;
     while let Some(rec) = reader.next_record().map_err(read_err)? {
         match rec {
             Record::Header(h) => {
@@ -150,6 +176,16 @@ pub fn run<R: BufRead, W: Write>(
                     filter: report.filter.clone(),
                     aid_settings: config.aids.clone(),
                 };
+                if let Some(n) = nav.as_ref().filter(|_| row_pending) {
+                    write_solution_row(
+                        &mut out,
+                        n,
+                        &mut report,
+                        progress_ns,
+                        &mut next_progress_ns,
+                    )?;
+                    row_pending = false;
+                }
                 if nav.is_some() {
                     tracing::info!(t_ns = init.t_ns, "new init record: re-initializing");
                 }
@@ -215,28 +251,28 @@ pub fn run<R: BufRead, W: Write>(
                     report.imu_before_init += 1;
                     continue;
                 };
+                if row_pending {
+                    write_solution_row(
+                        &mut out,
+                        n,
+                        &mut report,
+                        progress_ns,
+                        &mut next_progress_ns,
+                    )?;
+                    row_pending = false;
+                }
                 match n.on_imu(&s) {
                     Ok(o) => {
                         if let Some(sw) = o.switch {
                             tracing::info!(t_s = sw.t_ns as f64 * 1e-9, from = ?sw.from, to = ?sw.to, lat_deg = sw.lat_rad.to_degrees(), "frame switch");
                             report.switches.push(sw);
                         }
-                        let sol = n.solution();
-                        solution_csv::write_row(&mut out, &sol)?;
-                        report.rows += 1;
+                        // The row of this sample is written when the next sample arrives
+                        // (or at the end), after the aids stamped up to its time: a
+                        // solution at t includes every measurement stamped <= t, as the
+                        // live daemon publishes it.
+                        row_pending = true;
                         report.last_t_ns = s.t_ns;
-                        if progress_ns > 0 && s.t_ns >= next_progress_ns {
-                            next_progress_ns += progress_ns;
-                            eprintln!(
-                                "batch: t = {:7.1} s  frame {}  lat {:9.5}°  lon {:10.5}°  h {:8.1} m  heading {:6.2}°",
-                                s.t_ns as f64 * 1e-9,
-                                n.state().kind().to_wire().letter(),
-                                sol.lat_rad.to_degrees(),
-                                sol.lon_rad.to_degrees(),
-                                sol.h_m,
-                                sol.heading_rad.to_degrees()
-                            );
-                        }
                     }
                     Err(e) => {
                         report.imu_rejected += 1;
@@ -287,6 +323,9 @@ pub fn run<R: BufRead, W: Write>(
             }
             Record::Truth(_) | Record::Solution(_) | Record::Status(_) => {}
         }
+    }
+    if let Some(n) = nav.as_ref().filter(|_| row_pending) {
+        write_solution_row(&mut out, n, &mut report, progress_ns, &mut next_progress_ns)?;
     }
     report.read = reader.report().clone();
     if let Some((_, _, acc)) = &aligning {

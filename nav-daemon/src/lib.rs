@@ -19,6 +19,7 @@ pub mod error_model;
 pub mod filter;
 pub mod frame_select;
 pub mod frames;
+pub mod live;
 pub mod mech;
 pub mod navigator;
 pub mod solution_csv;

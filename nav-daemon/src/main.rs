@@ -189,10 +189,36 @@ fn main() -> ExitCode {
             }
         }
         None => {
-            eprintln!(
-                "error: the live iceoryx2 service is not in this build yet; use `nav-daemon batch` (see README)"
-            );
-            ExitCode::from(2)
+            let stop = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+            let flag = std::sync::Arc::clone(&stop);
+            if let Err(e) =
+                ctrlc::set_handler(move || flag.store(true, std::sync::atomic::Ordering::Relaxed))
+            {
+                eprintln!("error: cannot install the SIGINT/SIGTERM handler: {e}");
+                return ExitCode::from(1);
+            }
+            let transport = polarnav::transport::TransportConfig::new(&config.prefix);
+            match polarnav::live::run(
+                &config,
+                &transport,
+                &polarnav::live::LiveOptions::default(),
+                &stop,
+            ) {
+                Ok(r) => {
+                    tracing::info!(
+                        cycles = r.cycles,
+                        solutions = r.solutions,
+                        reinits = r.reinits,
+                        overruns = r.overruns,
+                        "nav-daemon: clean exit"
+                    );
+                    ExitCode::SUCCESS
+                }
+                Err(e) => {
+                    eprintln!("error: {e}");
+                    ExitCode::from(1)
+                }
+            }
         }
     }
 }

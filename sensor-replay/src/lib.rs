@@ -3,7 +3,9 @@
 pub mod eval;
 pub mod export;
 pub mod interop;
+pub mod live;
 pub mod logfile;
+pub mod monitor;
 pub mod plots;
 pub mod scenario;
 pub mod sensors;

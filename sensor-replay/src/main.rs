@@ -36,6 +36,39 @@ enum Cmd {
         #[arg(long)]
         perfect: bool,
     },
+    /// Publish a navlog's init and sensor records over iceoryx2 at wall-clock rate.
+    Play {
+        log: PathBuf,
+        /// Time scale (2 = twice as fast).
+        #[arg(long, default_value_t = 1.0)]
+        speed: f64,
+        /// Replay again and again (each pass re-initializes, the time base keeps increasing).
+        #[arg(long = "loop")]
+        repeat: bool,
+        /// Number of passes with --loop (0 = until stopped).
+        #[arg(long, default_value_t = 0)]
+        passes: u64,
+        #[arg(long, default_value = msgs::service::DEFAULT_PREFIX)]
+        prefix: String,
+    },
+    /// Flight recorder: subscribe to every service and write a navlog until stopped.
+    Record {
+        #[arg(long)]
+        out: PathBuf,
+        #[arg(long, default_value = msgs::service::DEFAULT_PREFIX)]
+        prefix: String,
+        /// Stop after this many seconds.
+        #[arg(long)]
+        duration: Option<f64>,
+    },
+    /// Live monitor: solution and status in place, a few times per second.
+    Listen {
+        #[arg(long, default_value = msgs::service::DEFAULT_PREFIX)]
+        prefix: String,
+        /// Stop after this many seconds.
+        #[arg(long)]
+        duration: Option<f64>,
+    },
     /// Export a navlog's truth (and more) to text formats.
     Export {
         log: PathBuf,
@@ -191,6 +224,83 @@ fn run(cli: Cli) -> Result<(), Fail> {
             );
             Ok(())
         }
+        Cmd::Play {
+            log,
+            speed,
+            repeat,
+            passes,
+            prefix,
+        } => {
+            if !(speed.is_finite() && speed > 0.0) {
+                return Err(bad(format!(
+                    "--speed: expected a positive number, got {speed}"
+                )));
+            }
+            let c = logfile::load(&log).map_err(|e| bad(e.to_string()))?;
+            if !c.report.is_clean() {
+                eprintln!("warning: {}: {}", log.display(), c.report);
+            }
+            if c.init.is_empty() {
+                return Err(bad(format!("{}: no init record to publish", log.display())));
+            }
+            let stop = stop_flag()?;
+            let loops = if repeat {
+                if passes == 0 { u64::MAX } else { passes }
+            } else {
+                1
+            };
+            let cfg = polarnav::transport::TransportConfig::new(&prefix);
+            eprintln!(
+                "play: {} ({} IMU samples) on {prefix}/... at {speed}x",
+                log.display(),
+                c.imu.len()
+            );
+            let p = sensor_replay::live::play(&c, &cfg, speed, loops, &stop)
+                .map_err(|e| Fail(1, e.to_string()))?;
+            println!(
+                "play: {} samples published; pacing lateness p50 {:.1} µs, p99 {:.1} µs, max {:.1} µs",
+                p.published, p.p50_us, p.p99_us, p.max_us
+            );
+            Ok(())
+        }
+        Cmd::Record {
+            out,
+            prefix,
+            duration,
+        } => {
+            let stop = stop_flag()?;
+            let f = File::create(&out)
+                .map_err(|e| Fail(1, format!("{}: cannot create: {e}", out.display())))?;
+            let cfg = polarnav::transport::TransportConfig::new(&prefix);
+            eprintln!(
+                "record: {prefix}/... -> {} (stop with Ctrl-C)",
+                out.display()
+            );
+            let n = sensor_replay::live::record(
+                &cfg,
+                BufWriter::new(f),
+                &stop,
+                duration.map(std::time::Duration::from_secs_f64),
+            )
+            .map_err(|e| Fail(1, e.to_string()))?;
+            println!(
+                "record: {} records ({} solutions) written to {}",
+                n.records,
+                n.solutions,
+                out.display()
+            );
+            Ok(())
+        }
+        Cmd::Listen { prefix, duration } => {
+            let stop = stop_flag()?;
+            let cfg = polarnav::transport::TransportConfig::new(&prefix);
+            sensor_replay::monitor::listen(
+                &cfg,
+                &stop,
+                duration.map(std::time::Duration::from_secs_f64),
+            )
+            .map_err(|e| Fail(1, e.to_string()))
+        }
         Cmd::ImportKfgins {
             imu,
             truth,
@@ -340,6 +450,15 @@ fn run(cli: Cli) -> Result<(), Fail> {
             Ok(())
         }
     }
+}
+
+/// SIGINT/SIGTERM set the returned flag (the loops finish their cycle and exit cleanly).
+fn stop_flag() -> Result<std::sync::Arc<std::sync::atomic::AtomicBool>, Fail> {
+    let stop = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+    let flag = std::sync::Arc::clone(&stop);
+    ctrlc::set_handler(move || flag.store(true, std::sync::atomic::Ordering::Relaxed))
+        .map_err(|e| Fail(1, format!("cannot install the signal handler: {e}")))?;
+    Ok(stop)
 }
 
 fn import_fail(e: ImportError) -> Fail {

@@ -1,0 +1,452 @@
+//! The live service: a fixed-rate cycle locked to the IMU over iceoryx2.
+//!
+//! A WaitSet wakes on the IMU topic's event and on an interval tick at the
+//! nominal IMU period (which detects a missing IMU and keeps status flowing).
+//! Each cycle drains every subscriber into preallocated buffers, orders the
+//! inputs by time, runs the same [`Navigator`] as `batch` and publishes a
+//! solution per IMU sample; status goes out at 1 Hz. Aids ahead of the
+//! newest IMU sample wait for it; late aids are fused at their own time
+//! stamp by the navigator. A new init message re-initializes (and is counted).
+//! systemd: READY=1 after the first valid solution, WATCHDOG=1 from this
+//! loop only, STATUS= once a second.
+
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
+
+use iceoryx2::prelude::*;
+use iceoryx2::waitset::WaitSetRunResult;
+use msgs::service::Topic;
+use msgs::{
+    BaroSample, CnsFix, ImuSample, InitState, Solution, SrsSample, Status, StreamCounters,
+    solution_flags,
+};
+
+use crate::config::Config;
+use crate::navigator::{Navigator, NavigatorConfig};
+use crate::transport::{self, TopicPublisher, TopicSubscriber, TransportConfig, TransportError};
+
+/// Settings of the live loop.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LiveOptions {
+    /// Nominal IMU rate (Hz): the interval tick and the overrun budget.
+    pub imu_rate_hz: f64,
+    /// IMU silent for this many nominal periods → IMU lost.
+    pub imu_lost_periods: u32,
+    /// Status period.
+    pub status_period: Duration,
+}
+
+impl Default for LiveOptions {
+    fn default() -> Self {
+        Self {
+            imu_rate_hz: 200.0,
+            imu_lost_periods: 5,
+            status_period: Duration::from_secs(1),
+        }
+    }
+}
+
+/// Why the service stopped with an error.
+#[derive(Debug, thiserror::Error)]
+pub enum LiveError {
+    #[error(transparent)]
+    Transport(#[from] TransportError),
+    #[error("iceoryx2 waitset: {0}")]
+    WaitSet(String),
+}
+
+/// What a run did (for logs and tests).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct LiveReport {
+    pub cycles: u64,
+    pub solutions: u64,
+    pub reinits: u32,
+    pub overruns: u64,
+}
+
+/// Capacity of the per-cycle input buffers (a cycle normally sees one IMU
+/// sample; 45 ms stalls at 1 kHz leave ~45).
+const CAPACITY: usize = 1024;
+
+/// An aid sample waiting in the preallocated per-cycle buffer. Not boxed on
+/// purpose: boxing the SRS variant would allocate in the loop.
+#[allow(clippy::large_enum_variant)]
+#[derive(Debug, Clone, Copy)]
+enum Aid {
+    Srs(SrsSample),
+    Cns(CnsFix),
+    Baro(BaroSample),
+}
+
+impl Aid {
+    fn t_ns(&self) -> u64 {
+        match self {
+            Aid::Srs(x) => x.t_ns,
+            Aid::Cns(x) => x.t_ns,
+            Aid::Baro(x) => x.t_ns,
+        }
+    }
+}
+
+/// Counts sequence gaps of one stream (samples lost upstream or overwritten
+/// by the safe-overflow buffer).
+#[derive(Debug, Clone, Copy, Default)]
+struct SeqTracker {
+    next: Option<u64>,
+    gaps: u64,
+}
+
+impl SeqTracker {
+    fn see(&mut self, seq: u64) {
+        if let Some(n) = self.next
+            && seq > n
+        {
+            self.gaps += seq - n;
+        }
+        self.next = Some(seq.wrapping_add(1));
+    }
+}
+
+struct Ports {
+    imu: TopicSubscriber<ImuSample>,
+    srs: TopicSubscriber<SrsSample>,
+    cns: TopicSubscriber<CnsFix>,
+    baro: TopicSubscriber<BaroSample>,
+    init: TopicSubscriber<InitState>,
+    solution: TopicPublisher<Solution>,
+    status: TopicPublisher<Status>,
+}
+
+/// Runs the service until `stop` is set. Publishes a final status before returning.
+pub fn run(
+    config: &Config,
+    transport_cfg: &TransportConfig,
+    opts: &LiveOptions,
+    stop: &AtomicBool,
+) -> Result<LiveReport, LiveError> {
+    let node = transport::node(transport_cfg, "nav_daemon")?;
+    // Stale resources of dead nodes (e.g. a previous daemon killed with SIGKILL).
+    let _ = Node::<ipc::Service>::list(node.config(), |state| {
+        if let NodeState::Dead(view) = state {
+            let _ = view.try_remove_stale_resources();
+        }
+        CallbackProgression::Continue
+    });
+    let ports = Ports {
+        imu: TopicSubscriber::new(&node, transport_cfg, Topic::Imu)?,
+        srs: TopicSubscriber::new(&node, transport_cfg, Topic::Srs)?,
+        cns: TopicSubscriber::new(&node, transport_cfg, Topic::Cns)?,
+        baro: TopicSubscriber::new(&node, transport_cfg, Topic::Baro)?,
+        init: TopicSubscriber::new(&node, transport_cfg, Topic::Init)?,
+        solution: TopicPublisher::new(&node, transport_cfg, Topic::Solution)?,
+        status: TopicPublisher::new(&node, transport_cfg, Topic::Status)?,
+    };
+    let waitset = WaitSetBuilder::new()
+        .signal_handling_mode(SignalHandlingMode::Disabled)
+        .create::<ipc::Service>()
+        .map_err(|e| LiveError::WaitSet(format!("{e:?}")))?;
+    let period = Duration::from_secs_f64(1.0 / opts.imu_rate_hz);
+    let imu_guard = waitset
+        .attach_notification(ports.imu.listener())
+        .map_err(|e| LiveError::WaitSet(format!("{e:?}")))?;
+    let _tick = waitset
+        .attach_interval(period)
+        .map_err(|e| LiveError::WaitSet(format!("{e:?}")))?;
+    tracing::info!(prefix = %transport_cfg.prefix, imu_rate_hz = opts.imu_rate_hz, "nav-daemon live: services open, waiting for init and IMU");
+
+    let mut state = LoopState::new(config, opts);
+    loop {
+        let mut imu_event = false;
+        let result = waitset.wait_and_process_once(|id| {
+            imu_event |= id.has_event_from(&imu_guard);
+            CallbackProgression::Continue
+        });
+        match result {
+            Ok(WaitSetRunResult::Interrupt | WaitSetRunResult::TerminationRequest) => break,
+            Ok(_) => {}
+            Err(e) => return Err(LiveError::WaitSet(format!("{e:?}"))),
+        }
+        if imu_event {
+            ports.imu.clear_events();
+        }
+        let t0 = Instant::now();
+        state.cycle(&ports)?;
+        if state.account(t0.elapsed(), period) {
+            let st = state.status();
+            ports.status.publish(&st)?;
+            let line = status_line(
+                &st,
+                state
+                    .nav
+                    .as_ref()
+                    .map(|n| n.state().geodetic().lat_rad.to_degrees()),
+            );
+            let _ = sd_notify::notify(&[sd_notify::NotifyState::Status(&line)]);
+            state.reset_window();
+        }
+        if stop.load(Ordering::Relaxed) {
+            break;
+        }
+    }
+    ports.status.publish(&state.status())?;
+    let _ = sd_notify::notify(&[sd_notify::NotifyState::Stopping]);
+    tracing::info!(
+        cycles = state.report.cycles,
+        solutions = state.report.solutions,
+        "nav-daemon live: stopped, final status published"
+    );
+    Ok(state.report.clone())
+}
+
+/// The one-line systemd STATUS=: frame, latitude, aid freshness.
+pub fn status_line(s: &Status, lat_deg: Option<f64>) -> String {
+    let frame = msgs::WireFrame::from_u8(s.frame).map_or('?', msgs::WireFrame::letter);
+    let fresh = |a: &msgs::AidStatus| if a.fresh == 1 { "fresh" } else { "stale" };
+    let imu = if s.flags & solution_flags::IMU_LOST != 0 {
+        "LOST"
+    } else {
+        "ok"
+    };
+    let lat = lat_deg.map_or_else(|| "-".to_owned(), |l| format!("{l:.4}°"));
+    format!(
+        "frame {frame}, lat {lat}, switches {}, imu {imu}, srs {}, cns {}, baro {}, cycles {}, overruns {}",
+        s.switch_count,
+        fresh(&s.srs_aid),
+        fresh(&s.cns_aid),
+        fresh(&s.baro_aid),
+        s.cycles,
+        s.overruns
+    )
+}
+
+struct LoopState {
+    nav_cfg: NavigatorConfig,
+    init_cfg: Option<crate::config::InitSettings>,
+    opts: LiveOptions,
+    nav: Option<Navigator>,
+    imu_buf: Vec<ImuSample>,
+    aid_buf: Vec<Aid>,
+    init_buf: Vec<InitState>,
+    seq: [SeqTracker; 4],
+    rejected_before_init: u64,
+    last_imu_wall: Option<Instant>,
+    imu_lost: bool,
+    last_status: Instant,
+    ready_sent: bool,
+    last_watchdog: Instant,
+    cycle_time_sum: Duration,
+    cycle_time_max: Duration,
+    cycle_count_window: u64,
+    status_seq: u64,
+    report: LiveReport,
+}
+
+impl LoopState {
+    fn new(config: &Config, opts: &LiveOptions) -> Self {
+        Self {
+            nav_cfg: config.navigator(),
+            init_cfg: config.init.clone(),
+            opts: opts.clone(),
+            nav: None,
+            imu_buf: Vec::with_capacity(CAPACITY),
+            aid_buf: Vec::with_capacity(CAPACITY),
+            init_buf: Vec::with_capacity(16),
+            seq: [SeqTracker::default(); 4],
+            rejected_before_init: 0,
+            last_imu_wall: None,
+            imu_lost: false,
+            last_status: Instant::now(),
+            ready_sent: false,
+            last_watchdog: Instant::now(),
+            cycle_time_sum: Duration::ZERO,
+            cycle_time_max: Duration::ZERO,
+            cycle_count_window: 0,
+            status_seq: 0,
+            report: LiveReport::default(),
+        }
+    }
+
+    /// One cycle: drain, order, navigate, publish.
+    fn cycle(&mut self, ports: &Ports) -> Result<(), LiveError> {
+        self.report.cycles += 1;
+        let (imu_buf, aid_buf, init_buf, seq) = (
+            &mut self.imu_buf,
+            &mut self.aid_buf,
+            &mut self.init_buf,
+            &mut self.seq,
+        );
+        init_buf.clear();
+        ports.init.drain(|x| init_buf.push(x))?;
+        ports.imu.drain(|x| {
+            seq[0].see(x.seq);
+            if imu_buf.len() < CAPACITY {
+                imu_buf.push(x);
+            }
+        })?;
+        ports.srs.drain(|x| {
+            seq[1].see(x.seq);
+            if aid_buf.len() < CAPACITY {
+                aid_buf.push(Aid::Srs(x));
+            }
+        })?;
+        ports.cns.drain(|x| {
+            seq[2].see(x.seq);
+            if aid_buf.len() < CAPACITY {
+                aid_buf.push(Aid::Cns(x));
+            }
+        })?;
+        ports.baro.drain(|x| {
+            seq[3].see(x.seq);
+            if aid_buf.len() < CAPACITY {
+                aid_buf.push(Aid::Baro(x));
+            }
+        })?;
+        ports.srs.clear_events();
+        ports.cns.clear_events();
+        ports.baro.clear_events();
+        ports.init.clear_events();
+
+        if let Some(init) = self.init_buf.iter().max_by_key(|i| i.t_ns).copied() {
+            if self.nav.is_some() {
+                self.report.reinits += 1;
+                tracing::info!(
+                    t_ns = init.t_ns,
+                    reinit = self.report.reinits,
+                    "new init message: re-initializing"
+                );
+            } else {
+                tracing::info!(t_ns = init.t_ns, "init message received");
+            }
+            self.nav = Some(Navigator::new(&init, &self.nav_cfg));
+            // Inputs from before the new init belong to the previous pass.
+            self.imu_buf.retain(|s| s.t_ns > init.t_ns);
+            self.aid_buf.retain(|a| a.t_ns() > init.t_ns);
+        }
+        self.imu_buf.sort_unstable_by_key(|s| s.t_ns);
+        self.aid_buf.sort_unstable_by_key(Aid::t_ns);
+
+        if !self.imu_buf.is_empty() {
+            self.last_imu_wall = Some(Instant::now());
+            if self.imu_lost {
+                tracing::info!("IMU back");
+            }
+            self.imu_lost = false;
+        }
+        if self.nav.is_none()
+            && let (Some(ci), Some(first)) = (&self.init_cfg, self.imu_buf.first())
+        {
+            let t0 = first.t_ns.saturating_sub((first.dt_s * 1e9).round() as u64);
+            tracing::info!(
+                t_ns = t0,
+                "no init message: initializing from the configuration"
+            );
+            self.nav = Some(Navigator::new(&ci.to_init(t0), &self.nav_cfg));
+        }
+        let Some(nav) = self.nav.as_mut() else {
+            self.rejected_before_init += self.imu_buf.len() as u64;
+            self.imu_buf.clear();
+            self.aid_buf.clear();
+            return Ok(());
+        };
+
+        let mut next_aid = 0;
+        for k in 0..self.imu_buf.len() {
+            let s = self.imu_buf[k];
+            match nav.on_imu(&s) {
+                Ok(out) => {
+                    if let Some(sw) = out.switch {
+                        tracing::info!(t_s = sw.t_ns as f64 * 1e-9, from = ?sw.from, to = ?sw.to, lat_deg = sw.lat_rad.to_degrees(), count = sw.count, "frame switch");
+                    }
+                }
+                Err(e) => {
+                    tracing::warn!(t_ns = s.t_ns, seq = s.seq, "IMU sample rejected: {e}");
+                    continue;
+                }
+            }
+            // Aids up to this IMU time, in time order.
+            while next_aid < self.aid_buf.len() && self.aid_buf[next_aid].t_ns() <= nav.t_ns() {
+                let r = match &self.aid_buf[next_aid] {
+                    Aid::Srs(x) => nav.on_srs(x),
+                    Aid::Cns(x) => nav.on_cns(x),
+                    Aid::Baro(x) => nav.on_baro(x),
+                };
+                if let Err(e) = r {
+                    tracing::debug!("aid sample rejected: {e}");
+                }
+                next_aid += 1;
+            }
+            let mut sol = nav.solution();
+            if self.imu_lost {
+                sol.flags |= solution_flags::IMU_LOST;
+            }
+            ports.solution.publish(&sol)?;
+            self.report.solutions += 1;
+            if !self.ready_sent {
+                let _ = sd_notify::notify(&[sd_notify::NotifyState::Ready]);
+                self.ready_sent = true;
+                tracing::info!(t_ns = sol.t_ns, "first valid solution published: ready");
+            }
+        }
+        self.imu_buf.clear();
+        // Aids ahead of the newest IMU sample wait for it.
+        self.aid_buf.drain(..next_aid);
+        Ok(())
+    }
+
+    /// Timing, IMU-lost detection and watchdog; true when a status is due.
+    fn account(&mut self, elapsed: Duration, period: Duration) -> bool {
+        self.cycle_time_sum += elapsed;
+        self.cycle_time_max = self.cycle_time_max.max(elapsed);
+        self.cycle_count_window += 1;
+        if elapsed > period {
+            self.report.overruns += 1;
+        }
+        if let Some(t) = self.last_imu_wall
+            && !self.imu_lost
+            && t.elapsed() > period * self.opts.imu_lost_periods
+        {
+            self.imu_lost = true;
+            tracing::warn!(
+                "IMU lost: no sample for {} nominal periods",
+                self.opts.imu_lost_periods
+            );
+        }
+        if self.last_watchdog.elapsed() >= Duration::from_millis(100) {
+            let _ = sd_notify::notify(&[sd_notify::NotifyState::Watchdog]);
+            self.last_watchdog = Instant::now();
+        }
+        self.last_status.elapsed() >= self.opts.status_period
+    }
+
+    fn reset_window(&mut self) {
+        self.last_status = Instant::now();
+        self.cycle_time_sum = Duration::ZERO;
+        self.cycle_time_max = Duration::ZERO;
+        self.cycle_count_window = 0;
+    }
+
+    fn status(&mut self) -> Status {
+        let mut s = self.nav.as_ref().map(Navigator::status).unwrap_or_default();
+        self.status_seq += 1;
+        s.seq = self.status_seq;
+        let gaps = |c: &mut StreamCounters, t: &SeqTracker| c.seq_gaps = t.gaps;
+        gaps(&mut s.imu, &self.seq[0]);
+        gaps(&mut s.srs, &self.seq[1]);
+        gaps(&mut s.cns, &self.seq[2]);
+        gaps(&mut s.baro, &self.seq[3]);
+        s.imu.rejected_invalid += self.rejected_before_init;
+        s.cycles = self.report.cycles;
+        s.overruns = self.report.overruns;
+        let n = self.cycle_count_window.max(1) as u32;
+        s.cycle_time_mean_ns = (self.cycle_time_sum / n).as_nanos() as u64;
+        s.cycle_time_max_ns = self.cycle_time_max.as_nanos() as u64;
+        s.reinit_count = self.report.reinits;
+        if self.imu_lost {
+            s.flags |= solution_flags::IMU_LOST;
+        }
+        if self.nav.is_none() {
+            s.flags &= !solution_flags::ALIGNED;
+        }
+        s
+    }
+}

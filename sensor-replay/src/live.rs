@@ -1,0 +1,236 @@
+//! Wall-clock replay and the flight recorder over iceoryx2.
+
+use std::io::Write;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
+
+use msgs::navlog::{Header, NavlogWriter, Record};
+use msgs::service::Topic;
+use msgs::{BaroSample, CnsFix, ImuSample, InitState, Solution, SrsSample, Status};
+use polarnav::transport::{self, TopicPublisher, TopicSubscriber, TransportConfig, TransportError};
+
+use crate::logfile::LogContents;
+
+/// Pacing statistics of a replay (lateness of each publication behind its deadline).
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Pacing {
+    pub published: u64,
+    pub p50_us: f64,
+    pub p99_us: f64,
+    pub max_us: f64,
+}
+
+#[derive(Debug, Clone, Copy)]
+enum Sensor<'a> {
+    Imu(&'a ImuSample),
+    Srs(&'a SrsSample),
+    Cns(&'a CnsFix),
+    Baro(&'a BaroSample),
+}
+
+fn sensor_t(s: &Sensor<'_>) -> u64 {
+    match s {
+        Sensor::Imu(x) => x.t_ns,
+        Sensor::Srs(x) => x.t_ns,
+        Sensor::Cns(x) => x.t_ns,
+        Sensor::Baro(x) => x.t_ns,
+    }
+}
+
+/// Waits until `deadline`: sleeps, then spins the last 200 µs for precision.
+fn wait_until(deadline: Instant) {
+    loop {
+        let now = Instant::now();
+        if now >= deadline {
+            return;
+        }
+        let left = deadline - now;
+        if left > Duration::from_micros(300) {
+            std::thread::sleep(left - Duration::from_micros(200));
+        } else {
+            std::hint::spin_loop();
+        }
+    }
+}
+
+/// Publishes the log at wall-clock rate (scaled by `speed`) against absolute
+/// deadlines. Each pass starts with an init message; with `loops` > 1 the
+/// time base keeps increasing from pass to pass. At equal time stamps aids go
+/// out before the IMU sample, as a time-ordered log has them.
+pub fn play(
+    log: &LogContents,
+    cfg: &TransportConfig,
+    speed: f64,
+    loops: u64,
+    stop: &AtomicBool,
+) -> Result<Pacing, TransportError> {
+    let node = transport::node(cfg, "sensor_replay_play")?;
+    let imu = TopicPublisher::<ImuSample>::new(&node, cfg, Topic::Imu)?;
+    let srs = TopicPublisher::<SrsSample>::new(&node, cfg, Topic::Srs)?;
+    let cns = TopicPublisher::<CnsFix>::new(&node, cfg, Topic::Cns)?;
+    let baro = TopicPublisher::<BaroSample>::new(&node, cfg, Topic::Baro)?;
+    let init_pub = TopicPublisher::<InitState>::new(&node, cfg, Topic::Init)?;
+
+    let mut sensors: Vec<Sensor<'_>> =
+        Vec::with_capacity(log.imu.len() + log.srs.len() + log.cns.len() + log.baro.len());
+    sensors.extend(log.srs.iter().map(Sensor::Srs));
+    sensors.extend(log.cns.iter().map(Sensor::Cns));
+    sensors.extend(log.baro.iter().map(Sensor::Baro));
+    sensors.extend(log.imu.iter().map(Sensor::Imu));
+    // Stable sort: at equal times the aids (pushed first) precede the IMU sample.
+    sensors.sort_by_key(sensor_t);
+    let init = log.init.first().copied().unwrap_or_default();
+    let t0 = init.t_ns;
+    let span = sensors.last().map_or(0, |s| sensor_t(s).saturating_sub(t0)) + 1_000_000;
+
+    let mut lateness: Vec<u64> = Vec::with_capacity(sensors.len());
+    let start = Instant::now() + Duration::from_millis(100);
+    'passes: for pass in 0..loops.max(1) {
+        let offset = pass * span;
+        let at =
+            |t_ns: u64| start + Duration::from_secs_f64((t_ns - t0 + offset) as f64 * 1e-9 / speed);
+        wait_until(at(t0));
+        init_pub.publish(&InitState {
+            t_ns: init.t_ns + offset,
+            seq: pass,
+            ..init
+        })?;
+        for s in &sensors {
+            if stop.load(Ordering::Relaxed) {
+                break 'passes;
+            }
+            let deadline = at(sensor_t(s));
+            wait_until(deadline);
+            match s {
+                Sensor::Imu(x) => imu.publish(&ImuSample {
+                    t_ns: x.t_ns + offset,
+                    seq: x.seq + pass * log.imu.len() as u64,
+                    ..**x
+                })?,
+                Sensor::Srs(x) => srs.publish(&SrsSample {
+                    t_ns: x.t_ns + offset,
+                    ..**x
+                })?,
+                Sensor::Cns(x) => cns.publish(&CnsFix {
+                    t_ns: x.t_ns + offset,
+                    ..**x
+                })?,
+                Sensor::Baro(x) => baro.publish(&BaroSample {
+                    t_ns: x.t_ns + offset,
+                    ..**x
+                })?,
+            };
+            lateness.push(deadline.elapsed().as_nanos() as u64);
+        }
+    }
+    lateness.sort_unstable();
+    let q = |f: f64| {
+        lateness
+            .get(((lateness.len() as f64 - 1.0) * f).round() as usize)
+            .map_or(0.0, |v| *v as f64 * 1e-3)
+    };
+    Ok(Pacing {
+        published: lateness.len() as u64,
+        p50_us: q(0.5),
+        p99_us: q(0.99),
+        max_us: q(1.0),
+    })
+}
+
+/// Counts of a recording.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct Recorded {
+    pub records: u64,
+    pub solutions: u64,
+}
+
+/// Subscribes to every service and writes a navlog of inputs and outputs
+/// until `stop` is set (or `max_duration` passes).
+pub fn record<W: Write>(
+    cfg: &TransportConfig,
+    out: W,
+    stop: &AtomicBool,
+    max_duration: Option<Duration>,
+) -> Result<Recorded, RecordError> {
+    use iceoryx2::prelude::*;
+    let node = transport::node(cfg, "sensor_replay_record")?;
+    let imu = TopicSubscriber::<ImuSample>::new(&node, cfg, Topic::Imu)?;
+    let srs = TopicSubscriber::<SrsSample>::new(&node, cfg, Topic::Srs)?;
+    let cns = TopicSubscriber::<CnsFix>::new(&node, cfg, Topic::Cns)?;
+    let baro = TopicSubscriber::<BaroSample>::new(&node, cfg, Topic::Baro)?;
+    let init = TopicSubscriber::<InitState>::new(&node, cfg, Topic::Init)?;
+    let sol = TopicSubscriber::<Solution>::new(&node, cfg, Topic::Solution)?;
+    let status = TopicSubscriber::<Status>::new(&node, cfg, Topic::Status)?;
+    let header = Header::new(
+        concat!("sensor-replay ", env!("CARGO_PKG_VERSION"), " record"),
+        &cfg.prefix,
+        0,
+        "recorded live",
+    );
+    let mut w = NavlogWriter::new(out, header)?;
+    let waitset = WaitSetBuilder::new()
+        .signal_handling_mode(SignalHandlingMode::Disabled)
+        .create::<ipc::Service>()
+        .map_err(|e| RecordError::WaitSet(format!("{e:?}")))?;
+    let _tick = waitset
+        .attach_interval(Duration::from_millis(5))
+        .map_err(|e| RecordError::WaitSet(format!("{e:?}")))?;
+    let started = Instant::now();
+    let mut n = Recorded::default();
+    let mut buf: Vec<Record> = Vec::with_capacity(4096);
+    loop {
+        let r = waitset
+            .wait_and_process_once(|_| CallbackProgression::Continue)
+            .map_err(|e| RecordError::WaitSet(format!("{e:?}")))?;
+        let done = stop.load(Ordering::Relaxed)
+            || matches!(
+                r,
+                iceoryx2::waitset::WaitSetRunResult::Interrupt
+                    | iceoryx2::waitset::WaitSetRunResult::TerminationRequest
+            )
+            || max_duration.is_some_and(|d| started.elapsed() >= d);
+        init.drain(|x| buf.push(Record::Init(x)))?;
+        imu.drain(|x| buf.push(Record::Imu(x)))?;
+        srs.drain(|x| buf.push(Record::Srs(Box::new(x))))?;
+        cns.drain(|x| buf.push(Record::Cns(x)))?;
+        baro.drain(|x| buf.push(Record::Baro(x)))?;
+        sol.drain(|x| {
+            n.solutions += 1;
+            buf.push(Record::Solution(Box::new(x)));
+        })?;
+        status.drain(|x| buf.push(Record::Status(Box::new(x))))?;
+        for s in [
+            imu.listener(),
+            srs.listener(),
+            cns.listener(),
+            baro.listener(),
+            init.listener(),
+            sol.listener(),
+            status.listener(),
+        ] {
+            let _ = s.try_wait(|_| {});
+        }
+        // Time order within the batch (inputs and outputs of a cycle arrive together).
+        buf.sort_by_key(|r| r.t_ns().unwrap_or(0));
+        for r in buf.drain(..) {
+            w.write(&r)?;
+            n.records += 1;
+        }
+        if done {
+            break;
+        }
+    }
+    w.finish()?;
+    Ok(n)
+}
+
+/// Errors of the recorder.
+#[derive(Debug, thiserror::Error)]
+pub enum RecordError {
+    #[error(transparent)]
+    Transport(#[from] TransportError),
+    #[error(transparent)]
+    Write(#[from] msgs::navlog::WriteError),
+    #[error("iceoryx2 waitset: {0}")]
+    WaitSet(String),
+}

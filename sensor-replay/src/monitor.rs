@@ -1,0 +1,166 @@
+//! `sensor-replay listen`: the live monitor (like `px4 listener`).
+
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::time::{Duration, Instant};
+
+use msgs::service::Topic;
+use msgs::{Solution, Status, WireFrame, solution_flags};
+use polarnav::transport::{self, TopicSubscriber, TransportConfig, TransportError};
+
+/// One screen of text for the newest solution and status.
+pub fn render(sol: Option<&Solution>, st: Option<&Status>, solutions_per_s: f64) -> String {
+    let mut s = String::new();
+    match sol {
+        None => s.push_str("solution: none yet\n"),
+        Some(x) => {
+            let frame = WireFrame::from_u8(x.frame).map_or('?', WireFrame::letter);
+            let flag = |b: u32, name: &str| {
+                if x.flags & b != 0 {
+                    name.to_owned()
+                } else {
+                    format!("-{name}")
+                }
+            };
+            s.push_str(&format!(
+                "t {:.3} s  frame {frame}  switches {}  ({solutions_per_s:.0} solutions/s)\n",
+                x.t_ns as f64 * 1e-9,
+                x.switch_count
+            ));
+            s.push_str(&format!(
+                "lat {:+.7}°  lon {:+.7}°  h {:.1} m   σ E/N/U {:.1} {:.1} {:.1} m\n",
+                x.lat_rad.to_degrees(),
+                x.lon_rad.to_degrees(),
+                x.h_m,
+                x.sigma_pos_enu_m[0],
+                x.sigma_pos_enu_m[1],
+                x.sigma_pos_enu_m[2]
+            ));
+            s.push_str(&format!(
+                "v E/N/U {:+.2} {:+.2} {:+.2} m/s   heading {:.2}° (grid {:.2}°)  pitch {:+.2}°  roll {:+.2}°\n",
+                x.v_enu_mps[0],
+                x.v_enu_mps[1],
+                x.v_enu_mps[2],
+                x.heading_rad.to_degrees(),
+                x.grid_heading_rad.to_degrees(),
+                x.pitch_rad.to_degrees(),
+                x.roll_rad.to_degrees()
+            ));
+            s.push_str(&format!(
+                "flags: {} {} {} {} {} {}\n",
+                flag(solution_flags::ALIGNED, "aligned"),
+                flag(solution_flags::SRS_FRESH, "srs"),
+                flag(solution_flags::CNS_FRESH, "cns"),
+                flag(solution_flags::BARO_FRESH, "baro"),
+                flag(solution_flags::IMU_LOST, "imu-lost"),
+                flag(solution_flags::LAST_INNOVATION_REJECTED, "rejected")
+            ));
+        }
+    }
+    match st {
+        None => s.push_str("status: none yet\n"),
+        Some(x) => {
+            s.push_str(&format!(
+                "status seq {}: cycles {}  overruns {}  cycle mean {:.1} µs max {:.1} µs  reinits {}\n",
+                x.seq,
+                x.cycles,
+                x.overruns,
+                x.cycle_time_mean_ns as f64 * 1e-3,
+                x.cycle_time_max_ns as f64 * 1e-3,
+                x.reinit_count
+            ));
+            for (name, c, a) in [
+                ("imu ", &x.imu, None),
+                ("srs ", &x.srs, Some(&x.srs_aid)),
+                ("cns ", &x.cns, Some(&x.cns_aid)),
+                ("baro", &x.baro, Some(&x.baro_aid)),
+            ] {
+                s.push_str(&format!(
+                    "  {name} rx {:8} ok {:8} bad {:4} time {:4} gate {:4} gaps {:4}",
+                    c.received,
+                    c.accepted,
+                    c.rejected_invalid,
+                    c.rejected_time,
+                    c.rejected_gate,
+                    c.seq_gaps
+                ));
+                if let Some(a) = a {
+                    s.push_str(&format!(
+                        "  test ratio {:.2} {}",
+                        a.test_ratio,
+                        if a.fresh == 1 { "fresh" } else { "stale" }
+                    ));
+                }
+                s.push('\n');
+            }
+        }
+    }
+    s
+}
+
+/// Shows the newest solution and status in place until stopped.
+pub fn listen(
+    cfg: &TransportConfig,
+    stop: &AtomicBool,
+    duration: Option<Duration>,
+) -> Result<(), TransportError> {
+    let node = transport::node(cfg, "sensor_replay_listen")?;
+    let sol = TopicSubscriber::<Solution>::new(&node, cfg, Topic::Solution)?;
+    let st = TopicSubscriber::<Status>::new(&node, cfg, Topic::Status)?;
+    let start = Instant::now();
+    let (mut last_sol, mut last_st) = (None, None);
+    let mut count = 0u64;
+    let mut window = Instant::now();
+    let mut rate = 0.0;
+    while !stop.load(Ordering::Relaxed) && duration.is_none_or(|d| start.elapsed() < d) {
+        std::thread::sleep(Duration::from_millis(250));
+        count += sol.drain(|x| last_sol = Some(x))? as u64;
+        st.drain(|x| last_st = Some(x))?;
+        let dt = window.elapsed().as_secs_f64();
+        if dt >= 1.0 {
+            rate = count as f64 / dt;
+            count = 0;
+            window = Instant::now();
+        }
+        // Cursor home and clear: redraw in place.
+        print!(
+            "\x1b[H\x1b[2J{}",
+            render(last_sol.as_ref(), last_st.as_ref(), rate)
+        );
+        use std::io::Write;
+        let _ = std::io::stdout().flush();
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn render_shows_frame_position_and_aid_health() {
+        let sol = Solution {
+            t_ns: 1_500_000_000,
+            frame: 1,
+            lat_rad: 1.5,
+            flags: solution_flags::ALIGNED | solution_flags::CNS_FRESH,
+            ..Default::default()
+        };
+        let mut st = Status {
+            cycles: 10,
+            ..Default::default()
+        };
+        st.cns_aid.fresh = 1;
+        st.imu.received = 300;
+        let text = render(Some(&sol), Some(&st), 200.0);
+        assert!(
+            text.contains("frame G") && text.contains("lat +85.9436693°"),
+            "{text}"
+        );
+        assert!(
+            text.contains("cns") && text.contains("fresh") && text.contains("stale"),
+            "{text}"
+        );
+        assert!(text.contains("rx      300"), "{text}");
+        assert!(render(None, None, 0.0).contains("none yet"));
+    }
+}
