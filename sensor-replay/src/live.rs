@@ -161,6 +161,7 @@ pub fn record<W: Write>(
     let init = TopicSubscriber::<InitState>::new(&node, cfg, Topic::Init)?;
     let sol = TopicSubscriber::<Solution>::new(&node, cfg, Topic::Solution)?;
     let status = TopicSubscriber::<Status>::new(&node, cfg, Topic::Status)?;
+    eprintln!("record: subscribed to {}/*", cfg.prefix);
     let header = Header::new(
         concat!("sensor-replay ", env!("CARGO_PKG_VERSION"), " record"),
         &cfg.prefix,

@@ -1,0 +1,261 @@
+//! Multi-process tests of the live system over real iceoryx2 shared memory:
+//! replay → daemon → recorder, each a separate process with its own service
+//! prefix and iceoryx2 root, and a deadline on every wait.
+
+use std::io::BufReader;
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+use msgs::Solution;
+use msgs::navlog::Record;
+use polarnav::batch::{self, BatchOptions};
+use polarnav::config::Config;
+use polarnav::solution_csv;
+use polarnav::transport::{TransportConfig, remove_isolated};
+use polarnav_tests::repo;
+use sensor_replay::scenario::Scenario;
+use sensor_replay::simulate::{SimOptions, simulate};
+
+/// A binary of the workspace, next to this test's executable directory.
+fn bin(name: &str) -> PathBuf {
+    let exe = std::env::current_exe().expect("test executable");
+    let dir = exe
+        .parent()
+        .and_then(Path::parent)
+        .expect("target directory");
+    let p = dir.join(name);
+    assert!(
+        p.exists(),
+        "{} is not built: run the workspace tests (cargo test --workspace)",
+        p.display()
+    );
+    p
+}
+
+struct Env {
+    dir: PathBuf,
+    cfg: TransportConfig,
+}
+
+impl Env {
+    fn new(tag: &str) -> Self {
+        let cfg = TransportConfig::isolated(tag);
+        let dir = std::env::temp_dir().join(format!("polarnav-live-{tag}-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("dir");
+        std::fs::write(
+            dir.join("nav.toml"),
+            format!("prefix = \"{}\"\n", cfg.prefix),
+        )
+        .expect("config");
+        Self { dir, cfg }
+    }
+
+    fn command(&self, binary: &str, log: &str) -> Command {
+        let mut c = Command::new(bin(binary));
+        c.env(
+            "POLARNAV_IOX_PREFIX",
+            self.cfg.iox_prefix.as_deref().expect("isolated"),
+        )
+        .env(
+            "POLARNAV_IOX_ROOT",
+            self.cfg.iox_root.as_ref().expect("isolated"),
+        )
+        .env("RUST_LOG", "info")
+        .stdin(Stdio::null())
+        .stdout(std::fs::File::create(self.dir.join(format!("{log}.out"))).expect("log"))
+        .stderr(std::fs::File::create(self.dir.join(format!("{log}.err"))).expect("log"));
+        c
+    }
+
+    /// Waits until `log`'s stderr contains `text`.
+    fn wait_for(&self, log: &str, text: &str, deadline: Duration) {
+        let path = self.dir.join(format!("{log}.err"));
+        let t0 = Instant::now();
+        while t0.elapsed() < deadline {
+            if std::fs::read_to_string(&path).is_ok_and(|s| s.contains(text)) {
+                return;
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        panic!(
+            "{log} did not print {text:?} within {deadline:?}: {}",
+            std::fs::read_to_string(&path).unwrap_or_default()
+        );
+    }
+}
+
+impl Drop for Env {
+    fn drop(&mut self) {
+        remove_isolated(&self.cfg);
+        let _ = std::fs::remove_dir_all(&self.dir);
+    }
+}
+
+/// Sends SIGTERM and waits for the exit status within `deadline` (SIGKILL after it).
+fn terminate(child: &mut Child, deadline: Duration) -> Option<i32> {
+    let _ = Command::new("kill")
+        .arg("-TERM")
+        .arg(child.id().to_string())
+        .status();
+    wait(child, deadline)
+}
+
+fn wait(child: &mut Child, deadline: Duration) -> Option<i32> {
+    let t0 = Instant::now();
+    while t0.elapsed() < deadline {
+        if let Some(s) = child.try_wait().expect("wait") {
+            return s.code();
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let _ = child.kill();
+    let _ = child.wait();
+    panic!("process {} did not exit within {deadline:?}", child.id());
+}
+
+fn short_log(dir: &Path, seconds: f64) -> PathBuf {
+    let text = std::fs::read_to_string(repo("config/scenarios/transpolar.toml"))
+        .expect("scenario")
+        .replace("duration_s = 4480.0", &format!("duration_s = {seconds}"));
+    let s = Scenario::parse(&text, "short").expect("scenario");
+    let log = dir.join("flight.navlog");
+    simulate(
+        &s,
+        &text,
+        SimOptions::default(),
+        std::fs::File::create(&log).expect("create"),
+    )
+    .expect("simulate");
+    log
+}
+
+#[test]
+fn replay_daemon_recorder_equals_batch_row_for_row() {
+    let env = Env::new("eq");
+    let log = short_log(&env.dir, 60.0);
+    let cfg_path = env.dir.join("nav.toml");
+
+    let mut daemon = env
+        .command("nav-daemon", "daemon")
+        .arg("--config")
+        .arg(&cfg_path)
+        .spawn()
+        .expect("daemon");
+    env.wait_for("daemon", "services open", Duration::from_secs(20));
+    let rec_path = env.dir.join("recorded.navlog");
+    let mut recorder = env
+        .command("sensor-replay", "record")
+        .args(["record", "--prefix", &env.cfg.prefix, "--out"])
+        .arg(&rec_path)
+        .spawn()
+        .expect("recorder");
+    env.wait_for("record", "subscribed", Duration::from_secs(20));
+    let mut play = env
+        .command("sensor-replay", "play")
+        .arg("play")
+        .arg(&log)
+        .args(["--speed", "20", "--prefix", &env.cfg.prefix])
+        .spawn()
+        .expect("play");
+    assert_eq!(
+        wait(&mut play, Duration::from_secs(60)),
+        Some(0),
+        "play failed"
+    );
+    assert_eq!(
+        terminate(&mut daemon, Duration::from_secs(20)),
+        Some(0),
+        "daemon did not exit cleanly on SIGTERM"
+    );
+    assert_eq!(
+        terminate(&mut recorder, Duration::from_secs(20)),
+        Some(0),
+        "recorder did not exit cleanly"
+    );
+    let pacing = std::fs::read_to_string(env.dir.join("play.out")).unwrap_or_default();
+    eprintln!("{}", pacing.trim());
+
+    // The recorded live solutions.
+    let bytes = std::fs::read(&rec_path).expect("recording");
+    let (records, report) = msgs::navlog::read_all(&bytes);
+    assert!(report.is_clean(), "{report}");
+    let live: Vec<Solution> = records
+        .iter()
+        .filter_map(|r| {
+            if let Record::Solution(s) = r {
+                Some(**s)
+            } else {
+                None
+            }
+        })
+        .collect();
+    let statuses = records
+        .iter()
+        .filter(|r| matches!(r, Record::Status(_)))
+        .count();
+    assert!(
+        statuses >= 2,
+        "status at 1 Hz plus the final one: {statuses}"
+    );
+
+    // batch on the same log, same configuration.
+    let config = Config::load(&cfg_path).expect("config");
+    let csv = env.dir.join("batch.csv");
+    batch::run(
+        BufReader::new(std::fs::File::open(&log).expect("log")),
+        "flight.navlog",
+        std::io::BufWriter::new(std::fs::File::create(&csv).expect("csv")),
+        &config,
+        &BatchOptions::default(),
+    )
+    .expect("batch");
+    let rows = solution_csv::read(&csv).expect("rows");
+    assert_eq!(
+        live.len(),
+        rows.len(),
+        "the transport lost or duplicated solutions"
+    );
+    let mut worst: f64 = 0.0;
+    for (s, r) in live.iter().zip(&rows) {
+        assert!((s.t_ns as f64 * 1e-9 - r.t_s).abs() < 1e-9);
+        let a = [
+            s.lat_rad.to_degrees(),
+            s.lon_rad.to_degrees(),
+            s.h_m,
+            s.r_e_m[0],
+            s.r_e_m[1],
+            s.r_e_m[2],
+            s.v_e_mps[0],
+            s.v_e_mps[1],
+            s.v_e_mps[2],
+            s.q_b_e[0],
+            s.q_b_e[1],
+            s.q_b_e[2],
+            s.q_b_e[3],
+        ];
+        let b = [
+            r.lat_deg,
+            r.lon_deg,
+            r.h_m,
+            r.r_e_m[0],
+            r.r_e_m[1],
+            r.r_e_m[2],
+            r.v_e_mps[0],
+            r.v_e_mps[1],
+            r.v_e_mps[2],
+            r.q_b_e[0],
+            r.q_b_e[1],
+            r.q_b_e[2],
+            r.q_b_e[3],
+        ];
+        for (x, y) in a.iter().zip(b) {
+            worst = worst.max((x - y).abs());
+        }
+    }
+    eprintln!(
+        "live vs batch: {} rows, maximum difference {worst:e}",
+        rows.len()
+    );
+    assert!(worst <= 1e-9, "live and batch differ by {worst}");
+}
