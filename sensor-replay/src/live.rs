@@ -84,6 +84,8 @@ pub fn play(
     let span = sensors.last().map_or(0, |s| sensor_t(s).saturating_sub(t0)) + 1_000_000;
 
     let mut lateness: Vec<u64> = Vec::with_capacity(sensors.len());
+    let progress_every = (span / 10).max(1);
+    let mut next_progress = progress_every;
     let start = Instant::now() + Duration::from_millis(100);
     'passes: for pass in 0..loops.max(1) {
         let offset = pass * span;
@@ -121,6 +123,17 @@ pub fn play(
                 })?,
             };
             lateness.push(deadline.elapsed().as_nanos() as u64);
+            let done = sensor_t(s) - t0;
+            if done >= next_progress {
+                next_progress += progress_every;
+                eprintln!(
+                    "play: pass {} at t = {:.0} s of {:.0} s ({:.0} %)",
+                    pass + 1,
+                    done as f64 * 1e-9,
+                    span as f64 * 1e-9,
+                    100.0 * done as f64 / span as f64
+                );
+            }
         }
     }
     lateness.sort_unstable();
