@@ -1,0 +1,156 @@
+//! The steady-state filter loop performs no heap allocation: a counting
+//! global allocator around IMU steps, every aid update (SRS, CNS, baro),
+//! solution and status assembly, after a warm-up.
+#![allow(unsafe_code)] // a GlobalAlloc implementation is unsafe by definition
+
+use std::alloc::{GlobalAlloc, Layout, System};
+use std::sync::atomic::{AtomicU64, Ordering};
+
+use msgs::{BaroSample, CnsFix, ImuSample, InitState, SrsLine, SrsSample};
+use nalgebra::{Rotation3, UnitQuaternion, Vector3};
+use polarnav::earth::{self, Geodetic, isa};
+use polarnav::frames;
+use polarnav::navigator::{Navigator, NavigatorConfig};
+
+struct Counting;
+static ALLOCATIONS: AtomicU64 = AtomicU64::new(0);
+
+// SAFETY: forwards to the system allocator; only counts.
+unsafe impl GlobalAlloc for Counting {
+    unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
+        ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
+        // SAFETY: same contract as the caller's.
+        unsafe { System.alloc(layout) }
+    }
+    unsafe fn dealloc(&self, ptr: *mut u8, layout: Layout) {
+        // SAFETY: same contract as the caller's.
+        unsafe { System.dealloc(ptr, layout) }
+    }
+    unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
+        ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
+        // SAFETY: same contract as the caller's.
+        unsafe { System.realloc(ptr, layout, new_size) }
+    }
+}
+
+#[global_allocator]
+static GLOBAL: Counting = Counting;
+
+#[test]
+fn steady_state_loop_does_not_allocate() {
+    // A stationary vehicle at 80° N (grid frame), exact increments, aids from the truth.
+    let geo = Geodetic::from_deg(80.0, 30.0, 500.0);
+    let r = earth::geodetic_to_ecef(&geo);
+    let c_e_g = frames::c_e_g(geo.lat_rad, geo.lon_rad);
+    let q = UnitQuaternion::from_matrix(&c_e_g.transpose());
+    let init = InitState {
+        r_e_m: r.into(),
+        q_b_e: [q.w, q.i, q.j, q.k],
+        sigma_pos_h_m: 10.0,
+        sigma_pos_v_m: 10.0,
+        sigma_vel_h_mps: 0.1,
+        sigma_vel_v_mps: 0.1,
+        sigma_tilt_rad: 3e-4,
+        sigma_heading_rad: 1e-3,
+        ..Default::default()
+    };
+    let mut nav = Navigator::new(&init, &NavigatorConfig::default());
+    let dt = 0.005;
+    let w_b = c_e_g * earth::omega_ie_e();
+    let f_b = Vector3::new(0.0, 0.0, earth::normal_gravity(geo.lat_rad, geo.h_m));
+    let srs_at = |t_ns: u64| {
+        let c =
+            Rotation3::from_axis_angle(&Vector3::z_axis(), earth::OMEGA_IE * t_ns as f64 * 1e-9);
+        let v_p = c * earth::omega_ie_e().cross(&r);
+        let mut s = SrsSample {
+            t_ns,
+            count: 5,
+            ..Default::default()
+        };
+        let dirs = [
+            Vector3::new(1.0, 0.1, 0.5),
+            Vector3::new(-0.3, 1.0, 0.4),
+            Vector3::new(-0.7, -0.6, 0.6),
+            Vector3::new(0.1, 0.2, 1.0),
+            Vector3::new(0.5, -0.5, 0.7),
+        ];
+        for (k, d) in dirs.iter().enumerate() {
+            let los = d.normalize();
+            let v_k = Vector3::new(-29_780.0, 500.0 * k as f64, 1_000.0);
+            let w = v_p - v_k;
+            let c2 = 299_792_458.0f64 * 299_792_458.0;
+            let opz = (299_792_458.0 + w.dot(&-los)) / (c2 - w.norm_squared()).sqrt();
+            s.lines[k] = SrsLine {
+                los_i: los.into(),
+                body_vel_i_mps: v_k.into(),
+                rest_wavelength_m: 5e-7,
+                measured_wavelength_m: 5e-7 * opz,
+                sigma_mps: 0.5,
+                body_id: k as u32,
+                _pad: 0,
+            };
+        }
+        s
+    };
+    let p = isa::pressure(isa::geopotential_from_geometric(geo.h_m));
+    let run = |from: u64, to: u64, nav: &mut Navigator| {
+        let mut checksum = 0.0;
+        for k in from..to {
+            let t_ns = k * 5_000_000;
+            nav.on_imu(&ImuSample {
+                t_ns,
+                seq: k,
+                dt_s: dt,
+                d_theta_rad: (w_b * dt).into(),
+                d_v_mps: (f_b * dt).into(),
+            })
+            .expect("imu");
+            if k % 20 == 0 {
+                let _ = nav.on_baro(&BaroSample {
+                    t_ns,
+                    seq: k,
+                    pressure_pa: p,
+                    temperature_k: 250.0,
+                    sigma_m: 10.0,
+                });
+            }
+            if k % 200 == 0 {
+                let _ = nav.on_cns(&CnsFix {
+                    t_ns,
+                    seq: k,
+                    lat_rad: geo.lat_rad,
+                    lon_rad: geo.lon_rad,
+                    sigma_h_m: 20.0,
+                });
+                let _ = nav.on_srs(&srs_at(t_ns));
+            }
+            checksum += nav.solution().h_m;
+            if k % 200 == 0 {
+                checksum += nav.status().cycles as f64;
+            }
+        }
+        checksum
+    };
+    // Warm-up (lazy statics, first-time paths).
+    run(1, 2_000, &mut nav);
+    let before = ALLOCATIONS.load(Ordering::Relaxed);
+    let checksum = run(2_000, 12_000, &mut nav);
+    let after = ALLOCATIONS.load(Ordering::Relaxed);
+    assert!(checksum.is_finite());
+    assert!(nav.imu_counters().accepted >= 11_999);
+    // Every aid path ran and fused inside the counted window.
+    let st = nav.status();
+    assert!(
+        st.srs.accepted >= 50 && st.cns.accepted >= 50 && st.baro.accepted >= 500,
+        "srs {} cns {} baro {}",
+        st.srs.accepted,
+        st.cns.accepted,
+        st.baro.accepted
+    );
+    assert_eq!(
+        after - before,
+        0,
+        "{} heap allocations in 10000 filter cycles",
+        after - before
+    );
+}
