@@ -434,6 +434,8 @@ impl LoopState {
         gaps(&mut s.srs, &self.seq[1]);
         gaps(&mut s.cns, &self.seq[2]);
         gaps(&mut s.baro, &self.seq[3]);
+        // IMU samples that arrived before any init were received and rejected.
+        s.imu.received += self.rejected_before_init;
         s.imu.rejected_invalid += self.rejected_before_init;
         s.cycles = self.report.cycles;
         s.overruns = self.report.overruns;
@@ -442,7 +444,15 @@ impl LoopState {
         s.cycle_time_max_ns = self.cycle_time_max.as_nanos() as u64;
         s.reinit_count = self.report.reinits;
         if self.imu_lost {
+            // Aid freshness is judged in sensor time, which stops with the IMU:
+            // without it no aid can be called fresh.
             s.flags |= solution_flags::IMU_LOST;
+            s.flags &= !(solution_flags::SRS_FRESH
+                | solution_flags::CNS_FRESH
+                | solution_flags::BARO_FRESH);
+            for a in [&mut s.srs_aid, &mut s.cns_aid, &mut s.baro_aid] {
+                a.fresh = 0;
+            }
         }
         if self.nav.is_none() {
             s.flags &= !solution_flags::ALIGNED;

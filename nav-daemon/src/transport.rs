@@ -31,11 +31,14 @@ pub struct TransportConfig {
 }
 
 impl TransportConfig {
+    /// Services under `prefix`; the iceoryx2 file prefix and root come from
+    /// `POLARNAV_IOX_PREFIX` / `POLARNAV_IOX_ROOT` when set (multi-process
+    /// tests isolate themselves with these), else iceoryx2's defaults.
     pub fn new(prefix: &str) -> Self {
         Self {
             prefix: prefix.to_owned(),
-            iox_prefix: None,
-            iox_root: None,
+            iox_prefix: std::env::var("POLARNAV_IOX_PREFIX").ok(),
+            iox_root: std::env::var_os("POLARNAV_IOX_ROOT").map(PathBuf::from),
         }
     }
 
@@ -364,6 +367,20 @@ mod tests {
             })
             .unwrap_or(0);
         assert_eq!(left, 0, "shared memory left behind");
+    }
+
+    #[test]
+    fn environment_selects_the_iceoryx2_prefix_and_root() {
+        // Processes started by the multi-process tests are isolated this way.
+        let c = TransportConfig {
+            prefix: "p".into(),
+            iox_prefix: Some("abc_".into()),
+            iox_root: Some("/tmp/pn-env-test".into()),
+        };
+        let g = c.iceoryx_config().expect("config").global;
+        assert_eq!(g.prefix.to_string(), "abc_");
+        assert_eq!(g.root_path().to_string(), "/tmp/pn-env-test");
+        let _ = std::fs::remove_dir_all("/tmp/pn-env-test");
     }
 
     #[test]

@@ -259,3 +259,127 @@ fn replay_daemon_recorder_equals_batch_row_for_row() {
     );
     assert!(worst <= 1e-9, "live and batch differ by {worst}");
 }
+
+/// The newest status seen within `deadline` that satisfies `pred`.
+fn status_until(
+    env: &Env,
+    deadline: Duration,
+    pred: impl Fn(&msgs::Status) -> bool,
+) -> msgs::Status {
+    let node = polarnav::transport::node(&env.cfg, "test_monitor").expect("node");
+    let sub = polarnav::transport::TopicSubscriber::<msgs::Status>::new(
+        &node,
+        &env.cfg,
+        msgs::service::Topic::Status,
+    )
+    .expect("status");
+    let t0 = Instant::now();
+    let mut last = None;
+    while t0.elapsed() < deadline {
+        sub.drain(|s| last = Some(s)).expect("drain");
+        if let Some(s) = last.filter(&pred) {
+            return s;
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    panic!("no status satisfying the condition within {deadline:?}; last: {last:?}");
+}
+
+#[test]
+fn killed_replay_flags_imu_lost_and_stale_aids_then_a_new_replay_resumes() {
+    let env = Env::new("k9replay");
+    let log = short_log(&env.dir, 120.0);
+    let cfg_path = env.dir.join("nav.toml");
+    let mut daemon = env
+        .command("nav-daemon", "daemon")
+        .arg("--config")
+        .arg(&cfg_path)
+        .spawn()
+        .expect("daemon");
+    env.wait_for("daemon", "services open", Duration::from_secs(20));
+    let play = |name: &str| {
+        env.command("sensor-replay", name)
+            .arg("play")
+            .arg(&log)
+            .args(["--speed", "2", "--prefix", &env.cfg.prefix])
+            .spawn()
+            .expect("play")
+    };
+    let mut first = play("play1");
+    // Running and fusing.
+    let running = status_until(&env, Duration::from_secs(20), |s| {
+        s.cns.accepted >= 2 && s.srs_aid.fresh == 1
+    });
+    assert_eq!(running.flags & msgs::solution_flags::IMU_LOST, 0);
+    first.kill().expect("kill -9 the replay");
+    let _ = first.wait();
+    // The daemon keeps cycling: IMU lost, every aid stale (timeouts 1-3 s).
+    let lost = status_until(&env, Duration::from_secs(15), |s| {
+        s.flags & msgs::solution_flags::IMU_LOST != 0
+            && s.srs_aid.fresh == 0
+            && s.cns_aid.fresh == 0
+            && s.baro_aid.fresh == 0
+    });
+    assert!(lost.cycles > running.cycles, "the cycle stopped");
+    // A new replay re-initializes and fusing resumes.
+    let mut second = play("play2");
+    let resumed = status_until(&env, Duration::from_secs(20), |s| {
+        s.reinit_count == 1 && s.flags & msgs::solution_flags::IMU_LOST == 0 && s.cns_aid.fresh == 1
+    });
+    eprintln!(
+        "replay killed: IMU lost flagged, aids stale after {} cycles; new replay: reinit {}, CNS fused {}",
+        lost.cycles, resumed.reinit_count, resumed.cns.accepted
+    );
+    let _ = second.kill();
+    let _ = second.wait();
+    assert_eq!(terminate(&mut daemon, Duration::from_secs(20)), Some(0));
+}
+
+#[test]
+fn killed_daemon_restarts_cleanly_over_its_dead_resources() {
+    let env = Env::new("k9daemon");
+    let log = short_log(&env.dir, 120.0);
+    let cfg_path = env.dir.join("nav.toml");
+    let mut daemon = env
+        .command("nav-daemon", "daemon1")
+        .arg("--config")
+        .arg(&cfg_path)
+        .spawn()
+        .expect("daemon");
+    env.wait_for("daemon1", "services open", Duration::from_secs(20));
+    let mut play = env
+        .command("sensor-replay", "play")
+        .arg("play")
+        .arg(&log)
+        .args(["--speed", "2", "--prefix", &env.cfg.prefix])
+        .spawn()
+        .expect("play");
+    status_until(&env, Duration::from_secs(20), |s| s.imu.accepted > 100);
+    daemon.kill().expect("kill -9 the daemon");
+    let _ = daemon.wait();
+    // The restarted daemon opens the same services (the dead node's resources cleaned)
+    // and runs its cycle on the replay's samples. (Without a new init or a checkpoint
+    // it cannot navigate: resuming from a checkpoint is the fault-tolerance work.)
+    let mut restarted = env
+        .command("nav-daemon", "daemon2")
+        .arg("--config")
+        .arg(&cfg_path)
+        .spawn()
+        .expect("daemon");
+    env.wait_for("daemon2", "services open", Duration::from_secs(20));
+    let s = status_until(&env, Duration::from_secs(20), |s| {
+        s.imu.received > 100 && s.cycles > 0
+    });
+    eprintln!(
+        "restarted daemon: {} IMU samples received, {} cycles",
+        s.imu.received, s.cycles
+    );
+    let _ = play.kill();
+    let _ = play.wait();
+    assert_eq!(terminate(&mut restarted, Duration::from_secs(20)), Some(0));
+    let err = std::fs::read_to_string(env.dir.join("daemon2.err")).unwrap_or_default();
+    assert!(
+        !err.contains("ERROR") && !err.contains("error:"),
+        "restart reported errors: {err}"
+    );
+}
