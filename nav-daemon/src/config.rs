@@ -23,6 +23,27 @@ pub struct Config {
     pub aids: AidSettings,
     /// Initial state when no init record/message is received.
     pub init: Option<InitSettings>,
+    #[serde(default)]
+    pub live: LiveSettings,
+}
+
+/// `[live]`: the fixed-rate service.
+#[derive(Debug, Clone, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields, default)]
+pub struct LiveSettings {
+    /// Nominal IMU rate (Hz): the interval tick that detects a missing IMU and the overrun budget.
+    pub imu_rate_hz: f64,
+    /// The IMU is lost after this many nominal periods without a sample.
+    pub imu_lost_periods: u32,
+}
+
+impl Default for LiveSettings {
+    fn default() -> Self {
+        Self {
+            imu_rate_hz: 200.0,
+            imu_lost_periods: 5,
+        }
+    }
 }
 
 /// `[init]`: the initial state from configuration (used when a log or the
@@ -205,6 +226,7 @@ impl Default for Config {
             filter: FilterSettings::default(),
             aids: AidSettings::default(),
             init: None,
+            live: LiveSettings::default(),
         }
     }
 }
@@ -427,6 +449,21 @@ impl Config {
         c.aids.validate(origin)?;
         if let Some(i) = &c.init {
             i.validate(origin)?;
+        }
+        let r = c.live.imu_rate_hz;
+        check(
+            origin,
+            "live.imu_rate_hz",
+            r,
+            (10.0..=1000.0).contains(&r),
+            "an IMU rate in [10, 1000] Hz",
+        )?;
+        if c.live.imu_lost_periods == 0 {
+            return Err(ConfigError::Invalid {
+                path: origin.to_owned(),
+                key: "live.imu_lost_periods".into(),
+                message: "expected at least 1".into(),
+            });
         }
         Ok(c)
     }

@@ -229,6 +229,8 @@ struct LoopState {
     init_buf: Vec<InitState>,
     seq: [SeqTracker; 4],
     rejected_before_init: u64,
+    rejections_since_log: u64,
+    last_rejection_log: Instant,
     last_imu_wall: Option<Instant>,
     imu_lost: bool,
     last_status: Instant,
@@ -253,6 +255,8 @@ impl LoopState {
             init_buf: Vec::with_capacity(16),
             seq: [SeqTracker::default(); 4],
             rejected_before_init: 0,
+            rejections_since_log: 0,
+            last_rejection_log: Instant::now() - Duration::from_secs(2),
             last_imu_wall: None,
             imu_lost: false,
             last_status: Instant::now(),
@@ -359,7 +363,18 @@ impl LoopState {
                     }
                 }
                 Err(e) => {
-                    tracing::warn!(t_ns = s.t_ns, seq = s.seq, "IMU sample rejected: {e}");
+                    // Rate-limited: at most one line per second, with the count since the last.
+                    self.rejections_since_log += 1;
+                    if self.last_rejection_log.elapsed() >= Duration::from_secs(1) {
+                        tracing::warn!(
+                            t_ns = s.t_ns,
+                            seq = s.seq,
+                            suppressed = self.rejections_since_log - 1,
+                            "IMU sample rejected: {e}"
+                        );
+                        self.last_rejection_log = Instant::now();
+                        self.rejections_since_log = 0;
+                    }
                     continue;
                 }
             }

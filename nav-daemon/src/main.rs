@@ -198,12 +198,12 @@ fn main() -> ExitCode {
                 return ExitCode::from(1);
             }
             let transport = polarnav::transport::TransportConfig::new(&config.prefix);
-            match polarnav::live::run(
-                &config,
-                &transport,
-                &polarnav::live::LiveOptions::default(),
-                &stop,
-            ) {
+            let opts = polarnav::live::LiveOptions {
+                imu_rate_hz: config.live.imu_rate_hz,
+                imu_lost_periods: config.live.imu_lost_periods,
+                ..Default::default()
+            };
+            match polarnav::live::run(&config, &transport, &opts, &stop) {
                 Ok(r) => {
                     tracing::info!(
                         cycles = r.cycles,

@@ -1,0 +1,235 @@
+//! Benchmark (not a test) of the live service over iceoryx2: IMU-publish →
+//! solution-receive latency at 1 kHz, cycle overruns over a soak, pacing of
+//! the publisher against absolute deadlines, and the daemon's RSS.
+//!
+//! `cargo build --release --bins && cargo bench -p polarnav-tests --bench live_latency [-- SECONDS]`
+//! (default 60 s; the soak is 600).
+
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+use msgs::service::Topic;
+use msgs::{BaroSample, CnsFix, ImuSample, InitState, Solution, Status};
+use nalgebra::{UnitQuaternion, Vector3};
+use polarnav::earth::{self, Geodetic, isa};
+use polarnav::frames;
+use polarnav::transport::{self, TopicPublisher, TopicSubscriber, TransportConfig};
+
+fn percentile(v: &mut [u64], q: f64) -> f64 {
+    v.sort_unstable();
+    v.get(((v.len().max(1) - 1) as f64 * q).round() as usize)
+        .map_or(f64::NAN, |x| *x as f64 * 1e-3)
+}
+
+fn main() {
+    let seconds: f64 = std::env::args()
+        .skip(1)
+        .find_map(|a| a.parse().ok())
+        .unwrap_or(60.0);
+    let exe = std::env::current_exe().expect("exe");
+    let daemon_bin = exe
+        .parent()
+        .and_then(std::path::Path::parent)
+        .expect("target")
+        .join("nav-daemon");
+    assert!(
+        daemon_bin.exists(),
+        "{} missing: run cargo build --release --bins first",
+        daemon_bin.display()
+    );
+    let cfg = TransportConfig::isolated("bench");
+    let dir = std::env::temp_dir().join(format!("polarnav-bench-live-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("dir");
+    let cfg_path = dir.join("nav.toml");
+    std::fs::write(
+        &cfg_path,
+        format!(
+            "prefix = \"{}\"\n[live]\nimu_rate_hz = 1000.0\n",
+            cfg.prefix
+        ),
+    )
+    .expect("config");
+    let mut daemon = Command::new(&daemon_bin)
+        .arg("--config")
+        .arg(&cfg_path)
+        .env(
+            "POLARNAV_IOX_PREFIX",
+            cfg.iox_prefix.as_deref().expect("isolated"),
+        )
+        .env(
+            "POLARNAV_IOX_ROOT",
+            cfg.iox_root.as_ref().expect("isolated"),
+        )
+        .env("RUST_LOG", "warn")
+        .stdin(Stdio::null())
+        .stdout(Stdio::null())
+        .stderr(std::fs::File::create(dir.join("daemon.err")).expect("log"))
+        .spawn()
+        .expect("daemon");
+
+    let node = transport::node(&cfg, "bench").expect("node");
+    let imu = TopicPublisher::<ImuSample>::new(&node, &cfg, Topic::Imu).expect("imu");
+    let cns = TopicPublisher::<CnsFix>::new(&node, &cfg, Topic::Cns).expect("cns");
+    let baro = TopicPublisher::<BaroSample>::new(&node, &cfg, Topic::Baro).expect("baro");
+    let init_pub = TopicPublisher::<InitState>::new(&node, &cfg, Topic::Init).expect("init");
+    let sol = TopicSubscriber::<Solution>::new(&node, &cfg, Topic::Solution).expect("solution");
+    let status = TopicSubscriber::<Status>::new(&node, &cfg, Topic::Status).expect("status");
+    // Wait (bounded) for the daemon's subscribers.
+    let t0 = Instant::now();
+    while imu.publish(&ImuSample::default()).expect("probe") == 0 {
+        assert!(
+            t0.elapsed() < Duration::from_secs(20),
+            "daemon did not subscribe"
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    }
+
+    // A stationary vehicle at 75° N with exact 1 kHz increments; CNS 1 Hz, baro 10 Hz.
+    let geo = Geodetic::from_deg(75.0, 10.0, 200.0);
+    let r = earth::geodetic_to_ecef(&geo);
+    let c_e_g = frames::c_e_g(geo.lat_rad, geo.lon_rad);
+    let q = UnitQuaternion::from_matrix(&c_e_g.transpose());
+    let init = InitState {
+        r_e_m: r.into(),
+        q_b_e: [q.w, q.i, q.j, q.k],
+        sigma_pos_h_m: 10.0,
+        sigma_pos_v_m: 10.0,
+        sigma_vel_h_mps: 0.1,
+        sigma_vel_v_mps: 0.1,
+        sigma_tilt_rad: 3e-4,
+        sigma_heading_rad: 1e-3,
+        ..Default::default()
+    };
+    // Until the daemon's init subscriber is connected (bounded).
+    let t0 = Instant::now();
+    while init_pub.publish(&init).expect("init") == 0 {
+        assert!(
+            t0.elapsed() < Duration::from_secs(20),
+            "daemon did not subscribe to init"
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let dt = 0.001;
+    let w = c_e_g * earth::omega_ie_e() * dt;
+    let f = Vector3::new(0.0, 0.0, earth::normal_gravity(geo.lat_rad, geo.h_m)) * dt;
+    let p = isa::pressure(isa::geopotential_from_geometric(geo.h_m));
+
+    let n = (seconds * 1000.0) as u64;
+    let mut sent_at: Vec<Option<Instant>> = vec![None; n as usize + 2];
+    let mut latency_ns: Vec<u64> = Vec::with_capacity(n as usize);
+    let mut lateness_ns: Vec<u64> = Vec::with_capacity(n as usize);
+    let mut rss_kb = Vec::new();
+    // The daemon's samples leave with its publisher: keep the newest status while it runs.
+    let mut last_status: Option<Status> = None;
+    let start = Instant::now() + Duration::from_millis(50);
+    let drain = |latency_ns: &mut Vec<u64>, sent_at: &[Option<Instant>]| {
+        sol.drain(|s| {
+            let k = (s.t_ns / 1_000_000) as usize;
+            if let Some(Some(t)) = sent_at.get(k) {
+                latency_ns.push(t.elapsed().as_nanos() as u64);
+            }
+        })
+        .expect("drain");
+    };
+    for k in 1..=n {
+        let deadline = start + Duration::from_micros(k * 1000);
+        while Instant::now() < deadline {
+            drain(&mut latency_ns, &sent_at);
+            std::hint::spin_loop();
+        }
+        let t_ns = k * 1_000_000;
+        if k % 100 == 0 {
+            baro.publish(&BaroSample {
+                t_ns,
+                seq: k / 100,
+                pressure_pa: p,
+                temperature_k: 250.0,
+                sigma_m: 10.0,
+            })
+            .expect("baro");
+        }
+        if k % 1000 == 0 {
+            cns.publish(&CnsFix {
+                t_ns,
+                seq: k / 1000,
+                lat_rad: geo.lat_rad,
+                lon_rad: geo.lon_rad,
+                sigma_h_m: 20.0,
+            })
+            .expect("cns");
+            status.drain(|s| last_status = Some(s)).expect("status");
+            if let Some(v) = std::fs::read_to_string(format!("/proc/{}/status", daemon.id()))
+                .ok()
+                .and_then(|s| {
+                    s.lines()
+                        .find(|l| l.starts_with("VmRSS:"))
+                        .and_then(|l| l.split_whitespace().nth(1))
+                        .and_then(|v| v.parse::<u64>().ok())
+                })
+            {
+                rss_kb.push(v);
+            }
+        }
+        lateness_ns.push(deadline.elapsed().as_nanos() as u64);
+        sent_at[k as usize] = Some(Instant::now());
+        imu.publish(&ImuSample {
+            t_ns,
+            seq: k,
+            dt_s: dt,
+            d_theta_rad: w.into(),
+            d_v_mps: f.into(),
+        })
+        .expect("imu");
+    }
+    let settle = Instant::now();
+    while settle.elapsed() < Duration::from_millis(1200) {
+        drain(&mut latency_ns, &sent_at);
+        status.drain(|s| last_status = Some(s)).expect("status");
+    }
+    let _ = Command::new("kill")
+        .arg("-TERM")
+        .arg(daemon.id().to_string())
+        .status();
+    let exit = daemon.wait().expect("daemon exit");
+    let st = last_status.expect("a status from the running daemon");
+
+    let received = latency_ns.len();
+    if received == 0 {
+        eprintln!(
+            "no solution received; daemon log:\n{}",
+            std::fs::read_to_string(dir.join("daemon.err")).unwrap_or_default()
+        );
+    }
+    println!(
+        "live service over iceoryx2, {seconds:.0} s at 1 kHz IMU (CNS 1 Hz, baro 10 Hz), daemon exit {:?}:",
+        exit.code()
+    );
+    println!(
+        "  IMU-publish -> solution-receive latency: p50 {:.1} µs, p99 {:.1} µs, max {:.1} µs ({received} of {n} solutions)",
+        percentile(&mut latency_ns, 0.5),
+        percentile(&mut latency_ns, 0.99),
+        percentile(&mut latency_ns, 1.0)
+    );
+    println!(
+        "  daemon cycles {}, overruns {} (cycle time mean {:.1} µs, max {:.1} µs in the last status period)",
+        st.cycles,
+        st.overruns,
+        st.cycle_time_mean_ns as f64 * 1e-3,
+        st.cycle_time_max_ns as f64 * 1e-3
+    );
+    println!(
+        "  publisher pacing lateness: p50 {:.1} µs, p99 {:.1} µs, max {:.1} µs",
+        percentile(&mut lateness_ns, 0.5),
+        percentile(&mut lateness_ns, 0.99),
+        percentile(&mut lateness_ns, 1.0)
+    );
+    println!(
+        "  daemon RSS: first {} kB, last {} kB, max {} kB",
+        rss_kb.first().copied().unwrap_or(0),
+        rss_kb.last().copied().unwrap_or(0),
+        rss_kb.iter().copied().max().unwrap_or(0)
+    );
+    drop((imu, cns, baro, init_pub, sol, status, node));
+    transport::remove_isolated(&cfg);
+    let _ = std::fs::remove_dir_all(&dir);
+}
