@@ -383,3 +383,56 @@ fn killed_daemon_restarts_cleanly_over_its_dead_resources() {
         "restart reported errors: {err}"
     );
 }
+
+#[test]
+fn daemon_notifies_systemd_ready_watchdog_and_status() {
+    use std::os::unix::net::UnixDatagram;
+    let env = Env::new("notify");
+    let sock_path = env.dir.join("notify.sock");
+    let sock = UnixDatagram::bind(&sock_path).expect("fake NOTIFY_SOCKET");
+    sock.set_read_timeout(Some(Duration::from_millis(200)))
+        .expect("timeout");
+    let log = short_log(&env.dir, 20.0);
+    let cfg_path = env.dir.join("nav.toml");
+    let mut daemon = env
+        .command("nav-daemon", "daemon")
+        .arg("--config")
+        .arg(&cfg_path)
+        .env("NOTIFY_SOCKET", &sock_path)
+        .spawn()
+        .expect("daemon");
+    env.wait_for("daemon", "services open", Duration::from_secs(20));
+    let mut play = env
+        .command("sensor-replay", "play")
+        .arg("play")
+        .arg(&log)
+        .args(["--speed", "4", "--prefix", &env.cfg.prefix])
+        .spawn()
+        .expect("play");
+    let (mut ready, mut watchdog, mut status) = (false, false, None::<String>);
+    let t0 = Instant::now();
+    let mut buf = [0u8; 4096];
+    while t0.elapsed() < Duration::from_secs(20) && !(ready && watchdog && status.is_some()) {
+        if let Ok(n) = sock.recv(&mut buf) {
+            let msg = String::from_utf8_lossy(&buf[..n]).into_owned();
+            ready |= msg.lines().any(|l| l == "READY=1");
+            watchdog |= msg.lines().any(|l| l == "WATCHDOG=1");
+            if let Some(l) = msg.lines().find(|l| l.starts_with("STATUS=")) {
+                status = Some(l.to_owned());
+            }
+        }
+    }
+    let _ = play.kill();
+    let _ = play.wait();
+    assert_eq!(terminate(&mut daemon, Duration::from_secs(20)), Some(0));
+    eprintln!(
+        "systemd notifications: READY {ready}, WATCHDOG {watchdog}, {}",
+        status.as_deref().unwrap_or("no STATUS")
+    );
+    assert!(ready && watchdog, "READY {ready} WATCHDOG {watchdog}");
+    let status = status.expect("STATUS=");
+    assert!(
+        status.contains("frame G") && status.contains("lat ") && status.contains("cns"),
+        "{status}"
+    );
+}
