@@ -92,6 +92,30 @@ impl Drop for Env {
     }
 }
 
+impl Env {
+    /// Starts nav-daemon with this environment's configuration and waits until its services are open.
+    fn start_daemon(&self, log: &str, extra_env: Option<(&str, &Path)>) -> Child {
+        let mut c = self.command("nav-daemon", log);
+        c.arg("--config").arg(self.dir.join("nav.toml"));
+        if let Some((k, v)) = extra_env {
+            c.env(k, v);
+        }
+        let child = c.spawn().expect("nav-daemon");
+        self.wait_for(log, "services open", Duration::from_secs(20));
+        child
+    }
+
+    /// Starts a replay of `log_file` at `speed`.
+    fn start_play(&self, log: &str, log_file: &Path, speed: &str) -> Child {
+        self.command("sensor-replay", log)
+            .arg("play")
+            .arg(log_file)
+            .args(["--speed", speed, "--prefix", &self.cfg.prefix])
+            .spawn()
+            .expect("play")
+    }
+}
+
 /// Sends SIGTERM and waits for the exit status within `deadline` (SIGKILL after it).
 fn terminate(child: &mut Child, deadline: Duration) -> Option<i32> {
     let _ = Command::new("kill")
@@ -134,15 +158,8 @@ fn short_log(dir: &Path, seconds: f64) -> PathBuf {
 fn replay_daemon_recorder_equals_batch_row_for_row() {
     let env = Env::new("eq");
     let log = short_log(&env.dir, 60.0);
-    let cfg_path = env.dir.join("nav.toml");
 
-    let mut daemon = env
-        .command("nav-daemon", "daemon")
-        .arg("--config")
-        .arg(&cfg_path)
-        .spawn()
-        .expect("daemon");
-    env.wait_for("daemon", "services open", Duration::from_secs(20));
+    let mut daemon = env.start_daemon("daemon", None);
     let rec_path = env.dir.join("recorded.navlog");
     let mut recorder = env
         .command("sensor-replay", "record")
@@ -151,13 +168,7 @@ fn replay_daemon_recorder_equals_batch_row_for_row() {
         .spawn()
         .expect("recorder");
     env.wait_for("record", "subscribed", Duration::from_secs(20));
-    let mut play = env
-        .command("sensor-replay", "play")
-        .arg("play")
-        .arg(&log)
-        .args(["--speed", "20", "--prefix", &env.cfg.prefix])
-        .spawn()
-        .expect("play");
+    let mut play = env.start_play("play", &log, "20");
     assert_eq!(
         wait(&mut play, Duration::from_secs(60)),
         Some(0),
@@ -200,7 +211,7 @@ fn replay_daemon_recorder_equals_batch_row_for_row() {
     );
 
     // batch on the same log, same configuration.
-    let config = Config::load(&cfg_path).expect("config");
+    let config = Config::load(&env.dir.join("nav.toml")).expect("config");
     let csv = env.dir.join("batch.csv");
     batch::run(
         BufReader::new(std::fs::File::open(&log).expect("log")),
@@ -289,22 +300,8 @@ fn status_until(
 fn killed_replay_flags_imu_lost_and_stale_aids_then_a_new_replay_resumes() {
     let env = Env::new("k9replay");
     let log = short_log(&env.dir, 120.0);
-    let cfg_path = env.dir.join("nav.toml");
-    let mut daemon = env
-        .command("nav-daemon", "daemon")
-        .arg("--config")
-        .arg(&cfg_path)
-        .spawn()
-        .expect("daemon");
-    env.wait_for("daemon", "services open", Duration::from_secs(20));
-    let play = |name: &str| {
-        env.command("sensor-replay", name)
-            .arg("play")
-            .arg(&log)
-            .args(["--speed", "2", "--prefix", &env.cfg.prefix])
-            .spawn()
-            .expect("play")
-    };
+    let mut daemon = env.start_daemon("daemon", None);
+    let play = |name: &str| env.start_play(name, &log, "2");
     let mut first = play("play1");
     // Running and fusing.
     let running = status_until(&env, Duration::from_secs(20), |s| {
@@ -339,34 +336,15 @@ fn killed_replay_flags_imu_lost_and_stale_aids_then_a_new_replay_resumes() {
 fn killed_daemon_restarts_cleanly_over_its_dead_resources() {
     let env = Env::new("k9daemon");
     let log = short_log(&env.dir, 120.0);
-    let cfg_path = env.dir.join("nav.toml");
-    let mut daemon = env
-        .command("nav-daemon", "daemon1")
-        .arg("--config")
-        .arg(&cfg_path)
-        .spawn()
-        .expect("daemon");
-    env.wait_for("daemon1", "services open", Duration::from_secs(20));
-    let mut play = env
-        .command("sensor-replay", "play")
-        .arg("play")
-        .arg(&log)
-        .args(["--speed", "2", "--prefix", &env.cfg.prefix])
-        .spawn()
-        .expect("play");
+    let mut daemon = env.start_daemon("daemon1", None);
+    let mut play = env.start_play("play", &log, "2");
     status_until(&env, Duration::from_secs(20), |s| s.imu.accepted > 100);
     daemon.kill().expect("kill -9 the daemon");
     let _ = daemon.wait();
     // The restarted daemon opens the same services (the dead node's resources cleaned)
     // and runs its cycle on the replay's samples. (Without a new init or a checkpoint
     // it cannot navigate: resuming from a checkpoint is the fault-tolerance work.)
-    let mut restarted = env
-        .command("nav-daemon", "daemon2")
-        .arg("--config")
-        .arg(&cfg_path)
-        .spawn()
-        .expect("daemon");
-    env.wait_for("daemon2", "services open", Duration::from_secs(20));
+    let mut restarted = env.start_daemon("daemon2", None);
     let s = status_until(&env, Duration::from_secs(20), |s| {
         s.imu.received > 100 && s.cycles > 0
     });
@@ -393,22 +371,8 @@ fn daemon_notifies_systemd_ready_watchdog_and_status() {
     sock.set_read_timeout(Some(Duration::from_millis(200)))
         .expect("timeout");
     let log = short_log(&env.dir, 20.0);
-    let cfg_path = env.dir.join("nav.toml");
-    let mut daemon = env
-        .command("nav-daemon", "daemon")
-        .arg("--config")
-        .arg(&cfg_path)
-        .env("NOTIFY_SOCKET", &sock_path)
-        .spawn()
-        .expect("daemon");
-    env.wait_for("daemon", "services open", Duration::from_secs(20));
-    let mut play = env
-        .command("sensor-replay", "play")
-        .arg("play")
-        .arg(&log)
-        .args(["--speed", "4", "--prefix", &env.cfg.prefix])
-        .spawn()
-        .expect("play");
+    let mut daemon = env.start_daemon("daemon", Some(("NOTIFY_SOCKET", &sock_path)));
+    let mut play = env.start_play("play", &log, "4");
     let (mut ready, mut watchdog, mut status) = (false, false, None::<String>);
     let t0 = Instant::now();
     let mut buf = [0u8; 4096];
