@@ -40,13 +40,6 @@ pub fn c_e_g(lat_rad: f64, lon_rad: f64) -> Matrix3<f64> {
     Matrix3::from_rows(&[e.transpose(), n.transpose(), u.transpose()])
 }
 
-/// |n × ŷ_e| = sqrt(1 − cos²L sin²λ): zero only on the equator at λ = ±90°.
-pub fn grid_singularity_distance(lat_rad: f64, lon_rad: f64) -> f64 {
-    (1.0 - (lat_rad.cos() * lon_rad.sin()).powi(2))
-        .max(0.0)
-        .sqrt()
-}
-
 /// Grid axes (grid east, grid north, up) in ECEF, from the geometric
 /// definition. Precondition: away from the singular points (equator, λ = ±90°).
 pub fn grid_axes_e(lat_rad: f64, lon_rad: f64) -> [Vector3<f64>; 3] {

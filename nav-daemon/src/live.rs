@@ -219,6 +219,28 @@ pub fn status_line(s: &Status, lat_deg: Option<f64>) -> String {
     )
 }
 
+/// At most one log line per second for a recurring event; counts the rest.
+#[derive(Debug, Default)]
+struct RateLimit {
+    last: Option<Instant>,
+    suppressed: u64,
+}
+
+impl RateLimit {
+    /// `Some(suppressed since the last line)` when a line may be written now.
+    fn due(&mut self) -> Option<u64> {
+        if self
+            .last
+            .is_some_and(|t| t.elapsed() < Duration::from_secs(1))
+        {
+            self.suppressed += 1;
+            return None;
+        }
+        self.last = Some(Instant::now());
+        Some(std::mem::take(&mut self.suppressed))
+    }
+}
+
 struct LoopState {
     nav_cfg: NavigatorConfig,
     init_cfg: Option<crate::config::InitSettings>,
@@ -229,8 +251,10 @@ struct LoopState {
     init_buf: Vec<InitState>,
     seq: [SeqTracker; 4],
     rejected_before_init: u64,
-    rejections_since_log: u64,
-    last_rejection_log: Instant,
+    imu_rejections: RateLimit,
+    aid_rejections: RateLimit,
+    /// Freshness of SRS, CNS, baro in the last status (for transition events).
+    aid_fresh: [bool; 3],
     last_imu_wall: Option<Instant>,
     imu_lost: bool,
     last_status: Instant,
@@ -255,8 +279,9 @@ impl LoopState {
             init_buf: Vec::with_capacity(16),
             seq: [SeqTracker::default(); 4],
             rejected_before_init: 0,
-            rejections_since_log: 0,
-            last_rejection_log: Instant::now() - Duration::from_secs(2),
+            imu_rejections: RateLimit::default(),
+            aid_rejections: RateLimit::default(),
+            aid_fresh: [false; 3],
             last_imu_wall: None,
             imu_lost: false,
             last_status: Instant::now(),
@@ -363,17 +388,13 @@ impl LoopState {
                     }
                 }
                 Err(e) => {
-                    // Rate-limited: at most one line per second, with the count since the last.
-                    self.rejections_since_log += 1;
-                    if self.last_rejection_log.elapsed() >= Duration::from_secs(1) {
+                    if let Some(suppressed) = self.imu_rejections.due() {
                         tracing::warn!(
                             t_ns = s.t_ns,
                             seq = s.seq,
-                            suppressed = self.rejections_since_log - 1,
+                            suppressed,
                             "IMU sample rejected: {e}"
                         );
-                        self.last_rejection_log = Instant::now();
-                        self.rejections_since_log = 0;
                     }
                     continue;
                 }
@@ -385,8 +406,14 @@ impl LoopState {
                     Aid::Cns(x) => nav.on_cns(x),
                     Aid::Baro(x) => nav.on_baro(x),
                 };
-                if let Err(e) = r {
-                    tracing::debug!("aid sample rejected: {e}");
+                if let Err(e) = r
+                    && let Some(suppressed) = self.aid_rejections.due()
+                {
+                    tracing::warn!(
+                        t_ns = self.aid_buf[next_aid].t_ns(),
+                        suppressed,
+                        "aid sample rejected: {e}"
+                    );
                 }
                 next_aid += 1;
             }
@@ -472,6 +499,55 @@ impl LoopState {
         if self.nav.is_none() {
             s.flags &= !solution_flags::ALIGNED;
         }
+        // Aid timeouts and recoveries, once per transition.
+        for (k, (name, a)) in [
+            ("SRS", &s.srs_aid),
+            ("CNS", &s.cns_aid),
+            ("baro", &s.baro_aid),
+        ]
+        .into_iter()
+        .enumerate()
+        {
+            let fresh = a.fresh == 1;
+            if fresh != self.aid_fresh[k] {
+                if fresh {
+                    tracing::info!(aid = name, "aid fresh: fusing");
+                } else if self.nav.is_some() {
+                    tracing::warn!(
+                        aid = name,
+                        last_fuse_t_ns = a.last_fuse_t_ns,
+                        "aid stale: timed out"
+                    );
+                }
+                self.aid_fresh[k] = fresh;
+            }
+        }
         s
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rate_limit_allows_one_line_per_second_and_counts_the_rest() {
+        let mut r = RateLimit::default();
+        assert_eq!(r.due(), Some(0));
+        assert_eq!(r.due(), None);
+        assert_eq!(r.due(), None);
+        // A second later the next line reports the two suppressed.
+        r.last = Some(Instant::now() - Duration::from_millis(1001));
+        assert_eq!(r.due(), Some(2));
+        assert_eq!(r.due(), None);
+    }
+
+    #[test]
+    fn seq_tracker_counts_lost_samples() {
+        let mut t = SeqTracker::default();
+        for s in [0, 1, 2, 5, 6, 10] {
+            t.see(s);
+        }
+        assert_eq!(t.gaps, 2 + 3);
     }
 }

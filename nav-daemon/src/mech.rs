@@ -345,31 +345,12 @@ impl AnyNav {
     /// Position, velocity and attitude independent of the nav frame.
     pub fn frame_free(&self) -> FrameFree {
         let geo = self.geodetic();
-        let (c_e_n, q_b_n, v_n, r_e) = match self {
-            AnyNav::Geographic(s) => (
-                Geo::c_e_n(&Local::new(&geo)),
-                s.q_b_n,
-                s.v_n,
-                earth::geodetic_to_ecef(&s.pos),
-            ),
-            AnyNav::Grid(s) => (Grid::c_e_n(&Local::new(&geo)), s.q_b_n, s.v_n, s.pos),
-        };
-        let q_n_e = frames::quat_from_dcm(&c_e_n.transpose());
-        FrameFree {
-            geo,
-            r_e,
-            v_e: c_e_n.transpose() * v_n,
-            q_b_e: q_n_e * q_b_n,
-        }
+        self.frame_free_at(&geo, &self.c_e_n_at(&geo))
     }
 
     /// C_e^n of the current frame at the current position.
     pub fn c_e_n(&self) -> Matrix3<f64> {
-        let geo = self.geodetic();
-        match self {
-            AnyNav::Geographic(_) => Geo::c_e_n(&Local::new(&geo)),
-            AnyNav::Grid(_) => Grid::c_e_n(&Local::new(&geo)),
-        }
+        self.c_e_n_at(&self.geodetic())
     }
 
     /// Closed-loop feedback of an estimated error (φ, δv, δp of this frame):

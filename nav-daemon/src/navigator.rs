@@ -529,36 +529,35 @@ impl Navigator {
         )
     }
 
+    /// δp → local ENU metres (g: from δL, δλ, δh; G: C_e^g on ECEF δr).
+    fn position_map_enu(&self, c_e_g: &Matrix3<f64>) -> Matrix3<f64> {
+        match &self.nav {
+            AnyNav::Geographic(s) => {
+                let (rm, rn) = earth::radii(s.pos.lat_rad);
+                let e = (rn + s.pos.h_m) * s.pos.lat_rad.cos();
+                Matrix3::new(0.0, e, 0.0, rm + s.pos.h_m, 0.0, 0.0, 0.0, 0.0, 1.0)
+            }
+            AnyNav::Grid(_) => *c_e_g,
+        }
+    }
+
+    fn block_in(&self, o: usize, m: &Matrix3<f64>) -> Matrix3<f64> {
+        m * self.p.fixed_view::<3, 3>(o, o) * m.transpose()
+    }
+
     fn covariances_enu_at(
         &self,
         c_e_n: &Matrix3<f64>,
         c_e_g: &Matrix3<f64>,
     ) -> (Matrix3<f64>, Matrix3<f64>, Matrix3<f64>) {
-        let block = |o: usize| self.p.fixed_view::<3, 3>(o, o).into_owned();
-        // Position map δp → ENU metres, and nav axes → ENU.
-        let (pos_map, nav_to_enu) = match &self.nav {
-            AnyNav::Geographic(s) => {
-                let (rm, rn) = earth::radii(s.pos.lat_rad);
-                let m = Matrix3::new(
-                    0.0,
-                    (rn + s.pos.h_m) * s.pos.lat_rad.cos(),
-                    0.0,
-                    rm + s.pos.h_m,
-                    0.0,
-                    0.0,
-                    0.0,
-                    0.0,
-                    1.0,
-                );
-                (m, Matrix3::identity())
-            }
-            AnyNav::Grid(_) => (*c_e_g, c_e_g * c_e_n.transpose()),
+        let nav_to_enu = match &self.nav {
+            AnyNav::Geographic(_) => Matrix3::identity(),
+            AnyNav::Grid(_) => c_e_g * c_e_n.transpose(),
         };
-        let t = |m: &Matrix3<f64>, p: Matrix3<f64>| m * p * m.transpose();
         (
-            t(&pos_map, block(idx::DP)),
-            t(&nav_to_enu, block(idx::DV)),
-            t(&nav_to_enu, block(idx::PHI)),
+            self.block_in(idx::DP, &self.position_map_enu(c_e_g)),
+            self.block_in(idx::DV, &nav_to_enu),
+            self.block_in(idx::PHI, &nav_to_enu),
         )
     }
 
@@ -609,7 +608,8 @@ impl Navigator {
             }
             AnyNav::Geographic(_) => frames::grid_angle(geo.lat_rad, geo.lon_rad),
         };
-        let (cov_pos, _, _) = self.covariances_enu_at(&c_e_n, &c_e_g);
+        // Only the position block is needed here (this runs every IMU sample).
+        let cov_pos = self.block_in(idx::DP, &self.position_map_enu(&c_e_g));
         let grid_heading = (heading - sigma).rem_euclid(std::f64::consts::TAU);
         let q = ff.q_b_e.into_inner();
         let diag_sqrt = |o: usize| {

@@ -318,6 +318,11 @@ fn killed_replay_flags_imu_lost_and_stale_aids_then_a_new_replay_resumes() {
             && s.baro_aid.fresh == 0
     });
     assert!(lost.cycles > running.cycles, "the cycle stopped");
+    let log = std::fs::read_to_string(env.dir.join("daemon.err")).unwrap_or_default();
+    assert!(
+        log.contains("IMU lost") && log.contains("aid stale: timed out"),
+        "no IMU-lost / aid-timeout events in the journal output: {log}"
+    );
     // A new replay re-initializes and fusing resumes.
     let mut second = play("play2");
     let resumed = status_until(&env, Duration::from_secs(20), |s| {

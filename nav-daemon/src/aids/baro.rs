@@ -19,8 +19,9 @@ pub fn measurement(nav: &AnyNav, b: &BaroSample) -> Result<Measurement<1>, AidEr
     if !(b.pressure_pa.is_finite() && b.sigma_m.is_finite()) {
         return Err(AidError::NonFinite("baro"));
     }
-    // Below the ISA top (32 km) and above any pressure an aircraft can see at sea level.
-    if !(500.0..=110_000.0).contains(&b.pressure_pa) {
+    // Within the modelled atmosphere (up to its 32 km top) and below any
+    // pressure an aircraft can see at sea level.
+    if !(isa::pressure(isa::MAX_ALTITUDE_M)..=110_000.0).contains(&b.pressure_pa) {
         return Err(AidError::OutOfRange {
             what: "baro.pressure_pa",
             value: b.pressure_pa,
@@ -47,4 +48,44 @@ pub fn measurement(nav: &AnyNav, b: &BaroSample) -> Result<Measurement<1>, AidEr
         h,
         r: SMatrix::<f64, 1, 1>::new(b.sigma_m * b.sigma_m),
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::earth::{self, Geodetic};
+    use crate::mech::{AnyNav, FrameKind};
+    use nalgebra::{UnitQuaternion, Vector3};
+
+    #[test]
+    fn pressures_outside_the_modelled_atmosphere_are_refused() {
+        let r = earth::geodetic_to_ecef(&Geodetic::from_deg(45.0, 0.0, 18_000.0));
+        let nav = AnyNav::from_frame_free(
+            FrameKind::Geographic,
+            &r,
+            &Vector3::zeros(),
+            &UnitQuaternion::identity(),
+        );
+        let sample = |p: f64| BaroSample {
+            t_ns: 1,
+            seq: 0,
+            pressure_pa: p,
+            temperature_k: 220.0,
+            sigma_m: 10.0,
+        };
+        let top = isa::pressure(isa::MAX_ALTITUDE_M);
+        assert!(measurement(&nav, &sample(top * 1.001)).is_ok());
+        assert!(matches!(
+            measurement(&nav, &sample(top * 0.99)),
+            Err(AidError::OutOfRange { .. })
+        ));
+        assert!(matches!(
+            measurement(&nav, &sample(120_000.0)),
+            Err(AidError::OutOfRange { .. })
+        ));
+        assert!(matches!(
+            measurement(&nav, &sample(f64::NAN)),
+            Err(AidError::NonFinite(_))
+        ));
+    }
 }
