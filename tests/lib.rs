@@ -66,18 +66,7 @@ pub fn quat(q: &[f64; 4]) -> UnitQuaternion<f64> {
 
 /// Runs the navigator over records; `init` replaces the log's init record when given.
 pub fn run(records: &[Record], cfg: &NavigatorConfig, init: Option<InitState>) -> Run {
-    let init = init.unwrap_or_else(|| {
-        records
-            .iter()
-            .find_map(|r| {
-                if let Record::Init(i) = r {
-                    Some(*i)
-                } else {
-                    None
-                }
-            })
-            .expect("init")
-    });
+    let init = init.unwrap_or_else(|| msgs::navlog::first_init(records).expect("init"));
     let mut nav = Navigator::new(&init, cfg);
     let mut out = Run::default();
     let count =

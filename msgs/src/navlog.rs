@@ -362,6 +362,17 @@ fn decode_frame(frame: &[u8], decoded: &mut Vec<u8>) -> Result<Record, SkipReaso
     }
 }
 
+/// The first init record of a log (the initial state handed to the navigator).
+pub fn first_init(records: &[Record]) -> Option<InitState> {
+    records.iter().find_map(|r| {
+        if let Record::Init(i) = r {
+            Some(*i)
+        } else {
+            None
+        }
+    })
+}
+
 /// Reads every intact record of a whole byte buffer (convenience for tests and small files).
 pub fn read_all(bytes: &[u8]) -> (Vec<Record>, ReadReport) {
     let mut reader = NavlogReader::new(bytes);
@@ -476,6 +487,8 @@ mod tests {
         assert!(report.is_clean(), "{report}");
         assert_eq!(back, records);
         assert_eq!(report.records, records.len() as u64);
+        assert_eq!(first_init(&back).map(|i| i.t_ns), Some(1));
+        assert_eq!(first_init(&back[2..]), None);
     }
 
     #[test]

@@ -21,16 +21,7 @@ fn temp_dir(name: &str) -> PathBuf {
 
 /// Navigates a log pure-inertially; returns (t_ns, ECEF position, attitude) at every IMU sample.
 fn navigate(records: &[Record]) -> Vec<(u64, Vector3<f64>, nalgebra::UnitQuaternion<f64>)> {
-    let init = records
-        .iter()
-        .find_map(|r| {
-            if let Record::Init(i) = r {
-                Some(*i)
-            } else {
-                None
-            }
-        })
-        .expect("init");
+    let init = msgs::navlog::first_init(records).expect("init");
     let mut nav = Navigator::new(&init, &NavigatorConfig::default());
     let mut out = Vec::new();
     for r in records {

@@ -49,16 +49,7 @@ fn nonlinear(text: &str, remove_z_accel_bias: f64) -> Vec<(f64, Vector3<f64>)> {
     )
     .expect("simulate");
     let (records, _) = read_all(&buf);
-    let init = records
-        .iter()
-        .find_map(|r| {
-            if let Record::Init(i) = r {
-                Some(*i)
-            } else {
-                None
-            }
-        })
-        .expect("init");
+    let init = msgs::navlog::first_init(&records).expect("init");
     let mut nav = Navigator::new(&init, &NavigatorConfig::default());
     let mut out = Vec::new();
     for r in &records {

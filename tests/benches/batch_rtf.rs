@@ -69,16 +69,7 @@ fn main() {
         records.push(r);
     }
     let decode = t.elapsed().as_secs_f64();
-    let init = records
-        .iter()
-        .find_map(|r| {
-            if let Record::Init(i) = r {
-                Some(*i)
-            } else {
-                None
-            }
-        })
-        .expect("init");
+    let init = msgs::navlog::first_init(&records).expect("init");
     let t = Instant::now();
     let mut nav = Navigator::new(&init, &NavigatorConfig::default());
     let mut sols = Vec::with_capacity(records.len());

@@ -133,16 +133,7 @@ fn real_rlg_record_forced_switches_match_a_never_switching_run() {
     )
     .expect("import");
     let (records, _) = msgs::navlog::read_all(&buf);
-    let init = records
-        .iter()
-        .find_map(|r| {
-            if let Record::Init(i) = r {
-                Some(*i)
-            } else {
-                None
-            }
-        })
-        .expect("init");
+    let init = msgs::navlog::first_init(&records).expect("init");
     // 600 s of stationary alignment from the file's position.
     let filter = FilterSettings::default();
     let mut acc = AlignmentAccumulator::default();
