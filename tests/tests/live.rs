@@ -52,7 +52,12 @@ impl Env {
     }
 
     fn command(&self, binary: &str, log: &str) -> Command {
-        let mut c = Command::new(bin(binary));
+        self.command_for(&bin(binary), log)
+    }
+
+    /// `program` with this environment's iceoryx2 isolation, its output in `<log>.out` / `<log>.err`.
+    fn command_for(&self, program: &Path, log: &str) -> Command {
+        let mut c = Command::new(program);
         c.env(
             "POLARNAV_IOX_PREFIX",
             self.cfg.iox_prefix.as_deref().expect("isolated"),
@@ -403,5 +408,233 @@ fn daemon_notifies_systemd_ready_watchdog_and_status() {
     assert!(
         status.contains("frame G") && status.contains("lat ") && status.contains("cns"),
         "{status}"
+    );
+}
+
+/// A Python interpreter with the `iceoryx2` 0.10 package from PyPI: the system
+/// `python3` when it has it, else a virtual environment under the target
+/// directory, created once (network access to PyPI needed the first time).
+fn python_with_iceoryx2() -> PathBuf {
+    // Tests run in parallel threads: create the environment once.
+    static ONCE: std::sync::Mutex<()> = std::sync::Mutex::new(());
+    let _guard = ONCE.lock().unwrap_or_else(|e| e.into_inner());
+    let check = |py: &Path| {
+        Command::new(py)
+            .args([
+                "-c",
+                "import importlib.metadata as m, iceoryx2; assert m.version('iceoryx2').startswith('0.10.')",
+            ])
+            .stderr(Stdio::null())
+            .status()
+            .is_ok_and(|s| s.success())
+    };
+    let system = PathBuf::from("python3");
+    if check(&system) {
+        return system;
+    }
+    let venv = bin("nav-daemon")
+        .parent()
+        .expect("target dir")
+        .join("python-iceoryx2");
+    let py = venv.join("bin/python3");
+    if !check(&py) {
+        let ok = Command::new("python3")
+            .args(["-m", "venv"])
+            .arg(&venv)
+            .status()
+            .is_ok_and(|s| s.success())
+            && Command::new(&py)
+                .args(["-m", "pip", "install", "--quiet", "iceoryx2==0.10.0"])
+                .status()
+                .is_ok_and(|s| s.success());
+        assert!(
+            ok && check(&py),
+            "could not provide Python with iceoryx2 0.10 (python3 -m venv {} && pip install iceoryx2==0.10.0)",
+            venv.display()
+        );
+    }
+    py
+}
+
+/// The ctypes mirror in examples/python has exactly the Rust layout.
+#[test]
+fn python_ctypes_mirror_has_the_rust_layout() {
+    use std::mem::{offset_of, size_of};
+    let py = python_with_iceoryx2();
+    let out = Command::new(&py)
+        .current_dir(repo("examples/python"))
+        .args([
+            "-c",
+            "import polarnav_msgs as m\nfor k, v in m.layout().items(): print(k, v)",
+        ])
+        .output()
+        .expect("python");
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let text = String::from_utf8(out.stdout).expect("utf8");
+    let py_layout: std::collections::HashMap<&str, usize> = text
+        .lines()
+        .filter_map(|l| l.split_once(' '))
+        .map(|(k, v)| (k, v.parse().expect("number")))
+        .collect();
+    macro_rules! offsets {
+        ($t:ident: $($f:ident),*) => {{
+            let mut v = vec![(stringify!($t).to_owned(), size_of::<msgs::$t>())];
+            $( v.push((format!("{}.{}", stringify!($t), stringify!($f)), offset_of!(msgs::$t, $f))); )*
+            v
+        }};
+    }
+    let mut rust = offsets!(Solution: t_ns, seq, lat_rad, lon_rad, h_m, r_e_m, v_e_mps, v_enu_mps,
+        v_nav_mps, grid_angle_rad, q_b_e, heading_rad, grid_heading_rad, pitch_rad, roll_rad,
+        sigma_pos_enu_m, sigma_vel_mps, sigma_att_rad, gyro_bias_rps, accel_bias_mps2, flags,
+        switch_count, frame, _pad);
+    rust.extend(
+        offsets!(StreamCounters: received, accepted, rejected_invalid, rejected_time,
+        rejected_gate, seq_gaps, last_t_ns),
+    );
+    rust.extend(
+        offsets!(AidStatus: innovation, innovation_var, test_ratio, last_fuse_t_ns,
+        fused, fresh, _pad),
+    );
+    rust.extend(
+        offsets!(Status: t_ns, seq, imu, srs, cns, baro, srs_aid, cns_aid, baro_aid,
+        cycles, overruns, cycle_time_mean_ns, cycle_time_max_ns, last_switch_t_ns, reinit_count,
+        switch_count, flags, frame, _pad),
+    );
+    assert_eq!(
+        py_layout.len(),
+        rust.len(),
+        "the mirror has a different set of fields"
+    );
+    for (k, v) in &rust {
+        assert_eq!(py_layout.get(k.as_str()), Some(v), "{k}");
+    }
+}
+
+/// The Python example consumer (PyPI iceoryx2, ctypes mirror) receives the
+/// daemon's solutions and status; every solution it receives equals `batch`.
+#[test]
+fn python_consumer_receives_solution_and_status() {
+    let py = python_with_iceoryx2();
+    let env = Env::new("python");
+    let log = short_log(&env.dir, 10.0);
+    let mut daemon = env.start_daemon("daemon", None);
+    let csv = env.dir.join("python.csv");
+    let mut consumer = env.command_for(&py, "python");
+    consumer
+        .arg(repo("examples/python/consumer.py"))
+        .args(["--prefix", &env.cfg.prefix, "--until-imu-accepted", "2000"])
+        .args(["--timeout", "60", "--csv"])
+        .arg(&csv);
+    let mut consumer = consumer.spawn().expect("python consumer");
+    let read = |f: &str| std::fs::read_to_string(env.dir.join(f)).unwrap_or_default();
+    let t0 = Instant::now();
+    while !read("python.out").contains("subscribed") {
+        assert!(
+            t0.elapsed() < Duration::from_secs(30) && consumer.try_wait().expect("wait").is_none(),
+            "consumer did not subscribe: {}",
+            read("python.err")
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let mut play = env.start_play("play", &log, "2");
+    assert_eq!(
+        wait(&mut play, Duration::from_secs(60)),
+        Some(0),
+        "play failed"
+    );
+    let code = wait(&mut consumer, Duration::from_secs(60));
+    let printed = read("python.out");
+    assert_eq!(
+        code,
+        Some(0),
+        "consumer failed: {printed}{}",
+        read("python.err")
+    );
+    assert_eq!(terminate(&mut daemon, Duration::from_secs(20)), Some(0));
+    eprintln!("{}", printed.trim());
+    assert!(
+        printed.contains("frame=grid") && printed.contains("srs=fresh"),
+        "{printed}"
+    );
+
+    let config = Config::load(&env.dir.join("nav.toml")).expect("config");
+    let batch_csv = env.dir.join("batch.csv");
+    batch::run(
+        BufReader::new(std::fs::File::open(&log).expect("log")),
+        "flight.navlog",
+        std::io::BufWriter::new(std::fs::File::create(&batch_csv).expect("csv")),
+        &config,
+        &BatchOptions::default(),
+    )
+    .expect("batch");
+    let rows = solution_csv::read(&batch_csv).expect("rows");
+    let text = std::fs::read_to_string(&csv).expect("python csv");
+    let mut received = 0;
+    let mut worst: f64 = 0.0;
+    let mut last_seq = None;
+    let mut first_seq = None;
+    let mut gaps = 0;
+    for line in text.lines().skip(1) {
+        let v: Vec<f64> = line
+            .split(',')
+            .map(|x| x.parse().expect("number"))
+            .collect();
+        let seq = v[1] as u64;
+        if let Some(l) = last_seq {
+            assert!(seq > l, "solutions out of order");
+            gaps += seq - l - 1;
+        }
+        last_seq = Some(seq);
+        first_seq.get_or_insert(seq);
+        // The daemon numbers its solutions from 1.
+        let r = &rows[(seq - 1) as usize];
+        assert_eq!(
+            v[0] as u64,
+            (r.t_s * 1e9).round() as u64,
+            "t_ns of seq {seq}"
+        );
+        let expect = [
+            r.lat_deg.to_radians(),
+            r.lon_deg.to_radians(),
+            r.h_m,
+            r.r_e_m[0],
+            r.r_e_m[1],
+            r.r_e_m[2],
+            r.v_e_mps[0],
+            r.v_e_mps[1],
+            r.v_e_mps[2],
+            r.q_b_e[0],
+            r.q_b_e[1],
+            r.q_b_e[2],
+            r.q_b_e[3],
+        ];
+        for (x, y) in v[2..15].iter().zip(expect) {
+            worst = worst.max((x - y).abs());
+        }
+        received += 1;
+    }
+    eprintln!(
+        "python consumer: {received} solutions, {gaps} lost to overflow, max difference from batch {worst:e}"
+    );
+    // Accounting: the consumer saw the last solution, and every one it missed is a counted gap.
+    assert_eq!(
+        last_seq,
+        Some(rows.len() as u64),
+        "the last solution did not arrive"
+    );
+    assert_eq!(first_seq, Some(1), "the first solution did not arrive");
+    assert_eq!(received + gaps, rows.len() as u64);
+    assert!(
+        received >= 1000,
+        "only {received} of {} solutions",
+        rows.len()
+    );
+    assert!(
+        worst <= 1e-9,
+        "python mirror reads different values: {worst}"
     );
 }

@@ -1,0 +1,136 @@
+"""ctypes mirror of the polarnav wire payloads (msgs/src/payloads.rs).
+
+Field order, types and explicit padding follow the Rust `#[repr(C)]` structs
+exactly; `type_name()` returns the versioned iceoryx2 type name, so iceoryx2
+accepts these types when opening the daemon's services. The layout is checked
+against Rust's `size_of`/`offset_of` by tests/tests/python_consumer.rs.
+"""
+
+import ctypes
+
+V3 = ctypes.c_double * 3
+V4 = ctypes.c_double * 4
+
+# solution_flags
+FLAG_ALIGNED = 1 << 0
+FLAG_SRS_FRESH = 1 << 1
+FLAG_CNS_FRESH = 1 << 2
+FLAG_BARO_FRESH = 1 << 3
+FLAG_LAST_INNOVATION_REJECTED = 1 << 4
+FLAG_IMU_LOST = 1 << 5
+FLAG_COASTING = 1 << 6
+
+# WireFrame
+FRAME_GEOGRAPHIC = 0
+FRAME_GRID = 1
+
+
+class Solution(ctypes.Structure):
+    """Full navigation solution, one per filter cycle (`polarnav/solution`)."""
+
+    _fields_ = [
+        ("t_ns", ctypes.c_uint64),
+        ("seq", ctypes.c_uint64),
+        ("lat_rad", ctypes.c_double),
+        ("lon_rad", ctypes.c_double),
+        ("h_m", ctypes.c_double),
+        ("r_e_m", V3),
+        ("v_e_mps", V3),
+        ("v_enu_mps", V3),
+        ("v_nav_mps", V3),
+        ("grid_angle_rad", ctypes.c_double),
+        ("q_b_e", V4),
+        ("heading_rad", ctypes.c_double),
+        ("grid_heading_rad", ctypes.c_double),
+        ("pitch_rad", ctypes.c_double),
+        ("roll_rad", ctypes.c_double),
+        ("sigma_pos_enu_m", V3),
+        ("sigma_vel_mps", V3),
+        ("sigma_att_rad", V3),
+        ("gyro_bias_rps", V3),
+        ("accel_bias_mps2", V3),
+        ("flags", ctypes.c_uint32),
+        ("switch_count", ctypes.c_uint32),
+        ("frame", ctypes.c_uint8),
+        ("_pad", ctypes.c_uint8 * 7),
+    ]
+
+    @staticmethod
+    def type_name() -> str:
+        return "polarnav::Solution_v1"
+
+
+class StreamCounters(ctypes.Structure):
+    """Counters of one input stream."""
+
+    _fields_ = [
+        ("received", ctypes.c_uint64),
+        ("accepted", ctypes.c_uint64),
+        ("rejected_invalid", ctypes.c_uint64),
+        ("rejected_time", ctypes.c_uint64),
+        ("rejected_gate", ctypes.c_uint64),
+        ("seq_gaps", ctypes.c_uint64),
+        ("last_t_ns", ctypes.c_uint64),
+    ]
+
+    @staticmethod
+    def type_name() -> str:
+        return "polarnav::StreamCounters_v1"
+
+
+class AidStatus(ctypes.Structure):
+    """Status of one aid (SRS, CNS or barometer)."""
+
+    _fields_ = [
+        ("innovation", V3),
+        ("innovation_var", V3),
+        ("test_ratio", ctypes.c_double),
+        ("last_fuse_t_ns", ctypes.c_uint64),
+        ("fused", ctypes.c_uint8),
+        ("fresh", ctypes.c_uint8),
+        ("_pad", ctypes.c_uint8 * 6),
+    ]
+
+    @staticmethod
+    def type_name() -> str:
+        return "polarnav::AidStatus_v1"
+
+
+class Status(ctypes.Structure):
+    """Health of the daemon, 1 Hz (`polarnav/status`)."""
+
+    _fields_ = [
+        ("t_ns", ctypes.c_uint64),
+        ("seq", ctypes.c_uint64),
+        ("imu", StreamCounters),
+        ("srs", StreamCounters),
+        ("cns", StreamCounters),
+        ("baro", StreamCounters),
+        ("srs_aid", AidStatus),
+        ("cns_aid", AidStatus),
+        ("baro_aid", AidStatus),
+        ("cycles", ctypes.c_uint64),
+        ("overruns", ctypes.c_uint64),
+        ("cycle_time_mean_ns", ctypes.c_uint64),
+        ("cycle_time_max_ns", ctypes.c_uint64),
+        ("last_switch_t_ns", ctypes.c_uint64),
+        ("reinit_count", ctypes.c_uint32),
+        ("switch_count", ctypes.c_uint32),
+        ("flags", ctypes.c_uint32),
+        ("frame", ctypes.c_uint8),
+        ("_pad", ctypes.c_uint8 * 3),
+    ]
+
+    @staticmethod
+    def type_name() -> str:
+        return "polarnav::Status_v1"
+
+
+def layout() -> dict:
+    """Sizes and field offsets, for the layout test."""
+    out = {}
+    for t in (Solution, StreamCounters, AidStatus, Status):
+        out[t.__name__] = ctypes.sizeof(t)
+        for name, _ in t._fields_:
+            out[f"{t.__name__}.{name}"] = getattr(t, name).offset
+    return out
