@@ -19,6 +19,7 @@ FLAG_BARO_FRESH = 1 << 3
 FLAG_LAST_INNOVATION_REJECTED = 1 << 4
 FLAG_IMU_LOST = 1 << 5
 FLAG_COASTING = 1 << 6
+FLAG_RESUMED = 1 << 7
 
 # WireFrame
 FRAME_GEOGRAPHIC = 0
@@ -49,15 +50,20 @@ class Solution(ctypes.Structure):
         ("sigma_att_rad", V3),
         ("gyro_bias_rps", V3),
         ("accel_bias_mps2", V3),
+        ("reset_t_ns", ctypes.c_uint64),
+        ("reset_delta_pos_e_m", V3),
+        ("reset_delta_vel_e_mps", V3),
+        ("reset_delta_heading_rad", ctypes.c_double),
         ("flags", ctypes.c_uint32),
         ("switch_count", ctypes.c_uint32),
+        ("reset_count", ctypes.c_uint32),
         ("frame", ctypes.c_uint8),
-        ("_pad", ctypes.c_uint8 * 7),
+        ("_pad", ctypes.c_uint8 * 3),
     ]
 
     @staticmethod
     def type_name() -> str:
-        return "polarnav::Solution_v1"
+        return "polarnav::Solution_v2"
 
 
 class StreamCounters(ctypes.Structure):
@@ -69,13 +75,14 @@ class StreamCounters(ctypes.Structure):
         ("rejected_invalid", ctypes.c_uint64),
         ("rejected_time", ctypes.c_uint64),
         ("rejected_gate", ctypes.c_uint64),
+        ("not_used", ctypes.c_uint64),
         ("seq_gaps", ctypes.c_uint64),
         ("last_t_ns", ctypes.c_uint64),
     ]
 
     @staticmethod
     def type_name() -> str:
-        return "polarnav::StreamCounters_v1"
+        return "polarnav::StreamCounters_v2"
 
 
 class AidStatus(ctypes.Structure):
@@ -86,6 +93,7 @@ class AidStatus(ctypes.Structure):
         ("innovation_var", V3),
         ("test_ratio", ctypes.c_double),
         ("last_fuse_t_ns", ctypes.c_uint64),
+        ("exclusions", ctypes.c_uint64),
         ("fused", ctypes.c_uint8),
         ("fresh", ctypes.c_uint8),
         ("_pad", ctypes.c_uint8 * 6),
@@ -93,7 +101,7 @@ class AidStatus(ctypes.Structure):
 
     @staticmethod
     def type_name() -> str:
-        return "polarnav::AidStatus_v1"
+        return "polarnav::AidStatus_v2"
 
 
 class Status(ctypes.Structure):
@@ -114,16 +122,21 @@ class Status(ctypes.Structure):
         ("cycle_time_mean_ns", ctypes.c_uint64),
         ("cycle_time_max_ns", ctypes.c_uint64),
         ("last_switch_t_ns", ctypes.c_uint64),
+        ("imu_gap_count", ctypes.c_uint64),
+        ("coasted_ns", ctypes.c_uint64),
+        ("checkpoints_written", ctypes.c_uint64),
         ("reinit_count", ctypes.c_uint32),
         ("switch_count", ctypes.c_uint32),
+        ("reset_count", ctypes.c_uint32),
         ("flags", ctypes.c_uint32),
         ("frame", ctypes.c_uint8),
-        ("_pad", ctypes.c_uint8 * 3),
+        ("resumed", ctypes.c_uint8),
+        ("_pad", ctypes.c_uint8 * 6),
     ]
 
     @staticmethod
     def type_name() -> str:
-        return "polarnav::Status_v1"
+        return "polarnav::Status_v2"
 
 
 def layout() -> dict:

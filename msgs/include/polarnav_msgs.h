@@ -24,7 +24,17 @@
 
 #define POLARNAV_FLAG_IMU_LOST (1 << 5)
 
+/**
+ * The IMU stream had a gap longer than `[filter] imu_gap_s`: the state was
+ * carried across it on extrapolated increments with inflated covariance.
+ * Cleared by the next fused aid.
+ */
 #define POLARNAV_FLAG_COASTING (1 << 6)
+
+/**
+ * The navigator was resumed from a checkpoint (cleared by the next fused aid).
+ */
+#define POLARNAV_FLAG_RESUMED (1 << 7)
 
 /**
  * Navigation frame tag used on the wire.
@@ -257,6 +267,16 @@ typedef struct {
   double gyro_bias_rps[3];
   double accel_bias_mps2[3];
   /**
+   * The last reset of the navigation state (re-initialization, checkpoint
+   * restore, aid reset): its time (0 = none) and the step it made, so that a
+   * consumer integrating the solution can remove it. Position and velocity
+   * steps are ECEF (new − old); heading is true heading (new − old, wrapped).
+   */
+  uint64_t reset_t_ns;
+  double reset_delta_pos_e_m[3];
+  double reset_delta_vel_e_mps[3];
+  double reset_delta_heading_rad;
+  /**
    * Bit set of [`solution_flags`].
    */
   uint32_t flags;
@@ -265,17 +285,23 @@ typedef struct {
    */
   uint32_t switch_count;
   /**
+   * Number of resets since start (see `reset_t_ns`).
+   */
+  uint32_t reset_count;
+  /**
    * [`WireFrame`] as u8.
    */
   uint8_t frame;
   /**
    * Always zero.
    */
-  uint8_t _pad[7];
+  uint8_t _pad[3];
 } Solution;
 
 /**
- * Counters of one input stream.
+ * Counters of one input stream. Every received sample is counted once, as
+ * accepted or under one rejection reason:
+ * `received = accepted + rejected_invalid + rejected_time + rejected_gate + not_used`.
  */
 typedef struct {
   /**
@@ -298,6 +324,11 @@ typedef struct {
    * Rejected by the innovation gate (aids only).
    */
   uint64_t rejected_gate;
+  /**
+   * Not used: the aid is disabled, or there was no navigation state to apply
+   * the sample to (before the first init, or stamped before a re-initialization).
+   */
+  uint64_t not_used;
   /**
    * Gaps detected in the sequence numbers (samples lost upstream).
    */
@@ -328,6 +359,10 @@ typedef struct {
    * Time of the last fused measurement (0 = never).
    */
   uint64_t last_fuse_t_ns;
+  /**
+   * SRS: lines excluded by fault detection and exclusion (other aids: 0).
+   */
+  uint64_t exclusions;
   /**
    * 1 if the last measurement was fused, 0 if rejected.
    */
@@ -370,10 +405,25 @@ typedef struct {
    */
   uint64_t last_switch_t_ns;
   /**
+   * IMU gaps longer than `[filter] imu_gap_s` coasted across, and the
+   * total sensor time coasted (ns).
+   */
+  uint64_t imu_gap_count;
+  uint64_t coasted_ns;
+  /**
+   * Checkpoints written, and whether this run resumed from one (1) or
+   * started cold (0).
+   */
+  uint64_t checkpoints_written;
+  /**
    * Re-initializations (new init messages) taken.
    */
   uint32_t reinit_count;
   uint32_t switch_count;
+  /**
+   * Resets of the navigation state (see `Solution::reset_t_ns`).
+   */
+  uint32_t reset_count;
   /**
    * Bit set of [`solution_flags`] at the time of the status.
    */
@@ -383,9 +433,13 @@ typedef struct {
    */
   uint8_t frame;
   /**
+   * 1 if this run resumed from a checkpoint, 0 after a cold start.
+   */
+  uint8_t resumed;
+  /**
    * Always zero.
    */
-  uint8_t _pad[3];
+  uint8_t _pad[6];
 } Status;
 
 

@@ -22,7 +22,7 @@ use crate::payloads::{
 /// First bytes of every navlog's header record.
 pub const MAGIC: [u8; 8] = *b"POLARNAV";
 /// Version of the record format; bump on any change of [`Record`].
-pub const FORMAT_VERSION: u16 = 1;
+pub const FORMAT_VERSION: u16 = 2;
 /// Frames longer than this are treated as corruption (the largest record is ~1 kB
 /// plus the header's scenario text).
 pub const MAX_FRAME_BYTES: usize = 1 << 20;

@@ -156,13 +156,18 @@ pub mod solution_flags {
     pub const BARO_FRESH: u32 = 1 << 3;
     pub const LAST_INNOVATION_REJECTED: u32 = 1 << 4;
     pub const IMU_LOST: u32 = 1 << 5;
+    /// The IMU stream had a gap longer than `[filter] imu_gap_s`: the state was
+    /// carried across it on extrapolated increments with inflated covariance.
+    /// Cleared by the next fused aid.
     pub const COASTING: u32 = 1 << 6;
+    /// The navigator was resumed from a checkpoint (cleared by the next fused aid).
+    pub const RESUMED: u32 = 1 << 7;
 }
 
 /// Full navigation solution, one per filter cycle.
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize, ZeroCopySend)]
 #[repr(C)]
-#[type_name("polarnav::Solution_v1")]
+#[type_name("polarnav::Solution_v2")]
 pub struct Solution {
     pub t_ns: u64,
     pub seq: u64,
@@ -197,20 +202,32 @@ pub struct Solution {
     /// Estimated gyro bias (rad/s) and accelerometer bias (m/s²), body axes.
     pub gyro_bias_rps: [f64; 3],
     pub accel_bias_mps2: [f64; 3],
+    /// The last reset of the navigation state (re-initialization, checkpoint
+    /// restore, aid reset): its time (0 = none) and the step it made, so that a
+    /// consumer integrating the solution can remove it. Position and velocity
+    /// steps are ECEF (new − old); heading is true heading (new − old, wrapped).
+    pub reset_t_ns: u64,
+    pub reset_delta_pos_e_m: [f64; 3],
+    pub reset_delta_vel_e_mps: [f64; 3],
+    pub reset_delta_heading_rad: f64,
     /// Bit set of [`solution_flags`].
     pub flags: u32,
     /// Number of frame switches since start.
     pub switch_count: u32,
+    /// Number of resets since start (see `reset_t_ns`).
+    pub reset_count: u32,
     /// [`WireFrame`] as u8.
     pub frame: u8,
     /// Always zero.
-    pub _pad: [u8; 7],
+    pub _pad: [u8; 3],
 }
 
-/// Counters of one input stream.
+/// Counters of one input stream. Every received sample is counted once, as
+/// accepted or under one rejection reason:
+/// `received = accepted + rejected_invalid + rejected_time + rejected_gate + not_used`.
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize, ZeroCopySend)]
 #[repr(C)]
-#[type_name("polarnav::StreamCounters_v1")]
+#[type_name("polarnav::StreamCounters_v2")]
 pub struct StreamCounters {
     /// Samples received from the transport or log.
     pub received: u64,
@@ -222,6 +239,9 @@ pub struct StreamCounters {
     pub rejected_time: u64,
     /// Rejected by the innovation gate (aids only).
     pub rejected_gate: u64,
+    /// Not used: the aid is disabled, or there was no navigation state to apply
+    /// the sample to (before the first init, or stamped before a re-initialization).
+    pub not_used: u64,
     /// Gaps detected in the sequence numbers (samples lost upstream).
     pub seq_gaps: u64,
     /// Time stamp of the last accepted sample (0 = none yet).
@@ -231,7 +251,7 @@ pub struct StreamCounters {
 /// The status record every aid reports (same shape for SRS, CNS and baro).
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize, ZeroCopySend)]
 #[repr(C)]
-#[type_name("polarnav::AidStatus_v1")]
+#[type_name("polarnav::AidStatus_v2")]
 pub struct AidStatus {
     /// Last innovation (measurement − prediction), up to 3 components.
     pub innovation: [f64; 3],
@@ -241,6 +261,8 @@ pub struct AidStatus {
     pub test_ratio: f64,
     /// Time of the last fused measurement (0 = never).
     pub last_fuse_t_ns: u64,
+    /// SRS: lines excluded by fault detection and exclusion (other aids: 0).
+    pub exclusions: u64,
     /// 1 if the last measurement was fused, 0 if rejected.
     pub fused: u8,
     /// 1 if the aid is fresh (within its timeout).
@@ -252,7 +274,7 @@ pub struct AidStatus {
 /// Health of the daemon, published at 1 Hz.
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize, ZeroCopySend)]
 #[repr(C)]
-#[type_name("polarnav::Status_v1")]
+#[type_name("polarnav::Status_v2")]
 pub struct Status {
     pub t_ns: u64,
     pub seq: u64,
@@ -271,15 +293,26 @@ pub struct Status {
     pub cycle_time_max_ns: u64,
     /// Time of the last frame switch (0 = none).
     pub last_switch_t_ns: u64,
+    /// IMU gaps longer than `[filter] imu_gap_s` coasted across, and the
+    /// total sensor time coasted (ns).
+    pub imu_gap_count: u64,
+    pub coasted_ns: u64,
+    /// Checkpoints written, and whether this run resumed from one (1) or
+    /// started cold (0).
+    pub checkpoints_written: u64,
     /// Re-initializations (new init messages) taken.
     pub reinit_count: u32,
     pub switch_count: u32,
+    /// Resets of the navigation state (see `Solution::reset_t_ns`).
+    pub reset_count: u32,
     /// Bit set of [`solution_flags`] at the time of the status.
     pub flags: u32,
     /// [`WireFrame`] as u8.
     pub frame: u8,
+    /// 1 if this run resumed from a checkpoint, 0 after a cold start.
+    pub resumed: u8,
     /// Always zero.
-    pub _pad: [u8; 3],
+    pub _pad: [u8; 6],
 }
 
 /// Truth record of a simulated or reference flight (navlog only, not on the wire).
@@ -315,13 +348,30 @@ mod tests {
         assert_eq!(size_of::<InitState>(), 16 + 24 + 24 + 32 + 6 * 8);
         assert_eq!(
             size_of::<Solution>(),
-            16 + 24 + 24 + 24 + 24 + 24 + 8 + 32 + 32 + 24 * 5 + 4 + 4 + 1 + 7
+            16 + 24
+                + 24
+                + 24
+                + 24
+                + 24
+                + 8
+                + 32
+                + 32
+                + 24 * 5
+                + 8
+                + 24
+                + 24
+                + 8
+                + 4
+                + 4
+                + 4
+                + 1
+                + 3
         );
-        assert_eq!(size_of::<StreamCounters>(), 7 * 8);
-        assert_eq!(size_of::<AidStatus>(), 48 + 8 + 8 + 8);
+        assert_eq!(size_of::<StreamCounters>(), 8 * 8);
+        assert_eq!(size_of::<AidStatus>(), 48 + 8 + 8 + 8 + 8);
         assert_eq!(
             size_of::<Status>(),
-            16 + 4 * size_of::<StreamCounters>() + 3 * size_of::<AidStatus>() + 5 * 8 + 16
+            16 + 4 * size_of::<StreamCounters>() + 3 * size_of::<AidStatus>() + 8 * 8 + 4 * 4 + 8
         );
         for a in [
             align_of::<ImuSample>(),

@@ -48,6 +48,9 @@ pub struct BatchReport {
     /// IMU samples consumed by the alignment.
     pub imu_aligning: u64,
     pub last_t_ns: u64,
+    /// The navigator's status at the end, with every record of the log
+    /// accounted for: per stream `received = accepted + rejected_* + not_used`.
+    pub status: msgs::Status,
 }
 
 #[derive(Debug, thiserror::Error)]
@@ -154,6 +157,11 @@ pub fn run<R: BufRead, W: Write>(
     let progress_ns = (opts.progress_every_s.max(0.0) * 1e9) as u64;
     let mut next_progress_ns = progress_ns;
     let mut row_pending = false;
+    // Records never handed to a navigator, per stream (IMU, SRS, CNS, baro).
+    let mut not_used = [0u64; 4];
+    let mut align_rejected = 0u64;
+    // Aids stamped after the newest accepted IMU sample, in log order.
+    let mut waiting: Vec<Record> = Vec::new();
     while let Some(rec) = reader.next_record().map_err(read_err)? {
         match rec {
             Record::Header(h) => {
@@ -193,6 +201,8 @@ pub fn run<R: BufRead, W: Write>(
                 if opts.align_s.is_some() {
                     nav = None;
                     aligning = Some((init, cfg, crate::align::AlignmentAccumulator::default()));
+                } else if let Some(n) = nav.as_mut() {
+                    n.reinitialize(&init, &cfg);
                 } else {
                     nav = Some(Navigator::new(&init, &cfg));
                 }
@@ -208,6 +218,8 @@ pub fn run<R: BufRead, W: Write>(
                     if ok {
                         acc.add(&s.d_theta_rad.into(), &s.d_v_mps.into(), s.dt_s);
                         report.imu_aligning += 1;
+                    } else {
+                        align_rejected += 1;
                     }
                     if acc.time_s() >= opts.align_s.unwrap_or(0.0) {
                         let (init, cfg, acc) = aligning.take().expect("aligning");
@@ -249,6 +261,7 @@ pub fn run<R: BufRead, W: Write>(
                 }
                 let Some(n) = nav.as_mut() else {
                     report.imu_before_init += 1;
+                    not_used[0] += 1;
                     continue;
                 };
                 if row_pending {
@@ -273,6 +286,20 @@ pub fn run<R: BufRead, W: Write>(
                         // live daemon publishes it.
                         row_pending = true;
                         report.last_t_ns = s.t_ns;
+                        let now = n.t_ns();
+                        if waiting
+                            .first()
+                            .and_then(Record::t_ns)
+                            .is_some_and(|t| t <= now)
+                        {
+                            let due = waiting
+                                .iter()
+                                .take_while(|r| r.t_ns().is_some_and(|t| t <= now))
+                                .count();
+                            for rec in waiting.drain(..due) {
+                                apply_aid(n, &rec, &mut report, log_name, &mut rejected_logged);
+                            }
+                        }
                     }
                     Err(e) => {
                         report.imu_rejected += 1;
@@ -295,33 +322,30 @@ pub fn run<R: BufRead, W: Write>(
                 };
                 let Some(n) = nav.as_mut().filter(|_| selected) else {
                     report.aid_records_unused += 1;
+                    let k = match &rec {
+                        Record::Srs(_) => 1,
+                        Record::Cns(_) => 2,
+                        _ => 3,
+                    };
+                    not_used[k] += 1;
                     continue;
                 };
-                let out = match &rec {
-                    Record::Srs(x) => n.on_srs(x),
-                    Record::Cns(x) => n.on_cns(x),
-                    Record::Baro(x) => n.on_baro(x),
-                    _ => unreachable!("matched above"),
-                };
-                match out {
-                    Ok(o) if o.fused => {
-                        report.aid_fused += 1;
-                        report.srs_exclusions += u64::from(o.excluded_body.is_some());
-                    }
-                    Ok(_) => report.aid_rejected += 1,
-                    Err(e) => {
-                        report.aid_rejected += 1;
-                        if rejected_logged < 10 {
-                            rejected_logged += 1;
-                            tracing::warn!(
-                                t_ns = rec.t_ns().unwrap_or(0),
-                                "{log_name}: aid sample rejected: {e}"
-                            );
-                        }
-                    }
+                if rec.t_ns().is_some_and(|t| t > n.t_ns()) {
+                    // Ahead of the newest accepted IMU sample (its own IMU sample may
+                    // have been rejected or lost): it waits for the next one, as the
+                    // live daemon holds it.
+                    waiting.push(rec);
+                } else {
+                    apply_aid(n, &rec, &mut report, log_name, &mut rejected_logged);
                 }
             }
             Record::Truth(_) | Record::Solution(_) | Record::Status(_) => {}
+        }
+    }
+    if let Some(n) = nav.as_mut() {
+        // Aids after the last IMU sample: offered (and counted) as ahead of the IMU.
+        for rec in waiting.drain(..) {
+            apply_aid(n, &rec, &mut report, log_name, &mut rejected_logged);
         }
     }
     if let Some(n) = nav.as_ref().filter(|_| row_pending) {
@@ -335,9 +359,59 @@ pub fn run<R: BufRead, W: Write>(
             need_s: opts.align_s.unwrap_or(0.0),
         });
     }
-    if nav.is_none() {
+    let Some(n) = nav.as_ref() else {
         return Err(BatchError::NoInit(log_name.to_owned()));
+    };
+    report.status = n.status();
+    // Samples consumed by the stationary alignment were accepted by it.
+    report.status.imu.received += report.imu_aligning + align_rejected;
+    report.status.imu.accepted += report.imu_aligning;
+    report.status.imu.rejected_invalid += align_rejected;
+    for (c, k) in [
+        &mut report.status.imu,
+        &mut report.status.srs,
+        &mut report.status.cns,
+        &mut report.status.baro,
+    ]
+    .into_iter()
+    .zip(not_used)
+    {
+        c.received += k;
+        c.not_used += k;
     }
     out.flush()?;
     Ok(report)
+}
+
+/// Offers one aid record to the navigator and accounts for the outcome.
+fn apply_aid(
+    n: &mut Navigator,
+    rec: &Record,
+    report: &mut BatchReport,
+    log_name: &str,
+    rejected_logged: &mut u32,
+) {
+    let out = match rec {
+        Record::Srs(x) => n.on_srs(x),
+        Record::Cns(x) => n.on_cns(x),
+        Record::Baro(x) => n.on_baro(x),
+        _ => return,
+    };
+    match out {
+        Ok(o) if o.fused => {
+            report.aid_fused += 1;
+            report.srs_exclusions += u64::from(o.excluded_body.is_some());
+        }
+        Ok(_) => report.aid_rejected += 1,
+        Err(e) => {
+            report.aid_rejected += 1;
+            if *rejected_logged < 10 {
+                *rejected_logged += 1;
+                tracing::warn!(
+                    t_ns = rec.t_ns().unwrap_or(0),
+                    "{log_name}: aid sample rejected: {e}"
+                );
+            }
+        }
+    }
 }

@@ -35,6 +35,14 @@ pub struct LiveSettings {
     pub imu_rate_hz: f64,
     /// The IMU is lost after this many nominal periods without a sample.
     pub imu_lost_periods: u32,
+    /// Checkpoint file of the navigation state and covariance, written
+    /// atomically (write, fsync, rename) every `checkpoint_period_s` of sensor
+    /// time; empty disables checkpoints. At start the daemon resumes from it
+    /// if the first IMU sample is no more than `checkpoint_max_age_s` after it
+    /// (and no init message arrives), else it starts cold; it logs which.
+    pub checkpoint_path: String,
+    pub checkpoint_period_s: f64,
+    pub checkpoint_max_age_s: f64,
 }
 
 impl Default for LiveSettings {
@@ -42,6 +50,9 @@ impl Default for LiveSettings {
         Self {
             imu_rate_hz: 200.0,
             imu_lost_periods: 5,
+            checkpoint_path: String::new(),
+            checkpoint_period_s: 1.0,
+            checkpoint_max_age_s: 30.0,
         }
     }
 }
@@ -165,6 +176,18 @@ pub struct FilterSettings {
     pub accel_bias_tau_s: f64,
     /// Covariance propagation interval (s); the mechanization runs every IMU sample.
     pub covariance_interval_s: f64,
+    /// IMU samples whose rate exceeds these are physically impossible and rejected
+    /// (gyro °/s, accelerometer m/s²).
+    pub max_gyro_rate_dps: f64,
+    pub max_accel_mps2: f64,
+    /// Missing IMU time (between the previous sample and the start of the next
+    /// one's interval) is bridged on the last increments held constant. A gap
+    /// longer than `imu_gap_s` is coasted: counted, flagged (`COASTING`) and
+    /// covered by extra covariance for an unknown manoeuvre of 1-σ
+    /// `coast_accel_mps2` and `coast_rate_dps` over the gap.
+    pub imu_gap_s: f64,
+    pub coast_accel_mps2: f64,
+    pub coast_rate_dps: f64,
 }
 
 impl Default for FilterSettings {
@@ -180,6 +203,11 @@ impl Default for FilterSettings {
             accel_bias_instability_ug: 0.0,
             accel_bias_tau_s: 3600.0,
             covariance_interval_s: 0.1,
+            max_gyro_rate_dps: 2000.0,
+            max_accel_mps2: 300.0,
+            imu_gap_s: 0.05,
+            coast_accel_mps2: 1.0,
+            coast_rate_dps: 0.05,
         }
     }
 }
@@ -309,6 +337,19 @@ impl FilterSettings {
             ("filter.accel_bias_tau_s", self.accel_bias_tau_s),
         ] {
             check(origin, k, v, v > 0.0, "a positive number")?;
+        }
+        for (k, v) in [
+            ("filter.max_gyro_rate_dps", self.max_gyro_rate_dps),
+            ("filter.max_accel_mps2", self.max_accel_mps2),
+            ("filter.imu_gap_s", self.imu_gap_s),
+        ] {
+            check(origin, k, v, v > 0.0, "a positive number")?;
+        }
+        for (k, v) in [
+            ("filter.coast_accel_mps2", self.coast_accel_mps2),
+            ("filter.coast_rate_dps", self.coast_rate_dps),
+        ] {
+            check(origin, k, v, v >= 0.0, "a number ≥ 0")?;
         }
         let c = self.covariance_interval_s;
         check(
@@ -458,6 +499,12 @@ impl Config {
             (10.0..=1000.0).contains(&r),
             "an IMU rate in [10, 1000] Hz",
         )?;
+        for (k, v) in [
+            ("live.checkpoint_period_s", c.live.checkpoint_period_s),
+            ("live.checkpoint_max_age_s", c.live.checkpoint_max_age_s),
+        ] {
+            check(origin, k, v, v > 0.0, "a positive time in seconds")?;
+        }
         if c.live.imu_lost_periods == 0 {
             return Err(ConfigError::Invalid {
                 path: origin.to_owned(),

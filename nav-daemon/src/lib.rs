@@ -13,6 +13,7 @@
 pub mod aids;
 pub mod align;
 pub mod batch;
+pub mod checkpoint;
 pub mod config;
 pub mod earth;
 pub mod error_model;

@@ -10,7 +10,10 @@
 //! systemd: READY=1 after the first valid solution, WATCHDOG=1 from this
 //! loop only, STATUS= once a second.
 
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, AtomicU64, Ordering};
+use std::sync::mpsc::SyncSender;
 use std::time::{Duration, Instant};
 
 use iceoryx2::prelude::*;
@@ -21,6 +24,7 @@ use msgs::{
     solution_flags,
 };
 
+use crate::checkpoint::{self, Checkpoint};
 use crate::config::Config;
 use crate::navigator::{Navigator, NavigatorConfig};
 use crate::transport::{self, TopicPublisher, TopicSubscriber, TransportConfig, TransportError};
@@ -34,6 +38,100 @@ pub struct LiveOptions {
     pub imu_lost_periods: u32,
     /// Status period.
     pub status_period: Duration,
+    /// Periodic checkpoints and resume-on-restart (`None`: disabled).
+    pub checkpoint: Option<CheckpointOptions>,
+}
+
+/// Checkpoint settings of the live service.
+#[derive(Debug, Clone, PartialEq)]
+pub struct CheckpointOptions {
+    pub path: PathBuf,
+    /// Sensor time between checkpoints (ns).
+    pub period_ns: u64,
+    /// Resume only if the first IMU sample is at most this long after the checkpoint (ns).
+    pub max_age_ns: u64,
+}
+
+impl CheckpointOptions {
+    /// From `[live]`; `None` when `checkpoint_path` is empty.
+    pub fn from_config(c: &crate::config::LiveSettings) -> Option<Self> {
+        (!c.checkpoint_path.is_empty()).then(|| Self {
+            path: PathBuf::from(&c.checkpoint_path),
+            period_ns: (c.checkpoint_period_s * 1e9).round() as u64,
+            max_age_ns: (c.checkpoint_max_age_s * 1e9).round() as u64,
+        })
+    }
+}
+
+/// Writes checkpoints on its own thread, so that file I/O and fsync never
+/// delay the filter cycle. The cycle offers a checkpoint by value through a
+/// one-slot channel; if the writer is still busy the offer is skipped.
+struct CheckpointWriter {
+    tx: Option<SyncSender<Checkpoint>>,
+    written: Arc<AtomicU64>,
+    handle: Option<std::thread::JoinHandle<()>>,
+    last_t_ns: u64,
+    period_ns: u64,
+}
+
+impl CheckpointWriter {
+    fn start(opts: &CheckpointOptions) -> Self {
+        let (tx, rx) = std::sync::mpsc::sync_channel::<Checkpoint>(1);
+        let written = Arc::new(AtomicU64::new(0));
+        let count = Arc::clone(&written);
+        let path = opts.path.clone();
+        let handle = std::thread::Builder::new()
+            .name("checkpoint".into())
+            .spawn(move || {
+                let mut buf = [0u8; checkpoint::ENCODED_LEN];
+                let mut errors = RateLimit::default();
+                for c in rx {
+                    c.encode(&mut buf);
+                    match checkpoint::write_atomic(&path, &buf) {
+                        Ok(()) => {
+                            count.fetch_add(1, Ordering::Relaxed);
+                        }
+                        Err(e) => {
+                            if let Some(suppressed) = errors.due() {
+                                tracing::error!(path = %path.display(), suppressed, "checkpoint not written: {e}");
+                            }
+                        }
+                    }
+                }
+            })
+            .expect("spawn checkpoint writer");
+        Self {
+            tx: Some(tx),
+            written,
+            handle: Some(handle),
+            last_t_ns: 0,
+            period_ns: opts.period_ns,
+        }
+    }
+
+    fn offer(&mut self, nav: &Navigator) {
+        if nav.t_ns() < self.last_t_ns.saturating_add(self.period_ns) {
+            return;
+        }
+        if let Some(tx) = &self.tx
+            && tx.try_send(nav.checkpoint()).is_ok()
+        {
+            self.last_t_ns = nav.t_ns();
+        }
+    }
+
+    fn written(&self) -> u64 {
+        self.written.load(Ordering::Relaxed)
+    }
+}
+
+impl Drop for CheckpointWriter {
+    fn drop(&mut self) {
+        self.tx = None;
+        if let Some(h) = self.handle.take() {
+            let _ = h.join();
+        }
+    }
 }
 
 impl Default for LiveOptions {
@@ -42,6 +140,7 @@ impl Default for LiveOptions {
             imu_rate_hz: 200.0,
             imu_lost_periods: 5,
             status_period: Duration::from_secs(1),
+            checkpoint: None,
         }
     }
 }
@@ -64,8 +163,10 @@ pub struct LiveReport {
     pub overruns: u64,
 }
 
-/// Capacity of the per-cycle input buffers (a cycle normally sees one IMU
-/// sample; 45 ms stalls at 1 kHz leave ~45).
+/// Preallocated capacity of the per-cycle input buffers (a cycle normally
+/// sees one IMU sample; 45 ms stalls at 1 kHz leave ~45). It exceeds the sum
+/// of the subscriber buffers, so the buffers never grow and nothing drained
+/// is dropped.
 const CAPACITY: usize = 1024;
 
 /// An aid sample waiting in the preallocated per-cycle buffer. Not boxed on
@@ -155,6 +256,18 @@ pub fn run(
     tracing::info!(prefix = %transport_cfg.prefix, imu_rate_hz = opts.imu_rate_hz, "nav-daemon live: services open, waiting for init and IMU");
 
     let mut state = LoopState::new(config, opts);
+    if let Some(c) = &opts.checkpoint {
+        match Checkpoint::load(&c.path) {
+            Ok(Some(ck)) => {
+                tracing::info!(path = %c.path.display(), t_ns = ck.t_ns, "checkpoint found: resuming if the IMU continues from it");
+                state.pending_resume = Some(ck);
+            }
+            Ok(None) => {
+                tracing::info!(path = %c.path.display(), "no checkpoint: cold start");
+            }
+            Err(e) => tracing::warn!("checkpoint unusable, cold start: {e}"),
+        }
+    }
     loop {
         let mut imu_event = false;
         let result = waitset.wait_and_process_once(|id| {
@@ -250,7 +363,13 @@ struct LoopState {
     aid_buf: Vec<Aid>,
     init_buf: Vec<InitState>,
     seq: [SeqTracker; 4],
-    rejected_before_init: u64,
+    /// Per stream (IMU, SRS, CNS, baro): samples received by this loop but
+    /// never handed to a navigator (no state yet, or stamped before a new init).
+    not_used: [u64; 4],
+    checkpoint: Option<CheckpointWriter>,
+    /// A checkpoint to resume from when the IMU continues from it.
+    pending_resume: Option<Checkpoint>,
+    resumed: bool,
     imu_rejections: RateLimit,
     aid_rejections: RateLimit,
     /// Freshness of SRS, CNS, baro in the last status (for transition events).
@@ -278,7 +397,10 @@ impl LoopState {
             aid_buf: Vec::with_capacity(CAPACITY),
             init_buf: Vec::with_capacity(16),
             seq: [SeqTracker::default(); 4],
-            rejected_before_init: 0,
+            not_used: [0; 4],
+            checkpoint: opts.checkpoint.as_ref().map(CheckpointWriter::start),
+            pending_resume: None,
+            resumed: false,
             imu_rejections: RateLimit::default(),
             aid_rejections: RateLimit::default(),
             aid_fresh: [false; 3],
@@ -308,33 +430,36 @@ impl LoopState {
         ports.init.drain(|x| init_buf.push(x))?;
         ports.imu.drain(|x| {
             seq[0].see(x.seq);
-            if imu_buf.len() < CAPACITY {
-                imu_buf.push(x);
-            }
+            imu_buf.push(x);
         })?;
         ports.srs.drain(|x| {
             seq[1].see(x.seq);
-            if aid_buf.len() < CAPACITY {
-                aid_buf.push(Aid::Srs(x));
-            }
+            aid_buf.push(Aid::Srs(x));
         })?;
         ports.cns.drain(|x| {
             seq[2].see(x.seq);
-            if aid_buf.len() < CAPACITY {
-                aid_buf.push(Aid::Cns(x));
-            }
+            aid_buf.push(Aid::Cns(x));
         })?;
         ports.baro.drain(|x| {
             seq[3].see(x.seq);
-            if aid_buf.len() < CAPACITY {
-                aid_buf.push(Aid::Baro(x));
-            }
+            aid_buf.push(Aid::Baro(x));
         })?;
         ports.srs.clear_events();
         ports.cns.clear_events();
         ports.baro.clear_events();
         ports.init.clear_events();
 
+        // An init no newer than the checkpoint (e.g. the init topic's history
+        // delivered to a restarted daemon) describes an older state: resume instead.
+        if let Some(c) = &self.pending_resume {
+            let n = self.init_buf.len();
+            self.init_buf.retain(|i| i.t_ns > c.t_ns);
+            if self.init_buf.len() < n {
+                tracing::info!(
+                    "init message older than the checkpoint ignored: resuming from the checkpoint"
+                );
+            }
+        }
         if let Some(init) = self.init_buf.iter().max_by_key(|i| i.t_ns).copied() {
             if self.nav.is_some() {
                 self.report.reinits += 1;
@@ -346,10 +471,18 @@ impl LoopState {
             } else {
                 tracing::info!(t_ns = init.t_ns, "init message received");
             }
-            self.nav = Some(Navigator::new(&init, &self.nav_cfg));
+            match self.nav.as_mut() {
+                Some(nav) => nav.reinitialize(&init, &self.nav_cfg),
+                None => self.nav = Some(Navigator::new(&init, &self.nav_cfg)),
+            }
+            if self.pending_resume.take().is_some() {
+                tracing::info!("init message received: the checkpoint is not used (cold start)");
+            }
             // Inputs from before the new init belong to the previous pass.
+            let n = self.imu_buf.len();
             self.imu_buf.retain(|s| s.t_ns > init.t_ns);
-            self.aid_buf.retain(|a| a.t_ns() > init.t_ns);
+            self.not_used[0] += (n - self.imu_buf.len()) as u64;
+            self.drop_aids(|a| a.t_ns() <= init.t_ns);
         }
         self.imu_buf.sort_unstable_by_key(|s| s.t_ns);
         self.aid_buf.sort_unstable_by_key(Aid::t_ns);
@@ -362,6 +495,28 @@ impl LoopState {
             self.imu_lost = false;
         }
         if self.nav.is_none()
+            && let Some(first) = self.imu_buf.first()
+            && let Some(c) = self.pending_resume.take()
+        {
+            let max_age = self.opts.checkpoint.as_ref().map_or(0, |o| o.max_age_ns);
+            if first.t_ns > c.t_ns && first.t_ns - c.t_ns <= max_age {
+                tracing::info!(
+                    checkpoint_t_ns = c.t_ns,
+                    gap_s = (first.t_ns - c.t_ns) as f64 * 1e-9,
+                    "resumed from checkpoint (no re-alignment); the gap to the first IMU sample is coasted"
+                );
+                self.nav = Some(Navigator::from_checkpoint(&c, &self.nav_cfg));
+                self.resumed = true;
+            } else {
+                tracing::warn!(
+                    checkpoint_t_ns = c.t_ns,
+                    first_imu_t_ns = first.t_ns,
+                    max_age_s = max_age as f64 * 1e-9,
+                    "checkpoint not used: the IMU does not continue from it; cold start"
+                );
+            }
+        }
+        if self.nav.is_none()
             && let (Some(ci), Some(first)) = (&self.init_cfg, self.imu_buf.first())
         {
             let t0 = first.t_ns.saturating_sub((first.dt_s * 1e9).round() as u64);
@@ -372,9 +527,9 @@ impl LoopState {
             self.nav = Some(Navigator::new(&ci.to_init(t0), &self.nav_cfg));
         }
         let Some(nav) = self.nav.as_mut() else {
-            self.rejected_before_init += self.imu_buf.len() as u64;
+            self.not_used[0] += self.imu_buf.len() as u64;
             self.imu_buf.clear();
-            self.aid_buf.clear();
+            self.drop_aids(|_| true);
             return Ok(());
         };
 
@@ -432,7 +587,27 @@ impl LoopState {
         self.imu_buf.clear();
         // Aids ahead of the newest IMU sample wait for it.
         self.aid_buf.drain(..next_aid);
+        if let (Some(w), Some(nav)) = (self.checkpoint.as_mut(), self.nav.as_ref()) {
+            w.offer(nav);
+        }
         Ok(())
+    }
+
+    /// Removes the buffered aids matching `pred`, counting them as not used.
+    fn drop_aids(&mut self, pred: impl Fn(&Aid) -> bool) {
+        let not_used = &mut self.not_used;
+        self.aid_buf.retain(|a| {
+            if !pred(a) {
+                return true;
+            }
+            let k = match a {
+                Aid::Srs(_) => 1,
+                Aid::Cns(_) => 2,
+                Aid::Baro(_) => 3,
+            };
+            not_used[k] += 1;
+            false
+        });
     }
 
     /// Timing, IMU-lost detection and watchdog; true when a status is due.
@@ -476,9 +651,19 @@ impl LoopState {
         gaps(&mut s.srs, &self.seq[1]);
         gaps(&mut s.cns, &self.seq[2]);
         gaps(&mut s.baro, &self.seq[3]);
-        // IMU samples that arrived before any init were received and rejected.
-        s.imu.received += self.rejected_before_init;
-        s.imu.rejected_invalid += self.rejected_before_init;
+        // Samples that never reached a navigator were received and not used.
+        for (c, n) in [&mut s.imu, &mut s.srs, &mut s.cns, &mut s.baro]
+            .into_iter()
+            .zip(self.not_used)
+        {
+            c.received += n;
+            c.not_used += n;
+        }
+        s.checkpoints_written = self
+            .checkpoint
+            .as_ref()
+            .map_or(0, CheckpointWriter::written);
+        s.resumed = u8::from(self.resumed);
         s.cycles = self.report.cycles;
         s.overruns = self.report.overruns;
         let n = self.cycle_count_window.max(1) as u32;

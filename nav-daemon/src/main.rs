@@ -201,6 +201,7 @@ fn main() -> ExitCode {
             let opts = polarnav::live::LiveOptions {
                 imu_rate_hz: config.live.imu_rate_hz,
                 imu_lost_periods: config.live.imu_lost_periods,
+                checkpoint: polarnav::live::CheckpointOptions::from_config(&config.live),
                 ..Default::default()
             };
             match polarnav::live::run(&config, &transport, &opts, &stop) {

@@ -18,6 +18,7 @@ use nalgebra::{Matrix3, SMatrix, UnitQuaternion, Vector3};
 
 use crate::aids::control::AidControl;
 use crate::aids::{self, AidError, Measurement};
+use crate::checkpoint::Checkpoint;
 use crate::config::{AidSettings, FilterSettings};
 use crate::earth;
 use crate::error_model::{self, Mat15, idx};
@@ -129,6 +130,13 @@ pub enum InputRejection {
     /// The interval length is not positive or disagrees with the time stamps.
     #[error("interval dt = {dt_s} s inconsistent with the time stamps")]
     BadInterval { dt_s: f64 },
+    /// A value outside what the sensor can physically produce.
+    #[error("{field} = {value} exceeds the physical limit {limit}")]
+    Implausible {
+        field: &'static str,
+        value: f64,
+        limit: f64,
+    },
     /// An aid older than the allowed latency.
     #[error("aid at {t_ns} ns is {age_s:.3} s behind the IMU (limit {limit_s} s)")]
     TooLate { t_ns: u64, age_s: f64, limit_s: f64 },
@@ -182,6 +190,33 @@ pub struct Navigator {
     cns: AidControl,
     baro: AidControl,
     last_rejected: bool,
+    limits: ImuLimits,
+    imu_gap_count: u64,
+    coasted_ns: u64,
+    /// Set by a coasted gap / a checkpoint restore; cleared by the next fused aid.
+    coasting: bool,
+    resumed: bool,
+    reset: ResetRecord,
+}
+
+/// Input plausibility and gap handling, in SI units.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct ImuLimits {
+    max_rate_rps: f64,
+    max_accel_mps2: f64,
+    gap_s: f64,
+    coast_accel_mps2: f64,
+    coast_rate_rps: f64,
+}
+
+/// The last reset of the navigation state and the step it made.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct ResetRecord {
+    pub count: u32,
+    pub t_ns: u64,
+    pub delta_pos_e_m: [f64; 3],
+    pub delta_vel_e_mps: [f64; 3],
+    pub delta_heading_rad: f64,
 }
 
 fn secs_to_ns(s: f64) -> u64 {
@@ -225,7 +260,149 @@ impl Navigator {
             cns: AidControl::new(a.cns_gate, secs_to_ns(a.cns_timeout_s)),
             baro: AidControl::new(a.baro_gate, secs_to_ns(a.baro_timeout_s)),
             last_rejected: false,
+            limits: ImuLimits {
+                max_rate_rps: f.max_gyro_rate_dps.to_radians(),
+                max_accel_mps2: f.max_accel_mps2,
+                gap_s: f.imu_gap_s,
+                coast_accel_mps2: f.coast_accel_mps2,
+                coast_rate_rps: f.coast_rate_dps.to_radians(),
+            },
+            imu_gap_count: 0,
+            coasted_ns: 0,
+            coasting: false,
+            resumed: false,
+            reset: ResetRecord::default(),
         }
+    }
+
+    /// Takes a new init while running: the state and covariance start again
+    /// from `init`; counters, sequence numbers and switch count carry on, and
+    /// the step from the old state is published as a reset.
+    pub fn reinitialize(&mut self, init: &InitState, config: &NavigatorConfig) {
+        let old = self.solution();
+        let mut fresh = Navigator::new(init, config);
+        fresh.seq = self.seq;
+        fresh.switch_count = self.switch_count;
+        fresh.last_switch_t_ns = self.last_switch_t_ns;
+        fresh.imu = self.imu;
+        fresh.imu_gap_count = self.imu_gap_count;
+        fresh.coasted_ns = self.coasted_ns;
+        for (n, o) in [
+            (&mut fresh.srs, &self.srs),
+            (&mut fresh.cns, &self.cns),
+            (&mut fresh.baro, &self.baro),
+        ] {
+            n.counters = o.counters;
+            n.counters.last_t_ns = 0;
+        }
+        fresh.reset = self.reset;
+        *self = fresh;
+        self.record_reset(&old);
+    }
+
+    /// Records the step from `old` to the current state as a reset.
+    fn record_reset(&mut self, old: &Solution) {
+        let new = self.solution();
+        let d = |a: [f64; 3], b: [f64; 3]| [a[0] - b[0], a[1] - b[1], a[2] - b[2]];
+        let pi = std::f64::consts::PI;
+        self.reset = ResetRecord {
+            count: self.reset.count + 1,
+            t_ns: self.t_ns,
+            delta_pos_e_m: d(new.r_e_m, old.r_e_m),
+            delta_vel_e_mps: d(new.v_e_mps, old.v_e_mps),
+            delta_heading_rad: (new.heading_rad - old.heading_rad + pi).rem_euclid(2.0 * pi) - pi,
+        };
+    }
+
+    /// The state to resume from after a restart.
+    pub fn checkpoint(&self) -> Checkpoint {
+        let ff = self.nav.frame_free();
+        let q = ff.q_b_e.into_inner();
+        let mut p = [0.0; 225];
+        for (k, x) in p.iter_mut().enumerate() {
+            *x = self.p[(k / 15, k % 15)];
+        }
+        let prev_inc = self.prev_inc.map_or([0.0; 7], |i| {
+            [
+                i.d_theta.x,
+                i.d_theta.y,
+                i.d_theta.z,
+                i.d_v.x,
+                i.d_v.y,
+                i.d_v.z,
+                i.dt_s,
+            ]
+        });
+        Checkpoint {
+            t_ns: self.t_ns,
+            seq: self.seq,
+            switch_count: self.switch_count,
+            reset_count: self.reset.count,
+            frame: self.nav.kind().to_wire() as u8,
+            r_e_m: ff.r_e.into(),
+            v_e_mps: ff.v_e.into(),
+            q_b_e: [q.w, q.i, q.j, q.k],
+            p,
+            gyro_bias_rps: self.gyro_bias.into(),
+            accel_bias_mps2: self.accel_bias.into(),
+            prev_inc,
+            pending_cov: [
+                self.acc_dt,
+                self.acc_dv_b.x,
+                self.acc_dv_b.y,
+                self.acc_dv_b.z,
+            ],
+        }
+    }
+
+    /// Resumes from a checkpoint: the state, covariance and biases as they were
+    /// (in the checkpoint's frame), flagged `RESUMED` until the next fused aid.
+    /// The time between the checkpoint and the next IMU sample is bridged like
+    /// any IMU gap.
+    pub fn from_checkpoint(c: &Checkpoint, config: &NavigatorConfig) -> Self {
+        let kind = if c.frame == msgs::WireFrame::Grid as u8 {
+            FrameKind::Grid
+        } else {
+            FrameKind::Geographic
+        };
+        let [w, x, y, z] = c.q_b_e;
+        let q = UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(w, x, y, z));
+        let init = InitState {
+            t_ns: c.t_ns,
+            r_e_m: c.r_e_m,
+            v_e_mps: c.v_e_mps,
+            q_b_e: c.q_b_e,
+            ..Default::default()
+        };
+        let mut n = Navigator::new(&init, config);
+        n.nav =
+            AnyNav::from_frame_free(kind, &Vector3::from(c.r_e_m), &Vector3::from(c.v_e_mps), &q);
+        n.geo = n.nav.geodetic();
+        n.p = Mat15::from_row_slice(&c.p);
+        n.gyro_bias = Vector3::from(c.gyro_bias_rps);
+        n.accel_bias = Vector3::from(c.accel_bias_mps2);
+        let i = c.prev_inc;
+        n.prev_inc = (i[6] > 0.0).then(|| Increment {
+            d_theta: Vector3::new(i[0], i[1], i[2]),
+            d_v: Vector3::new(i[3], i[4], i[5]),
+            dt_s: i[6],
+        });
+        n.acc_dt = c.pending_cov[0];
+        n.acc_dv_b = Vector3::new(c.pending_cov[1], c.pending_cov[2], c.pending_cov[3]);
+        n.seq = c.seq;
+        n.switch_count = c.switch_count;
+        n.reset.count = c.reset_count;
+        n.resumed = true;
+        n
+    }
+
+    pub fn last_reset(&self) -> &ResetRecord {
+        &self.reset
+    }
+
+    /// IMU gaps coasted and the sensor time coasted (ns).
+    pub fn gaps(&self) -> (u64, u64) {
+        (self.imu_gap_count, self.coasted_ns)
     }
 
     pub fn state(&self) -> &AnyNav {
@@ -264,6 +441,25 @@ impl Navigator {
         if !s.dt_s.is_finite() {
             return Err(InputRejection::NonFinite { field: "imu.dt_s" });
         }
+        if s.dt_s > 0.0 {
+            let norm = |a: &[f64; 3]| Vector3::from(*a).norm();
+            let rate = norm(&s.d_theta_rad) / s.dt_s;
+            if rate > self.limits.max_rate_rps {
+                return Err(InputRejection::Implausible {
+                    field: "imu angular rate (rad/s)",
+                    value: rate,
+                    limit: self.limits.max_rate_rps,
+                });
+            }
+            let accel = norm(&s.d_v_mps) / s.dt_s;
+            if accel > self.limits.max_accel_mps2 {
+                return Err(InputRejection::Implausible {
+                    field: "imu specific force (m/s²)",
+                    value: accel,
+                    limit: self.limits.max_accel_mps2,
+                });
+            }
+        }
         if s.t_ns <= self.t_ns {
             return Err(InputRejection::TimeNotIncreasing {
                 t_ns: s.t_ns,
@@ -301,23 +497,77 @@ impl Navigator {
         };
         self.imu.accepted += 1;
         self.imu.last_t_ns = s.t_ns;
-        let prev = self.prev_inc.unwrap_or(inc);
-        self.nav = self.nav.mechanize_at(&self.geo, &prev, &inc);
-        self.geo = self.nav.geodetic();
-        self.prev_inc = Some(inc);
+        // Time not covered by any interval (samples lost upstream): bridge it.
+        let missing_s = (s.t_ns - self.t_ns) as f64 * 1e-9 - inc.dt_s;
+        if missing_s > 0.5 * inc.dt_s {
+            self.bridge(missing_s, &inc);
+        }
+        self.integrate(&inc);
         self.t_ns = s.t_ns;
         self.seq += 1;
-        self.acc_dt += inc.dt_s;
-        self.acc_dv_b += inc.d_v;
-        if self.acc_dt >= self.cov_interval_s * (1.0 - 1e-9) {
-            self.propagate_covariance();
-        }
 
         let from = self.nav.kind();
         let lat = self.geo.lat_rad;
         let to = self.selector.decide(from, lat, self.t_ns);
         let switch = (to != from).then(|| self.switch_frame(to, lat));
         Ok(ImuOutcome { switch })
+    }
+
+    /// Mechanization and covariance bookkeeping of one increment.
+    fn integrate(&mut self, inc: &Increment) {
+        let prev = self.prev_inc.unwrap_or(*inc);
+        self.nav = self.nav.mechanize_at(&self.geo, &prev, inc);
+        self.geo = self.nav.geodetic();
+        self.prev_inc = Some(*inc);
+        self.acc_dt += inc.dt_s;
+        self.acc_dv_b += inc.d_v;
+        if self.acc_dt >= self.cov_interval_s * (1.0 - 1e-9) {
+            self.propagate_covariance();
+        }
+    }
+
+    /// Carries the state across `missing_s` of IMU time on the last rates held
+    /// constant (steps no longer than the nominal interval). A gap longer than
+    /// `imu_gap_s` is coasted: counted, flagged, and its unknown manoeuvre
+    /// added to the covariance.
+    fn bridge(&mut self, missing_s: f64, next: &Increment) {
+        let last = self.prev_inc.unwrap_or(*next);
+        let n = (missing_s / last.dt_s).ceil().max(1.0);
+        let h = missing_s / n;
+        let step = Increment {
+            d_theta: last.d_theta * (h / last.dt_s),
+            d_v: last.d_v * (h / last.dt_s),
+            dt_s: h,
+        };
+        for _ in 0..n as u64 {
+            self.integrate(&step);
+        }
+        if missing_s > self.limits.gap_s {
+            self.imu_gap_count += 1;
+            self.coasted_ns += (missing_s * 1e9).round() as u64;
+            self.coasting = true;
+            self.propagate_covariance();
+            let (sa, sw, t) = (
+                self.limits.coast_accel_mps2,
+                self.limits.coast_rate_rps,
+                missing_s,
+            );
+            // Unknown acceleration a over the gap: δv = a t, δp = a t²/2 (per axis).
+            let var_v = (sa * t).powi(2);
+            let var_p = (0.5 * sa * t * t).powi(2);
+            let var_phi = (sw * t).powi(2);
+            let geo = self.geo;
+            let m = self.position_map_enu(&frames::c_e_g(geo.lat_rad, geo.lon_rad));
+            let m_inv = m.try_inverse().unwrap_or_else(Matrix3::identity);
+            let add_p = m_inv * m_inv.transpose() * var_p;
+            for i in 0..3 {
+                self.p[(idx::DV + i, idx::DV + i)] += var_v;
+                self.p[(idx::PHI + i, idx::PHI + i)] += var_phi;
+                for j in 0..3 {
+                    self.p[(idx::DP + i, idx::DP + j)] += add_p[(i, j)];
+                }
+            }
+        }
     }
 
     /// P brought up to the current time with the mean specific force of the interval.
@@ -424,6 +674,8 @@ impl Navigator {
         self.control_mut(which).record(t_ns, &out);
         self.last_rejected = !out.fused;
         if out.fused {
+            self.coasting = false;
+            self.resumed = false;
             let dx = out.dx;
             let part = |o: usize| Vector3::new(dx[o], dx[o + 1], dx[o + 2]);
             self.nav
@@ -467,6 +719,7 @@ impl Navigator {
             AidKind::Baro => self.aid_set.baro,
         };
         if !enabled {
+            self.control_mut(which).counters.not_used += 1;
             return Ok(AidOutcome {
                 fused: false,
                 test_ratio: f64::NAN,
@@ -500,6 +753,9 @@ impl Navigator {
         };
         let mut out = self.fuse(which, t_ns, &m);
         out.excluded_body = excluded;
+        if excluded.is_some() {
+            self.control_mut(which).status.exclusions += 1;
+        }
         Ok(out)
     }
 
@@ -583,6 +839,12 @@ impl Navigator {
         if self.last_rejected {
             f |= solution_flags::LAST_INNOVATION_REJECTED;
         }
+        if self.coasting {
+            f |= solution_flags::COASTING;
+        }
+        if self.resumed {
+            f |= solution_flags::RESUMED;
+        }
         f
     }
 
@@ -641,10 +903,15 @@ impl Navigator {
             sigma_att_rad: diag_sqrt(idx::PHI).into(),
             gyro_bias_rps: self.gyro_bias.into(),
             accel_bias_mps2: self.accel_bias.into(),
+            reset_t_ns: self.reset.t_ns,
+            reset_delta_pos_e_m: self.reset.delta_pos_e_m,
+            reset_delta_vel_e_mps: self.reset.delta_vel_e_mps,
+            reset_delta_heading_rad: self.reset.delta_heading_rad,
             flags: self.flags(),
             switch_count: self.switch_count,
+            reset_count: self.reset.count,
             frame: self.nav.kind().to_wire() as u8,
-            _pad: [0; 7],
+            _pad: [0; 3],
         }
     }
 
@@ -667,6 +934,10 @@ impl Navigator {
             baro_aid,
             last_switch_t_ns: self.last_switch_t_ns,
             switch_count: self.switch_count,
+            imu_gap_count: self.imu_gap_count,
+            coasted_ns: self.coasted_ns,
+            reset_count: self.reset.count,
+            resumed: u8::from(self.resumed),
             flags: self.flags(),
             frame: self.nav.kind().to_wire() as u8,
             ..Default::default()

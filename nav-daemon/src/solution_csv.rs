@@ -101,6 +101,12 @@ pub fn read(path: &std::path::Path) -> Result<Vec<Row>, ReadCsvError> {
         path: p.clone(),
         source,
     })?;
+    parse(&text, &p)
+}
+
+/// Parses solution CSV text; `p` names its origin in errors.
+pub fn parse(text: &str, p: &str) -> Result<Vec<Row>, ReadCsvError> {
+    let p = p.to_owned();
     let mut lines = text.lines();
     if lines.next().map(str::trim) != Some(HEADER) {
         return Err(ReadCsvError::Header { path: p });

@@ -1,7 +1,9 @@
 //! polarnav sensor-replay: flight simulator, log import/export, evaluation.
 
+pub mod campaign;
 pub mod eval;
 pub mod export;
+pub mod faults;
 pub mod interop;
 pub mod live;
 pub mod logfile;

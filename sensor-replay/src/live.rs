@@ -9,12 +9,14 @@ use msgs::service::Topic;
 use msgs::{BaroSample, CnsFix, ImuSample, InitState, Solution, SrsSample, Status};
 use polarnav::transport::{self, TopicPublisher, TopicSubscriber, TransportConfig, TransportError};
 
-use crate::logfile::LogContents;
+use crate::logfile::{LogContents, SensorRef};
 
 /// Pacing statistics of a replay (lateness of each publication behind its deadline).
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct Pacing {
     pub published: u64,
+    /// Samples published per stream: IMU, SRS, CNS, baro.
+    pub per_stream: [u64; 4],
     pub p50_us: f64,
     pub p99_us: f64,
     pub max_us: f64,
@@ -53,10 +55,44 @@ fn wait_until(deadline: Instant) {
     }
 }
 
+/// The sensor records in log order: the order a recorder saw them arrive or
+/// the simulator emitted them. A sample whose time stamp jumped back stays
+/// where the log has it, as it would arrive.
+/// One exception: aids stamped exactly at an IMU sample's time go out just
+/// before it (a log may have them after it), so that the solution at that
+/// time includes them, as `batch` computes it.
+fn in_log_order(log: &LogContents) -> Vec<Sensor<'_>> {
+    let mut out: Vec<Sensor<'_>> = log
+        .order
+        .iter()
+        .map(|r| match *r {
+            SensorRef::Imu(k) => Sensor::Imu(&log.imu[k]),
+            SensorRef::Srs(k) => Sensor::Srs(&log.srs[k]),
+            SensorRef::Cns(k) => Sensor::Cns(&log.cns[k]),
+            SensorRef::Baro(k) => Sensor::Baro(&log.baro[k]),
+        })
+        .collect();
+    let mut k = 0;
+    while k < out.len() {
+        if let Sensor::Imu(x) = out[k] {
+            let t = x.t_ns;
+            let aids = out[k + 1..]
+                .iter()
+                .take_while(|s| !matches!(s, Sensor::Imu(_)) && sensor_t(s) == t)
+                .count();
+            // Rotate the IMU sample behind its aids.
+            out[k..=k + aids].rotate_left(1);
+            k += aids;
+        }
+        k += 1;
+    }
+    out
+}
+
 /// Publishes the log at wall-clock rate (scaled by `speed`) against absolute
-/// deadlines. Each pass starts with an init message; with `loops` > 1 the
-/// time base keeps increasing from pass to pass. At equal time stamps aids go
-/// out before the IMU sample, as a time-ordered log has them.
+/// deadlines, in log order (a record never goes out before the one the log
+/// has before it). Each pass starts with an init message; with `loops` > 1
+/// the time base keeps increasing from pass to pass.
 pub fn play(
     log: &LogContents,
     cfg: &TransportConfig,
@@ -71,19 +107,18 @@ pub fn play(
     let baro = TopicPublisher::<BaroSample>::new(&node, cfg, Topic::Baro)?;
     let init_pub = TopicPublisher::<InitState>::new(&node, cfg, Topic::Init)?;
 
-    let mut sensors: Vec<Sensor<'_>> =
-        Vec::with_capacity(log.imu.len() + log.srs.len() + log.cns.len() + log.baro.len());
-    sensors.extend(log.srs.iter().map(Sensor::Srs));
-    sensors.extend(log.cns.iter().map(Sensor::Cns));
-    sensors.extend(log.baro.iter().map(Sensor::Baro));
-    sensors.extend(log.imu.iter().map(Sensor::Imu));
-    // Stable sort: at equal times the aids (pushed first) precede the IMU sample.
-    sensors.sort_by_key(sensor_t);
+    let sensors = in_log_order(log);
     let init = log.init.first().copied().unwrap_or_default();
     let t0 = init.t_ns;
-    let span = sensors.last().map_or(0, |s| sensor_t(s).saturating_sub(t0)) + 1_000_000;
+    let span = sensors
+        .iter()
+        .map(|s| sensor_t(s).saturating_sub(t0))
+        .max()
+        .unwrap_or(0)
+        + 1_000_000;
 
     let mut lateness: Vec<u64> = Vec::with_capacity(sensors.len());
+    let mut per_stream = [0u64; 4];
     let progress_every = (span / 10).max(1);
     let mut next_progress = progress_every;
     let start = Instant::now() + Duration::from_millis(100);
@@ -92,6 +127,7 @@ pub fn play(
         let at =
             |t_ns: u64| start + Duration::from_secs_f64((t_ns - t0 + offset) as f64 * 1e-9 / speed);
         wait_until(at(t0));
+        let mut last_deadline = at(t0);
         init_pub.publish(&InitState {
             t_ns: init.t_ns + offset,
             seq: pass,
@@ -101,8 +137,17 @@ pub fn play(
             if stop.load(Ordering::Relaxed) {
                 break 'passes;
             }
-            let deadline = at(sensor_t(s));
+            // Never earlier than the previous sample: a time stamp that jumped
+            // back goes out at once, in log order.
+            let deadline = at(sensor_t(s).max(t0)).max(last_deadline);
+            last_deadline = deadline;
             wait_until(deadline);
+            per_stream[match s {
+                Sensor::Imu(_) => 0,
+                Sensor::Srs(_) => 1,
+                Sensor::Cns(_) => 2,
+                Sensor::Baro(_) => 3,
+            }] += 1;
             match s {
                 Sensor::Imu(x) => imu.publish(&ImuSample {
                     t_ns: x.t_ns + offset,
@@ -123,7 +168,7 @@ pub fn play(
                 })?,
             };
             lateness.push(deadline.elapsed().as_nanos() as u64);
-            let done = sensor_t(s) - t0;
+            let done = sensor_t(s).saturating_sub(t0);
             if done >= next_progress {
                 next_progress += progress_every;
                 eprintln!(
@@ -144,6 +189,7 @@ pub fn play(
     };
     Ok(Pacing {
         published: lateness.len() as u64,
+        per_stream,
         p50_us: q(0.5),
         p99_us: q(0.99),
         max_us: q(1.0),

@@ -19,6 +19,18 @@ pub struct LogContents {
     pub truth: Vec<TruthRecord>,
     pub solution: Vec<Solution>,
     pub report: ReadReport,
+    /// The sensor records in log order (the order they arrived or were
+    /// emitted in), as indices into the per-stream vectors.
+    pub order: Vec<SensorRef>,
+}
+
+/// A sensor record of a [`LogContents`], by stream and index.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum SensorRef {
+    Imu(usize),
+    Srs(usize),
+    Cns(usize),
+    Baro(usize),
 }
 
 /// Errors that stop loading (damage inside the file does not).
@@ -52,10 +64,22 @@ pub fn load(path: &Path) -> Result<LogContents, LoadError> {
         match rec {
             Record::Header(h) => c.header = Some(*h),
             Record::Init(x) => c.init.push(x),
-            Record::Imu(x) => c.imu.push(x),
-            Record::Srs(x) => c.srs.push(*x),
-            Record::Cns(x) => c.cns.push(x),
-            Record::Baro(x) => c.baro.push(x),
+            Record::Imu(x) => {
+                c.order.push(SensorRef::Imu(c.imu.len()));
+                c.imu.push(x);
+            }
+            Record::Srs(x) => {
+                c.order.push(SensorRef::Srs(c.srs.len()));
+                c.srs.push(*x);
+            }
+            Record::Cns(x) => {
+                c.order.push(SensorRef::Cns(c.cns.len()));
+                c.cns.push(x);
+            }
+            Record::Baro(x) => {
+                c.order.push(SensorRef::Baro(c.baro.len()));
+                c.baro.push(x);
+            }
             Record::Truth(x) => c.truth.push(x),
             Record::Solution(x) => c.solution.push(*x),
             Record::Status(_) => {}

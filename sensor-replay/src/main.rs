@@ -35,6 +35,9 @@ enum Cmd {
         /// Error-free sensors and initial state.
         #[arg(long)]
         perfect: bool,
+        /// Leave out the scenario's [faults] (the fault-free reference flight).
+        #[arg(long)]
+        no_faults: bool,
     },
     /// Publish a navlog's init and sensor records over iceoryx2 at wall-clock rate.
     Play {
@@ -50,6 +53,12 @@ enum Cmd {
         passes: u64,
         #[arg(long, default_value = msgs::service::DEFAULT_PREFIX)]
         prefix: String,
+    },
+    /// Fault campaign: every scenario in DIR simulated with and without its
+    /// [faults], navigated by batch, and judged (exit 1 if any fails).
+    Campaign {
+        #[arg(long, default_value = "config/scenarios/faults")]
+        dir: PathBuf,
     },
     /// Flight recorder: subscribe to every service and write a navlog until stopped.
     Record {
@@ -190,6 +199,7 @@ fn run(cli: Cli) -> Result<(), Fail> {
             out,
             seed,
             perfect,
+            no_faults,
         } => {
             let (s, text) = Scenario::load(&scenario).map_err(|e| bad(e.to_string()))?;
             let f = File::create(&out)
@@ -207,6 +217,7 @@ fn run(cli: Cli) -> Result<(), Fail> {
                 SimOptions {
                     seed,
                     perfect,
+                    faults: !no_faults,
                     ..Default::default()
                 },
                 BufWriter::with_capacity(1 << 20, f),
@@ -222,6 +233,37 @@ fn run(cli: Cli) -> Result<(), Fail> {
                 sum.baro,
                 sum.truth
             );
+            if let Some(f) = s.faults.as_ref().filter(|_| !no_faults) {
+                for (e, n) in f.events.iter().zip(&sum.injected) {
+                    eprintln!(
+                        "simulate: fault {:?} on {:?} at {} s for {} s: {n} samples",
+                        e.kind, e.stream, e.start_s, e.duration_s
+                    );
+                }
+            }
+            Ok(())
+        }
+        Cmd::Campaign { dir } => {
+            let mut files: Vec<PathBuf> = std::fs::read_dir(&dir)
+                .map_err(|e| bad(format!("{}: {e}", dir.display())))?
+                .filter_map(|e| e.ok().map(|e| e.path()))
+                .filter(|p| p.extension().is_some_and(|x| x == "toml"))
+                .collect();
+            files.sort();
+            if files.is_empty() {
+                return Err(bad(format!("{}: no scenario files", dir.display())));
+            }
+            let mut failed = 0;
+            for f in &files {
+                let r = sensor_replay::campaign::run_scenario(f)
+                    .map_err(|e| Fail(2, format!("{}: {e}", f.display())))?;
+                print!("{}", sensor_replay::campaign::report(&r, "batch"));
+                failed += usize::from(!r.ok());
+            }
+            println!("campaign: {} scenarios, {failed} failed", files.len());
+            if failed > 0 {
+                return Err(Fail(1, format!("{failed} fault scenarios failed")));
+            }
             Ok(())
         }
         Cmd::Play {
@@ -258,8 +300,15 @@ fn run(cli: Cli) -> Result<(), Fail> {
             let p = sensor_replay::live::play(&c, &cfg, speed, loops, &stop)
                 .map_err(|e| Fail(1, e.to_string()))?;
             println!(
-                "play: {} samples published; pacing lateness p50 {:.1} µs, p99 {:.1} µs, max {:.1} µs",
-                p.published, p.p50_us, p.p99_us, p.max_us
+                "play: {} samples published (imu {}, srs {}, cns {}, baro {}); pacing lateness p50 {:.1} µs, p99 {:.1} µs, max {:.1} µs",
+                p.published,
+                p.per_stream[0],
+                p.per_stream[1],
+                p.per_stream[2],
+                p.per_stream[3],
+                p.p50_us,
+                p.p99_us,
+                p.max_us
             );
             Ok(())
         }

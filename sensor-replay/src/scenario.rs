@@ -27,6 +27,8 @@ pub struct Scenario {
     /// Navigator settings this scenario needs (e.g. the paper's 88° switch);
     /// passed to the navigator through the navlog header.
     pub navigator: Option<NavigatorOverrides>,
+    /// Injected faults (`[[faults.event]]`), see [`crate::faults`].
+    pub faults: Option<crate::faults::FaultsSpec>,
     #[serde(rename = "segment")]
     pub segments: Vec<Segment>,
 }
@@ -269,6 +271,15 @@ impl Scenario {
                 Err(bad(key, format!("must be ≥ 0, got {v}")))
             }
         };
+        if let Some(f) = &self.faults {
+            for (k, e) in f.events.iter().enumerate() {
+                let key = format!("faults.event[{k}]");
+                e.validate(&key).map_err(|m| {
+                    let (key, message) = m.split_once(": ").unwrap_or((&key, &m));
+                    bad(key, message.to_owned())
+                })?;
+            }
+        }
         if !(-90.0..=90.0).contains(&self.start.lat_deg) {
             return Err(bad(
                 "start.lat_deg",

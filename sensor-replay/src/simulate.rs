@@ -22,6 +22,8 @@ pub struct SimOptions {
     pub perfect: bool,
     /// RK4 steps per IMU interval.
     pub substeps: usize,
+    /// Inject the scenario's `[faults]` (off: the fault-free reference flight).
+    pub faults: bool,
 }
 
 impl Default for SimOptions {
@@ -29,13 +31,14 @@ impl Default for SimOptions {
         Self {
             seed: 1,
             perfect: false,
+            faults: true,
             substeps: 2,
         }
     }
 }
 
 /// Counts of what was written.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+#[derive(Debug, Clone, Default, PartialEq, Eq)]
 pub struct SimSummary {
     pub imu: u64,
     pub srs: u64,
@@ -43,6 +46,8 @@ pub struct SimSummary {
     pub baro: u64,
     pub truth: u64,
     pub duration_ns: u64,
+    /// Samples affected by each `[[faults.event]]`, in order.
+    pub injected: Vec<u64>,
 }
 
 /// Converts a truth sample to its record.
@@ -206,6 +211,14 @@ pub fn simulate<W: Write>(
     let mut srs_sched = s.srs.as_ref().map(|x| Schedule::new(x.rate_hz));
     let mut sum = SimSummary::default();
     let noisy = !opts.perfect;
+    let mut inject = crate::faults::Injector::new(s.faults.as_ref().filter(|_| opts.faults));
+    // Written records count as published; a faulted sample may be written 0, 1 or 2 times.
+    let put = |w: &mut NavlogWriter<W>, r: Record, times: u32| -> Result<u64, WriteError> {
+        for _ in 0..times {
+            w.write(&r)?;
+        }
+        Ok(u64::from(times))
+    };
 
     for k in 1..=n {
         let t_ns = k * dt_ns;
@@ -216,14 +229,15 @@ pub fn simulate<W: Write>(
         } else {
             (d_theta, d_v)
         };
-        w.write(&Record::Imu(ImuSample {
+        let mut imu = ImuSample {
             t_ns,
             seq: k - 1,
             dt_s: dt,
             d_theta_rad: d_theta.into(),
             d_v_mps: d_v.into(),
-        }))?;
-        sum.imu += 1;
+        };
+        let times = inject.imu(&mut imu);
+        sum.imu += put(&mut w, Record::Imu(imu), times)?;
 
         let truth = flight.truth();
         if let (Some(sch), Some(spec)) = (srs_sched.as_mut(), s.srs.as_ref())
@@ -241,35 +255,25 @@ pub fn simulate<W: Write>(
                 spec.sigma_mps,
                 noisy,
             );
-            w.write(&Record::Srs(Box::new(obs)))?;
-            sum.srs += 1;
+            let mut obs = obs;
+            let times = inject.srs(&mut obs);
+            sum.srs += put(&mut w, Record::Srs(Box::new(obs)), times)?;
         }
         if let (Some(sch), Some(spec)) = (cns_sched.as_mut(), s.cns.as_ref())
             && sch.due(t_ns)
         {
-            w.write(&Record::Cns(sensors::cns_fix(
-                &mut rng,
-                t_ns,
-                sch.seq - 1,
-                &truth.r_e,
-                spec.sigma_m,
-                noisy,
-            )))?;
-            sum.cns += 1;
+            let mut fix =
+                sensors::cns_fix(&mut rng, t_ns, sch.seq - 1, &truth.r_e, spec.sigma_m, noisy);
+            let times = inject.cns(&mut fix);
+            sum.cns += put(&mut w, Record::Cns(fix), times)?;
         }
         if let (Some(sch), Some(spec)) = (baro_sched.as_mut(), s.baro.as_ref())
             && sch.due(t_ns)
         {
             let h = earth::ecef_to_geodetic(&truth.r_e).h_m;
-            w.write(&Record::Baro(sensors::baro_sample(
-                &mut rng,
-                t_ns,
-                sch.seq - 1,
-                h,
-                spec.sigma_m,
-                noisy,
-            )))?;
-            sum.baro += 1;
+            let mut b = sensors::baro_sample(&mut rng, t_ns, sch.seq - 1, h, spec.sigma_m, noisy);
+            let times = inject.baro(&mut b);
+            sum.baro += put(&mut w, Record::Baro(b), times)?;
         }
         if truth_sched.due(t_ns) || k == n {
             w.write(&Record::Truth(truth_record(t_ns, &truth)))?;
@@ -278,5 +282,6 @@ pub fn simulate<W: Write>(
         sum.duration_ns = t_ns;
     }
     w.finish()?;
+    sum.injected = inject.injected;
     Ok(sum)
 }

@@ -1,0 +1,482 @@
+//! The fault campaign: every scenario with a `[faults]` section is simulated
+//! with and without its faults (same seed, so the flights differ only in the
+//! faulted samples) and navigated; the faulted run is judged against the
+//! fault-free one.
+//!
+//! Per scenario it reports what was injected, what the navigator detected
+//! (its counters), the horizontal error during and after the faults, and the
+//! accounting of every stream (published = received = accepted + rejected +
+//! not used). The acceptance rule: outside injected outages (each extended
+//! by a 60 s recovery allowance) the horizontal error stays within 3× the
+//! fault-free RMSE, and after each outage it is back within that bound by
+//! the end of the allowance.
+
+use std::path::Path;
+
+use msgs::navlog::Record;
+use msgs::{Status, StreamCounters, TruthRecord};
+use polarnav::batch::{self, BatchOptions};
+use polarnav::config::Config;
+use polarnav::solution_csv::{self, Row};
+
+use crate::eval;
+use crate::faults::{FaultKind, Stream};
+use crate::scenario::Scenario;
+use crate::simulate::{SimOptions, simulate};
+
+/// Recovery allowance after an outage (s).
+pub const RECOVERY_S: f64 = 60.0;
+/// Bound on the horizontal error outside outages, in fault-free RMSEs.
+pub const ERROR_FACTOR: f64 = 3.0;
+/// The initial convergence (from the 10 m initial error) is not judged: the
+/// fault-free run itself starts at several times its RMSE.
+pub const CONVERGENCE_S: f64 = 120.0;
+
+/// Records per stream (IMU, SRS, CNS, baro) in a log.
+pub fn published(records: &[Record]) -> [u64; 4] {
+    let mut n = [0u64; 4];
+    for r in records {
+        match r {
+            Record::Imu(_) => n[0] += 1,
+            Record::Srs(_) => n[1] += 1,
+            Record::Cns(_) => n[2] += 1,
+            Record::Baro(_) => n[3] += 1,
+            _ => {}
+        }
+    }
+    n
+}
+
+/// The four stream counters of a status, in the order of [`published`].
+pub fn streams(s: &Status) -> [StreamCounters; 4] {
+    [s.imu, s.srs, s.cns, s.baro]
+}
+
+/// `received = accepted + rejected + not used` for every stream, and what
+/// was published arrived: through `batch` (no sequence numbers tracked)
+/// `received = published`; live, `received + sequence gaps = published +
+/// upstream` where `upstream` are the samples the source never sent (an
+/// outage skips their sequence numbers). `Err` names the first mismatch.
+pub fn check_accounting(
+    published: [u64; 4],
+    upstream: Option<[u64; 4]>,
+    status: &Status,
+) -> Result<(), String> {
+    for (k, (name, (p, c))) in ["imu", "srs", "cns", "baro"]
+        .iter()
+        .zip(published.iter().zip(streams(status)))
+        .enumerate()
+    {
+        let sum = c.accepted + c.rejected_invalid + c.rejected_time + c.rejected_gate + c.not_used;
+        if sum != c.received {
+            return Err(format!(
+                "{name}: received {} but accepted {} + rejected {}/{}/{} + not used {} = {sum}",
+                c.received,
+                c.accepted,
+                c.rejected_invalid,
+                c.rejected_time,
+                c.rejected_gate,
+                c.not_used
+            ));
+        }
+        let never_sent = upstream.map_or(0, |u| u[k]);
+        if c.received + c.seq_gaps != *p + never_sent {
+            return Err(format!(
+                "{name}: published {p} (+ {never_sent} never sent) but received {} + sequence gaps {}",
+                c.received, c.seq_gaps
+            ));
+        }
+    }
+    Ok(())
+}
+
+/// One injected fault and what the navigator made of it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct FaultLine {
+    pub what: String,
+    pub injected: u64,
+    /// The counter that detects it and its value (`None`: an outage, not an error to detect).
+    pub detected: Option<(String, u64)>,
+    pub ok: bool,
+}
+
+/// Horizontal-error judgement of a faulted run against its fault-free twin.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct ErrorJudgement {
+    pub rmse_fault_free_m: f64,
+    pub rmse_faulted_m: f64,
+    /// RMS and maximum horizontal error within the fault windows.
+    pub during: eval::Stat,
+    /// After the last fault window (plus the recovery allowance for outages).
+    pub after: eval::Stat,
+    /// Largest horizontal error outside outages + recovery allowance (after
+    /// the initial convergence), in fault-free RMSEs; and the same for the
+    /// fault-free run, for comparison.
+    pub worst_outside_ratio: f64,
+    pub fault_free_worst_ratio: f64,
+    /// Longest time after the end of an outage until the error was last above the bound (s).
+    pub recovery_s: f64,
+    /// Epochs that had a solution (IMU dropouts have none).
+    pub epochs: usize,
+}
+
+impl ErrorJudgement {
+    pub fn ok(&self) -> bool {
+        self.worst_outside_ratio <= ERROR_FACTOR && self.recovery_s <= RECOVERY_S
+    }
+}
+
+/// A fault window: `[start, end)` (s) and whether it takes information away (outage).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Window {
+    pub start_s: f64,
+    pub end_s: f64,
+    pub outage: bool,
+}
+
+/// Samples per stream (IMU, SRS, CNS, baro) that the source never sent.
+pub fn upstream_missing(s: &Scenario, injected: &[u64]) -> [u64; 4] {
+    let mut n = [0u64; 4];
+    for (e, k) in s.faults.iter().flat_map(|f| &f.events).zip(injected) {
+        if e.kind == FaultKind::Outage {
+            n[e.stream as usize] += k;
+        }
+    }
+    n
+}
+
+/// The windows of a scenario's faults. IMU outages and IMU time jumps (whose
+/// samples are rejected or leave a gap) take information away.
+pub fn windows(s: &Scenario) -> Vec<Window> {
+    s.faults
+        .iter()
+        .flat_map(|f| &f.events)
+        .map(|e| Window {
+            start_s: e.start_s,
+            end_s: e.start_s + e.duration_s,
+            outage: e.kind == FaultKind::Outage
+                || (e.kind == FaultKind::TimeJump && e.stream == Stream::Imu),
+        })
+        .collect()
+}
+
+/// Judges the horizontal error of `faulted` against `fault_free` (both solution rows).
+pub fn judge(
+    truth: &[TruthRecord],
+    fault_free: &[Row],
+    faulted: &[Row],
+    windows: &[Window],
+) -> ErrorJudgement {
+    let h = |rows: &[Row]| -> Vec<(f64, f64)> {
+        eval::epochs(rows, truth)
+            .iter()
+            .map(|e| (e.t_s, e.pos_enu.xy().norm()))
+            .collect()
+    };
+    let rms = |v: &[(f64, f64)]| {
+        (v.iter().fold(0.0, |a, (_, e)| a + e * e) / v.len().max(1) as f64).sqrt()
+    };
+    let ff = h(fault_free);
+    let fe = h(faulted);
+    let rmse_ff = rms(&ff);
+    let bound = ERROR_FACTOR * rmse_ff;
+    let in_window = |t: f64| windows.iter().any(|w| t >= w.start_s && t < w.end_s);
+    let excused = |t: f64| {
+        windows
+            .iter()
+            .any(|w| w.outage && t >= w.start_s && t < w.end_s + RECOVERY_S)
+    };
+    let last_end = windows
+        .iter()
+        .map(|w| w.end_s + if w.outage { RECOVERY_S } else { 0.0 });
+    let last_end = last_end.fold(0.0, f64::max);
+    let stat = |it: &mut dyn Iterator<Item = f64>| {
+        let v: Vec<f64> = it.collect();
+        if v.is_empty() {
+            return eval::Stat {
+                rmse: f64::NAN,
+                max: f64::NAN,
+            };
+        }
+        eval::Stat {
+            rmse: (v.iter().fold(0.0, |a, e| a + e * e) / v.len() as f64).sqrt(),
+            max: v.iter().copied().fold(0.0, f64::max),
+        }
+    };
+    let judged = |t: f64| t >= CONVERGENCE_S && !excused(t);
+    let mut recovery_s: f64 = 0.0;
+    for w in windows.iter().filter(|w| w.outage) {
+        if let Some((t, _)) = fe.iter().rfind(|(t, e)| *t >= w.end_s && *e > bound) {
+            recovery_s = recovery_s.max(t - w.end_s);
+        }
+    }
+    ErrorJudgement {
+        rmse_fault_free_m: rmse_ff,
+        rmse_faulted_m: rms(&fe),
+        during: stat(&mut fe.iter().filter(|(t, _)| in_window(*t)).map(|(_, e)| *e)),
+        after: stat(&mut fe.iter().filter(|(t, _)| *t >= last_end).map(|(_, e)| *e)),
+        worst_outside_ratio: fe
+            .iter()
+            .filter(|(t, _)| judged(*t))
+            .map(|(_, e)| e / rmse_ff)
+            .fold(0.0, f64::max),
+        fault_free_worst_ratio: ff
+            .iter()
+            .filter(|(t, _)| judged(*t))
+            .map(|(_, e)| e / rmse_ff)
+            .fold(0.0, f64::max),
+        recovery_s,
+        epochs: fe.len(),
+    }
+}
+
+/// What the navigator should show for each injected fault, from its final status.
+pub fn fault_lines(s: &Scenario, injected: &[u64], status: &Status) -> Vec<FaultLine> {
+    let Some(f) = &s.faults else {
+        return Vec::new();
+    };
+    let c = |st: Stream| match st {
+        Stream::Imu => status.imu,
+        Stream::Srs => status.srs,
+        Stream::Cns => status.cns,
+        Stream::Baro => status.baro,
+    };
+    // Events of the same kind on the same stream share a counter.
+    let total = |kind: FaultKind, stream: Stream| -> u64 {
+        f.events
+            .iter()
+            .zip(injected)
+            .filter(|(e, _)| e.kind == kind && e.stream == stream)
+            .map(|(_, n)| n)
+            .sum()
+    };
+    f.events
+        .iter()
+        .zip(injected)
+        .map(|(e, &n)| {
+            let what = format!(
+                "{:?} {:?} {}-{} s{}",
+                e.kind,
+                e.stream,
+                e.start_s,
+                e.start_s + e.duration_s,
+                if e.magnitude != 0.0 {
+                    format!(" ({})", e.magnitude)
+                } else {
+                    String::new()
+                }
+            );
+            let need = total(e.kind, e.stream);
+            let (detected, ok) = match (e.kind, e.stream) {
+                (FaultKind::Outage, Stream::Imu) => {
+                    let gaps = f
+                        .events
+                        .iter()
+                        .filter(|x| x.kind == FaultKind::Outage && x.stream == Stream::Imu)
+                        .count() as u64;
+                    (
+                        Some(("imu gaps coasted".into(), status.imu_gap_count)),
+                        status.imu_gap_count >= gaps,
+                    )
+                }
+                (FaultKind::Outage, st) if c(st).seq_gaps > 0 => {
+                    let v = c(st).seq_gaps;
+                    (Some(("sequence gaps".into(), v)), v >= need)
+                }
+                (FaultKind::Outage, _) => (None, true),
+                (FaultKind::Nan, st) => {
+                    let v = c(st).rejected_invalid;
+                    (Some(("rejected invalid".into(), v)), v >= need)
+                }
+                (FaultKind::TimeJump | FaultKind::Duplicate, st) => {
+                    // An aid moved back is always too late. An IMU sample moved back
+                    // is rejected only while its time is not after the last accepted
+                    // one (a fraction magnitude/duration of the window); the rest
+                    // arrive in order and leave a gap, which is coasted.
+                    let jumped: u64 =
+                        f.events
+                            .iter()
+                            .zip(injected)
+                            .filter(|(x, _)| x.kind == FaultKind::TimeJump && x.stream == st)
+                            .map(|(x, n)| match st {
+                                Stream::Imu => (*n as f64 * (x.magnitude / x.duration_s).min(1.0))
+                                    .floor() as u64,
+                                _ => *n,
+                            })
+                            .sum();
+                    let v = c(st).rejected_time;
+                    (
+                        Some(("rejected time".into(), v)),
+                        v >= jumped + total(FaultKind::Duplicate, st),
+                    )
+                }
+                (FaultKind::Outliers, Stream::Srs) => {
+                    let v = status.srs_aid.exclusions
+                        + c(Stream::Srs).rejected_gate
+                        + c(Stream::Srs).rejected_invalid;
+                    (Some(("lines excluded + rejected".into(), v)), v >= need)
+                }
+                (FaultKind::Outliers, Stream::Imu) => {
+                    let v = c(Stream::Imu).rejected_invalid;
+                    (Some(("rejected invalid".into(), v)), v >= need)
+                }
+                (FaultKind::Outliers, st) => {
+                    let v = c(st).rejected_gate;
+                    (Some(("rejected by gate".into(), v)), v >= need)
+                }
+            };
+            FaultLine {
+                what,
+                injected: n,
+                detected,
+                ok,
+            }
+        })
+        .collect()
+}
+
+/// The result of one scenario through `batch`.
+#[derive(Debug, Clone)]
+pub struct ScenarioResult {
+    pub name: String,
+    pub faults: Vec<FaultLine>,
+    pub errors: ErrorJudgement,
+    pub published: [u64; 4],
+    pub status: Status,
+    pub accounting: Result<(), String>,
+    /// The faulted flight (navlog bytes), for a live run of the same data.
+    pub faulted_log: Vec<u8>,
+    pub truth: Vec<TruthRecord>,
+    pub fault_free_rows: Vec<Row>,
+}
+
+impl ScenarioResult {
+    pub fn ok(&self) -> bool {
+        self.accounting.is_ok() && self.errors.ok() && self.faults.iter().all(|f| f.ok)
+    }
+}
+
+fn simulate_bytes(s: &Scenario, text: &str, faults: bool) -> Result<(Vec<u8>, Vec<u64>), String> {
+    let mut buf = Vec::new();
+    let sum = simulate(
+        s,
+        text,
+        SimOptions {
+            faults,
+            ..Default::default()
+        },
+        &mut buf,
+    )
+    .map_err(|e| e.to_string())?;
+    Ok((buf, sum.injected))
+}
+
+/// Runs `batch` (default configuration) on navlog bytes; the rows and the report.
+pub fn batch_rows(log: &[u8], name: &str) -> Result<(Vec<Row>, batch::BatchReport), String> {
+    let mut csv = Vec::new();
+    let report = batch::run(
+        log,
+        name,
+        &mut csv,
+        &Config::default(),
+        &BatchOptions::default(),
+    )
+    .map_err(|e| e.to_string())?;
+    let text = String::from_utf8(csv).map_err(|e| e.to_string())?;
+    let rows = solution_csv::parse(&text, name).map_err(|e| e.to_string())?;
+    Ok((rows, report))
+}
+
+/// Simulates (with and without faults) and navigates one scenario file through `batch`.
+pub fn run_scenario(path: &Path) -> Result<ScenarioResult, String> {
+    let (s, text) = Scenario::load(path).map_err(|e| e.to_string())?;
+    let (faulted, injected) = simulate_bytes(&s, &text, true)?;
+    let (clean, _) = simulate_bytes(&s, &text, false)?;
+    let (records, report) = msgs::navlog::read_all(&faulted);
+    if !report.is_clean() {
+        return Err(format!(
+            "{}: simulated log damaged: {report}",
+            path.display()
+        ));
+    }
+    let truth: Vec<TruthRecord> = records
+        .iter()
+        .filter_map(|r| {
+            if let Record::Truth(t) = r {
+                Some(*t)
+            } else {
+                None
+            }
+        })
+        .collect();
+    let (rows_ff, _) = batch_rows(&clean, &s.name)?;
+    let (rows, rep) = batch_rows(&faulted, &s.name)?;
+    let published = published(&records);
+    Ok(ScenarioResult {
+        name: s.name.clone(),
+        faults: fault_lines(&s, &injected, &rep.status),
+        errors: judge(&truth, &rows_ff, &rows, &windows(&s)),
+        published,
+        accounting: check_accounting(published, None, &rep.status),
+        status: rep.status,
+        faulted_log: faulted,
+        truth,
+        fault_free_rows: rows_ff,
+    })
+}
+
+/// The campaign report of one scenario, as printed.
+pub fn report(r: &ScenarioResult, via: &str) -> String {
+    let mut out = format!(
+        "== {} ({via}): {}\n",
+        r.name,
+        if r.ok() { "PASS" } else { "FAIL" }
+    );
+    for f in &r.faults {
+        let det = f
+            .detected
+            .as_ref()
+            .map_or("outage (aid stale / coasting)".to_owned(), |(k, v)| {
+                format!("{k} {v}")
+            });
+        out += &format!(
+            "   injected {:<48} {:>6} samples   detected: {det}{}\n",
+            f.what,
+            f.injected,
+            if f.ok { "" } else { "   << NOT DETECTED" }
+        );
+    }
+    let e = &r.errors;
+    out += &format!(
+        "   horizontal error: fault-free RMSE {:.2} m, faulted RMSE {:.2} m; during faults RMS {:.2} / max {:.2} m; after RMS {:.2} / max {:.2} m\n",
+        e.rmse_fault_free_m,
+        e.rmse_faulted_m,
+        e.during.rmse,
+        e.during.max,
+        e.after.rmse,
+        e.after.max
+    );
+    out += &format!(
+        "   worst after {CONVERGENCE_S:.0} s outside outages+{RECOVERY_S:.0} s: {:.2}x fault-free RMSE (bound {ERROR_FACTOR}x; fault-free run {:.2}x); recovery after outages {:.1} s (bound {RECOVERY_S:.0} s)\n",
+        e.worst_outside_ratio, e.fault_free_worst_ratio, e.recovery_s
+    );
+    for (name, (p, c)) in ["imu", "srs", "cns", "baro"]
+        .iter()
+        .zip(r.published.iter().zip(streams(&r.status)))
+    {
+        out += &format!(
+            "   {name:<4} published {p:>7}, received {:>7}, sequence gaps {}; received = accepted {:>7} + invalid {} + time {} + gate {} + not used {}\n",
+            c.received,
+            c.seq_gaps,
+            c.accepted,
+            c.rejected_invalid,
+            c.rejected_time,
+            c.rejected_gate,
+            c.not_used
+        );
+    }
+    if let Err(m) = &r.accounting {
+        out += &format!("   ACCOUNTING MISMATCH: {m}\n");
+    }
+    out
+}

@@ -1,0 +1,237 @@
+//! Soak benchmark (not a test): `sensor-replay play --loop` of the hour-long
+//! transpolar flight at ×10 into the live daemon, for a wall-clock duration.
+//! Prints the daemon's RSS over time, cycles and overruns, and the
+//! accounting of every stream: what the replay published against what the
+//! daemon received, and received = accepted + rejected + not used.
+//!
+//! `cargo build --release --bins && cargo bench -p polarnav-tests --bench soak [-- SECONDS [SPEED]]`
+//! (default 3600 s at ×10, as issue 5 asks).
+
+use std::process::{Command, Stdio};
+use std::time::{Duration, Instant};
+
+use msgs::Status;
+use msgs::service::Topic;
+use polarnav::transport::{self, TopicSubscriber, TransportConfig};
+use polarnav_tests::repo;
+use sensor_replay::scenario::Scenario;
+use sensor_replay::simulate::{SimOptions, simulate};
+
+fn rss_kb(pid: u32) -> Option<u64> {
+    std::fs::read_to_string(format!("/proc/{pid}/status"))
+        .ok()?
+        .lines()
+        .find(|l| l.starts_with("VmRSS:"))?
+        .split_whitespace()
+        .nth(1)?
+        .parse()
+        .ok()
+}
+
+fn main() {
+    let args: Vec<f64> = std::env::args()
+        .skip(1)
+        .filter_map(|a| a.parse().ok())
+        .collect();
+    let seconds = args.first().copied().unwrap_or(3600.0);
+    let speed = args.get(1).copied().unwrap_or(10.0);
+    let exe = std::env::current_exe().expect("exe");
+    let bin_dir = exe
+        .parent()
+        .and_then(std::path::Path::parent)
+        .expect("target")
+        .to_path_buf();
+    for b in ["nav-daemon", "sensor-replay"] {
+        assert!(
+            bin_dir.join(b).exists(),
+            "{b} missing: run cargo build --release --bins first"
+        );
+    }
+    let cfg = TransportConfig::isolated("soak");
+    let dir = std::env::temp_dir().join(format!("polarnav-soak-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("dir");
+
+    let text = std::fs::read_to_string(repo("config/scenarios/transpolar.toml")).expect("scenario");
+    let scenario = Scenario::parse(&text, "transpolar.toml").expect("scenario");
+    let log = dir.join("transpolar.navlog");
+    simulate(
+        &scenario,
+        &text,
+        SimOptions::default(),
+        std::io::BufWriter::new(std::fs::File::create(&log).expect("log")),
+    )
+    .expect("simulate");
+
+    // ×10 of a 200 Hz IMU is 2 kHz; the nominal rate (overrun budget and IMU-lost tick) is the maximum, 1 kHz.
+    let cfg_path = dir.join("nav.toml");
+    std::fs::write(
+        &cfg_path,
+        format!(
+            "prefix = \"{}\"\n[live]\nimu_rate_hz = 1000.0\n",
+            cfg.prefix
+        ),
+    )
+    .expect("config");
+    let env = |c: &mut Command| {
+        c.env(
+            "POLARNAV_IOX_PREFIX",
+            cfg.iox_prefix.as_deref().expect("isolated"),
+        )
+        .env(
+            "POLARNAV_IOX_ROOT",
+            cfg.iox_root.as_ref().expect("isolated"),
+        )
+        .env("RUST_LOG", "info")
+        .stdin(Stdio::null());
+    };
+    let mut d = Command::new(bin_dir.join("nav-daemon"));
+    d.arg("--config").arg(&cfg_path);
+    env(&mut d);
+    let mut daemon = d
+        .stdout(Stdio::null())
+        .stderr(std::fs::File::create(dir.join("daemon.err")).expect("log"))
+        .spawn()
+        .expect("daemon");
+    let node = transport::node(&cfg, "soak").expect("node");
+    let status = TopicSubscriber::<Status>::new(&node, &cfg, Topic::Status).expect("status");
+    std::thread::sleep(Duration::from_secs(2));
+
+    let mut p = Command::new(bin_dir.join("sensor-replay"));
+    p.arg("play").arg(&log).args([
+        "--speed",
+        &speed.to_string(),
+        "--loop",
+        "--prefix",
+        &cfg.prefix,
+    ]);
+    env(&mut p);
+    let mut play = p
+        .stdout(std::fs::File::create(dir.join("play.out")).expect("log"))
+        .stderr(std::fs::File::create(dir.join("play.err")).expect("log"))
+        .spawn()
+        .expect("play");
+
+    println!(
+        "soak: transpolar.toml (4480 s flight) looped at x{speed} for {seconds:.0} s; daemon pid {}",
+        daemon.id()
+    );
+    let start = Instant::now();
+    let mut last: Option<Status> = None;
+    let mut rss: Vec<(f64, u64)> = Vec::new();
+    let mut next_sample = 0.0;
+    let mut next_print = 0.0;
+    while start.elapsed().as_secs_f64() < seconds {
+        std::thread::sleep(Duration::from_millis(500));
+        status.drain(|s| last = Some(s)).expect("status");
+        let t = start.elapsed().as_secs_f64();
+        if t >= next_sample {
+            next_sample += 10.0;
+            if let Some(kb) = rss_kb(daemon.id()) {
+                rss.push((t, kb));
+            }
+        }
+        if t >= next_print {
+            next_print += 300.0;
+            if let Some(s) = &last {
+                println!(
+                    "  t = {t:6.0} s: RSS {} kB, pass {}, cycles {}, overruns {}, imu accepted {}, cycle max {:.1} µs",
+                    rss.last().map_or(0, |r| r.1),
+                    s.reinit_count + 1,
+                    s.cycles,
+                    s.overruns,
+                    s.imu.accepted,
+                    s.cycle_time_max_ns as f64 * 1e-3
+                );
+            }
+        }
+        if let Ok(Some(e)) = daemon.try_wait() {
+            panic!("the daemon exited during the soak: {e}");
+        }
+    }
+    let _ = Command::new("kill")
+        .arg("-TERM")
+        .arg(play.id().to_string())
+        .status();
+    let _ = play.wait();
+    std::thread::sleep(Duration::from_secs(2));
+    status.drain(|s| last = Some(s)).expect("status");
+    let _ = Command::new("kill")
+        .arg("-TERM")
+        .arg(daemon.id().to_string())
+        .status();
+    let exit = daemon.wait().expect("daemon");
+    let st = last.expect("no status from the daemon");
+    let play_out = std::fs::read_to_string(dir.join("play.out")).unwrap_or_default();
+    let published: Vec<u64> = play_out
+        .split_once('(')
+        .map(|(_, r)| {
+            r.split(')')
+                .next()
+                .unwrap_or("")
+                .split(", ")
+                .filter_map(|kv| kv.split_whitespace().nth(1)?.parse().ok())
+                .collect()
+        })
+        .unwrap_or_default();
+
+    let settled: Vec<u64> = rss
+        .iter()
+        .filter(|(t, _)| *t >= 60.0)
+        .map(|r| r.1)
+        .collect();
+    let (first, lastkb, maxkb) = (
+        settled.first().copied().unwrap_or(0),
+        settled.last().copied().unwrap_or(0),
+        settled.iter().copied().max().unwrap_or(0),
+    );
+    println!(
+        "soak result after {:.0} s, daemon exit {exit}:",
+        start.elapsed().as_secs_f64()
+    );
+    println!("  {}", play_out.trim());
+    println!(
+        "  daemon: {} passes (re-inits {}), {} cycles, {} overruns (cycle time max {:.1} µs in the last status period)",
+        st.reinit_count + 1,
+        st.reinit_count,
+        st.cycles,
+        st.overruns,
+        st.cycle_time_max_ns as f64 * 1e-3
+    );
+    println!(
+        "  RSS after 60 s: first {first} kB, last {lastkb} kB, max {maxkb} kB (growth {} kB)",
+        lastkb as i64 - first as i64
+    );
+    let mut consistent = true;
+    for (k, (name, c)) in [
+        ("imu", st.imu),
+        ("srs", st.srs),
+        ("cns", st.cns),
+        ("baro", st.baro),
+    ]
+    .into_iter()
+    .enumerate()
+    {
+        let sum = c.accepted + c.rejected_invalid + c.rejected_time + c.rejected_gate + c.not_used;
+        let p = published.get(k).copied();
+        let ok = sum == c.received && p == Some(c.received + c.seq_gaps);
+        consistent &= ok;
+        println!(
+            "  {name:<4} published {p:?} = received {} + lost {}; received = accepted {} + invalid {} + time {} + gate {} + not used {} [{}]",
+            c.received,
+            c.seq_gaps,
+            c.accepted,
+            c.rejected_invalid,
+            c.rejected_time,
+            c.rejected_gate,
+            c.not_used,
+            if ok { "consistent" } else { "INCONSISTENT" }
+        );
+    }
+    println!(
+        "  verdict: RSS flat {}, zero overruns {}, counters consistent {consistent}",
+        maxkb <= first + 1024,
+        st.overruns == 0
+    );
+    transport::remove_isolated(&cfg);
+    let _ = std::fs::remove_dir_all(&dir);
+}
