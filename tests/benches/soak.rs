@@ -84,7 +84,19 @@ fn main() {
         .env("RUST_LOG", "info")
         .stdin(Stdio::null());
     };
-    let mut d = Command::new(bin_dir.join("nav-daemon"));
+    // As deployed (systemd/nav-daemon.service: CPUSchedulingPolicy=fifo), the
+    // daemon runs SCHED_FIFO when this machine allows it.
+    let rt = Command::new("chrt")
+        .args(["-f", "50", "true"])
+        .status()
+        .is_ok_and(|s| s.success());
+    let mut d = if rt {
+        let mut c = Command::new("chrt");
+        c.args(["-f", "50"]).arg(bin_dir.join("nav-daemon"));
+        c
+    } else {
+        Command::new(bin_dir.join("nav-daemon"))
+    };
     d.arg("--config").arg(&cfg_path);
     env(&mut d);
     let mut daemon = d
@@ -112,8 +124,13 @@ fn main() {
         .expect("play");
 
     println!(
-        "soak: transpolar.toml (4480 s flight) looped at x{speed} for {seconds:.0} s; daemon pid {}",
-        daemon.id()
+        "soak: transpolar.toml (4480 s flight) looped at x{speed} for {seconds:.0} s; daemon pid {}, scheduling {}",
+        daemon.id(),
+        if rt {
+            "SCHED_FIFO 50"
+        } else {
+            "SCHED_OTHER (chrt not permitted)"
+        }
     );
     let start = Instant::now();
     let mut last: Option<Status> = None;
