@@ -118,11 +118,39 @@ pub struct ErrorJudgement {
     pub recovery_s: f64,
     /// Epochs that had a solution (IMU dropouts have none).
     pub epochs: usize,
+    /// Largest correction step of the solution (position change between
+    /// consecutive rows beyond the velocity's prediction) within the recovery
+    /// allowance after an outage, and in the fault-free run after the initial
+    /// convergence (m).
+    pub reacquisition_step_m: f64,
+    pub fault_free_step_m: f64,
+    /// The largest step after an outage in units of the position σ (3-D) just
+    /// before it: an aid taken back corrects within what the covariance allows.
+    pub reacquisition_step_sigma: f64,
+}
+
+/// Position steps between consecutive rows not explained by the velocity:
+/// (t, step m, step in position σ of the row before).
+fn steps(rows: &[Row]) -> impl Iterator<Item = (f64, f64, f64)> + '_ {
+    rows.windows(2).map(|w| {
+        let dt = w[1].t_s - w[0].t_s;
+        let d: f64 = (0..3)
+            .map(|i| {
+                let predicted = 0.5 * (w[0].v_e_mps[i] + w[1].v_e_mps[i]) * dt;
+                (w[1].r_e_m[i] - w[0].r_e_m[i] - predicted).powi(2)
+            })
+            .sum::<f64>()
+            .sqrt();
+        let sigma = w[0].sigma_enu_m.iter().map(|x| x * x).sum::<f64>().sqrt();
+        (w[1].t_s, d, d / sigma)
+    })
 }
 
 impl ErrorJudgement {
     pub fn ok(&self) -> bool {
-        self.worst_outside_ratio <= ERROR_FACTOR && self.recovery_s <= RECOVERY_S
+        self.worst_outside_ratio <= ERROR_FACTOR
+            && self.recovery_s <= RECOVERY_S
+            && self.reacquisition_step_sigma <= 3.0
     }
 }
 
@@ -204,6 +232,13 @@ pub fn judge(
         }
     };
     let judged = |t: f64| t >= CONVERGENCE_S && !excused(t);
+    let reacq = || {
+        steps(faulted).filter(|(t, _, _)| {
+            windows
+                .iter()
+                .any(|w| w.outage && *t > w.end_s && *t <= w.end_s + RECOVERY_S)
+        })
+    };
     let mut recovery_s: f64 = 0.0;
     for w in windows.iter().filter(|w| w.outage) {
         if let Some((t, _)) = fe.iter().rfind(|(t, e)| *t >= w.end_s && *e > bound) {
@@ -227,6 +262,12 @@ pub fn judge(
             .fold(0.0, f64::max),
         recovery_s,
         epochs: fe.len(),
+        reacquisition_step_m: reacq().map(|(_, d, _)| d).fold(0.0, f64::max),
+        reacquisition_step_sigma: reacq().map(|(_, _, r)| r).fold(0.0, f64::max),
+        fault_free_step_m: steps(fault_free)
+            .filter(|(t, _, _)| *t >= CONVERGENCE_S)
+            .map(|(_, d, _)| d)
+            .fold(0.0, f64::max),
     }
 }
 
@@ -460,6 +501,12 @@ pub fn report(r: &ScenarioResult, via: &str) -> String {
         "   worst after {CONVERGENCE_S:.0} s outside outages+{RECOVERY_S:.0} s: {:.2}x fault-free RMSE (bound {ERROR_FACTOR}x; fault-free run {:.2}x); recovery after outages {:.1} s (bound {RECOVERY_S:.0} s)\n",
         e.worst_outside_ratio, e.fault_free_worst_ratio, e.recovery_s
     );
+    if e.reacquisition_step_m > 0.0 {
+        out += &format!(
+            "   largest correction step within {RECOVERY_S:.0} s after an outage {:.2} m = {:.2} σ (bound 3 σ; fault-free run after {CONVERGENCE_S:.0} s: {:.2} m)\n",
+            e.reacquisition_step_m, e.reacquisition_step_sigma, e.fault_free_step_m
+        );
+    }
     for (name, (p, c)) in ["imu", "srs", "cns", "baro"]
         .iter()
         .zip(r.published.iter().zip(streams(&r.status)))

@@ -49,7 +49,28 @@ fn main() {
         ),
     )
     .expect("config");
-    let mut daemon = Command::new(&daemon_bin)
+    // As deployed (systemd/nav-daemon.service: CPUSchedulingPolicy=fifo), the
+    // daemon runs SCHED_FIFO when this machine allows it.
+    let rt = Command::new("chrt")
+        .args(["-f", "50", "true"])
+        .status()
+        .is_ok_and(|s| s.success());
+    let mut cmd = if rt {
+        let mut c = Command::new("chrt");
+        c.args(["-f", "50"]).arg(&daemon_bin);
+        c
+    } else {
+        Command::new(&daemon_bin)
+    };
+    eprintln!(
+        "daemon scheduling: {}",
+        if rt {
+            "SCHED_FIFO 50"
+        } else {
+            "SCHED_OTHER (chrt not permitted)"
+        }
+    );
+    let mut daemon = cmd
         .arg("--config")
         .arg(&cfg_path)
         .env(
