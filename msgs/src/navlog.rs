@@ -344,10 +344,38 @@ fn read_frame<R: BufRead>(input: &mut R, frame: &mut Vec<u8>) -> std::io::Result
     }
 }
 
+/// COBS-decodes one frame (without its 0x00 delimiter) into `out`, block by
+/// block (a code byte c is followed by c − 1 data bytes and, unless c = 0xFF
+/// or the block ends the frame, an implied zero). `None` if malformed. Same
+/// result as `cobs::decode`, without its byte-at-a-time loop.
+pub fn cobs_decode(frame: &[u8], out: &mut Vec<u8>) -> Option<()> {
+    out.clear();
+    if frame.is_empty() {
+        return None;
+    }
+    let mut i = 0;
+    while i < frame.len() {
+        let code = usize::from(frame[i]);
+        if code == 0 {
+            return None;
+        }
+        let end = i + code;
+        let data = frame.get(i + 1..end)?;
+        if data.contains(&0) {
+            return None;
+        }
+        out.extend_from_slice(data);
+        if code != 0xFF && end < frame.len() {
+            out.push(0);
+        }
+        i = end;
+    }
+    Some(())
+}
+
 fn decode_frame(frame: &[u8], decoded: &mut Vec<u8>) -> Result<Record, SkipReason> {
-    decoded.clear();
-    decoded.resize(frame.len(), 0);
-    let n = cobs::decode(frame, decoded).map_err(|_| SkipReason::Framing)?;
+    cobs_decode(frame, decoded).ok_or(SkipReason::Framing)?;
+    let n = decoded.len();
     if n < 5 {
         return Err(SkipReason::Framing);
     }

@@ -102,3 +102,30 @@ proptest! {
         }
     }
 }
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(4096))]
+
+    /// The block-wise COBS decoder agrees with the `cobs` crate on valid
+    /// encodings and on arbitrary (zero-free) frames.
+    #[test]
+    fn cobs_decoder_agrees_with_the_cobs_crate(
+        data in proptest::collection::vec(any::<u8>(), 1..700),
+        junk in proptest::collection::vec(1u8..=255, 0..300),
+    ) {
+        let mut enc = vec![0u8; cobs::max_encoding_length(data.len())];
+        let n = cobs::encode(&data, &mut enc);
+        let mut mine = Vec::new();
+        prop_assert!(msgs::navlog::cobs_decode(&enc[..n], &mut mine).is_some());
+        prop_assert_eq!(&mine, &data);
+
+        let mut theirs = vec![0u8; junk.len()];
+        let t = cobs::decode(&junk, &mut theirs);
+        let m = msgs::navlog::cobs_decode(&junk, &mut mine);
+        if let (Ok(k), Some(())) = (&t, m) {
+            prop_assert_eq!(&mine[..], &theirs[..*k]);
+        } else {
+            prop_assert!(t.is_err() && m.is_none(), "crate {:?} vs ours {:?} on {:?}", t, m, junk);
+        }
+    }
+}

@@ -145,8 +145,11 @@ pub fn update<const M: usize>(
     // K = P Hᵀ S⁻¹ (through the Cholesky factor: S is symmetric).
     let k = chol.solve(&pht.transpose()).transpose();
     let dx = k * z;
-    let ikh = Mat15::identity() - k * h;
-    *p = ikh * *p * ikh.transpose() + k * r * k.transpose();
+    // Joseph form (I − KH) P (I − KH)ᵀ + K R Kᵀ, evaluated in O(n²M) rather
+    // than with two n×n products: A = P − K (H P), then A − (A Hᵀ) Kᵀ.
+    let a = *p - k * pht.transpose();
+    let aht = a * h.transpose();
+    *p = a - aht * k.transpose() + k * r * k.transpose();
     symmetrize(p);
     Some(UpdateOutcome {
         innovation: *z,
