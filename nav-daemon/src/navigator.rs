@@ -5,7 +5,8 @@
 //! interval for covariance propagation (every `covariance_interval_s`, and
 //! before any update or frame switch). Per aid sample: covariance brought to
 //! the current time, measurement model at the aid's own time stamp (the
-//! nominal position moved back along the velocity by the aid's age), χ²
+//! nominal state interpolated from a history of the last 512 IMU epochs,
+//! which every correction also shifts), χ²
 //! gate, Joseph update, closed-loop feedback. At a frame switch the
 //! nominal state is converted and, with `Conversion::Paper`, P = Φ P Φᵀ.
 //! Nothing in the steady-state loop allocates.
@@ -197,6 +198,84 @@ pub struct Navigator {
     coasting: bool,
     resumed: bool,
     reset: ResetRecord,
+    history: History,
+}
+
+/// Length of the state history: 0.5 s at 1 kHz, 2.5 s at 200 Hz.
+const HISTORY: usize = 512;
+
+/// Frame-free nominal states after the last IMU samples (a ring), so that an
+/// aid that arrives late is fused against the state at its own time.
+#[derive(Debug, Clone)]
+struct History {
+    t_ns: [u64; HISTORY],
+    r_e: [Vector3<f64>; HISTORY],
+    v_e: [Vector3<f64>; HISTORY],
+    q_b_e: [UnitQuaternion<f64>; HISTORY],
+    /// Index of the newest entry.
+    head: usize,
+    len: usize,
+}
+
+impl History {
+    fn new() -> Self {
+        Self {
+            t_ns: [0; HISTORY],
+            r_e: [Vector3::zeros(); HISTORY],
+            v_e: [Vector3::zeros(); HISTORY],
+            q_b_e: [UnitQuaternion::identity(); HISTORY],
+            head: HISTORY - 1,
+            len: 0,
+        }
+    }
+
+    fn push(&mut self, t_ns: u64, ff: &crate::mech::FrameFree) {
+        self.head = (self.head + 1) % HISTORY;
+        self.t_ns[self.head] = t_ns;
+        self.r_e[self.head] = ff.r_e;
+        self.v_e[self.head] = ff.v_e;
+        self.q_b_e[self.head] = ff.q_b_e;
+        self.len = (self.len + 1).min(HISTORY);
+    }
+
+    /// Applies a correction of the current state to every stored state.
+    fn shift(&mut self, dr: &Vector3<f64>, dv: &Vector3<f64>, dq: &UnitQuaternion<f64>) {
+        for k in 0..self.len {
+            let i = (self.head + HISTORY - k) % HISTORY;
+            self.r_e[i] += dr;
+            self.v_e[i] += dv;
+            self.q_b_e[i] = dq * self.q_b_e[i];
+        }
+    }
+
+    /// The state at `t_ns`, linear between the stored states around it
+    /// (normalized linear interpolation of the attitude); `None` outside.
+    fn at(&self, t_ns: u64) -> Option<(Vector3<f64>, Vector3<f64>, UnitQuaternion<f64>)> {
+        let mut newer = self.head;
+        for k in 0..self.len {
+            let i = (self.head + HISTORY - k) % HISTORY;
+            let t = self.t_ns[i];
+            if t == t_ns {
+                return Some((self.r_e[i], self.v_e[i], self.q_b_e[i]));
+            }
+            if t < t_ns {
+                if k == 0 {
+                    return None;
+                }
+                let w = (t_ns - t) as f64 / (self.t_ns[newer] - t) as f64;
+                let q = self.q_b_e[i]
+                    .try_slerp(&self.q_b_e[newer], w, 1e-12)
+                    .unwrap_or(self.q_b_e[newer]);
+                return Some((
+                    self.r_e[i].lerp(&self.r_e[newer], w),
+                    self.v_e[i].lerp(&self.v_e[newer], w),
+                    q,
+                ));
+            }
+            newer = i;
+        }
+        None
+    }
 }
 
 /// Input plausibility and gap handling, in SI units.
@@ -272,6 +351,7 @@ impl Navigator {
             coasting: false,
             resumed: false,
             reset: ResetRecord::default(),
+            history: History::new(),
         }
     }
 
@@ -505,6 +585,7 @@ impl Navigator {
         self.integrate(&inc);
         self.t_ns = s.t_ns;
         self.seq += 1;
+        self.history.push(self.t_ns, &self.nav.frame_free());
 
         let from = self.nav.kind();
         let lat = self.geo.lat_rad;
@@ -641,10 +722,17 @@ impl Navigator {
         Ok(age as f64 * 1e-9)
     }
 
-    /// The nominal state at the aid's time: position moved back along the velocity by `age_s`.
-    fn state_at_age(&self, age_s: f64) -> AnyNav {
+    /// The nominal state at an aid's time `t_ns`, `age_s` behind the newest
+    /// IMU sample: interpolated from the state history (kept consistent with
+    /// every correction since), so a late aid is fused at its own time. If the
+    /// history does not reach back that far (just after a start), the
+    /// position is moved back along the velocity instead.
+    fn state_at(&self, t_ns: u64, age_s: f64) -> AnyNav {
         if age_s == 0.0 {
             return self.nav;
+        }
+        if let Some((r, v, q)) = self.history.at(t_ns) {
+            return AnyNav::from_frame_free(self.nav.kind(), &r, &v, &q);
         }
         let ff = self.nav.frame_free();
         AnyNav::from_frame_free(
@@ -678,8 +766,15 @@ impl Navigator {
             self.resumed = false;
             let dx = out.dx;
             let part = |o: usize| Vector3::new(dx[o], dx[o + 1], dx[o + 2]);
+            let before = self.nav.frame_free();
             self.nav
                 .correct(&part(idx::PHI), &part(idx::DV), &part(idx::DP));
+            let after = self.nav.frame_free();
+            self.history.shift(
+                &(after.r_e - before.r_e),
+                &(after.v_e - before.v_e),
+                &(after.q_b_e * before.q_b_e.inverse()),
+            );
             self.gyro_bias += part(idx::BG);
             self.accel_bias += part(idx::BA);
         }
@@ -743,7 +838,7 @@ impl Navigator {
             });
         }
         self.propagate_covariance();
-        let at = self.state_at_age(age);
+        let at = self.state_at(t_ns, age);
         let (m, excluded) = match model(&at) {
             Ok(x) => x,
             Err(e) => {
