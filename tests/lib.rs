@@ -14,6 +14,25 @@ use sensor_replay::scenario::Scenario;
 use sensor_replay::simulate::{SimOptions, simulate};
 
 /// Path of a file in the repository.
+/// A command running the `nav-daemon` binary `bin` as deployed
+/// (systemd/nav-daemon.service: CPUSchedulingPolicy=fifo): under
+/// `chrt -f 50` when this machine permits it. Returns the command and
+/// whether it is real-time (for the benches' reports).
+pub fn daemon_command(bin: &Path) -> (std::process::Command, bool) {
+    use std::process::Command;
+    let rt = Command::new("chrt")
+        .args(["-f", "50", "true"])
+        .status()
+        .is_ok_and(|s| s.success());
+    if rt {
+        let mut c = Command::new("chrt");
+        c.args(["-f", "50"]).arg(bin);
+        (c, true)
+    } else {
+        (Command::new(bin), false)
+    }
+}
+
 pub fn repo(rel: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("..").join(rel)
 }

@@ -32,6 +32,38 @@ pub const ERROR_FACTOR: f64 = 3.0;
 /// fault-free run itself starts at several times its RMSE.
 pub const CONVERGENCE_S: f64 = 120.0;
 
+/// The scenario files (`*.toml`) of a directory, sorted.
+pub fn scenario_files(dir: &Path) -> std::io::Result<Vec<std::path::PathBuf>> {
+    let mut files: Vec<_> = std::fs::read_dir(dir)?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| p.extension().is_some_and(|x| x == "toml"))
+        .collect();
+    files.sort();
+    Ok(files)
+}
+
+/// One line per stream: published, received, sequence gaps and where every
+/// received sample went.
+pub fn accounting_lines(published: &[u64; 4], status: &Status) -> String {
+    let mut out = String::new();
+    for (name, (p, c)) in ["imu", "srs", "cns", "baro"]
+        .iter()
+        .zip(published.iter().zip(streams(status)))
+    {
+        out += &format!(
+            "   {name:<4} published {p:>7}, received {:>7}, sequence gaps {}; received = accepted {:>7} + invalid {} + time {} + gate {} + not used {}\n",
+            c.received,
+            c.seq_gaps,
+            c.accepted,
+            c.rejected_invalid,
+            c.rejected_time,
+            c.rejected_gate,
+            c.not_used
+        );
+    }
+    out
+}
+
 /// Records per stream (IMU, SRS, CNS, baro) in a log.
 pub fn published(records: &[Record]) -> [u64; 4] {
     let mut n = [0u64; 4];
@@ -507,21 +539,7 @@ pub fn report(r: &ScenarioResult, via: &str) -> String {
             e.reacquisition_step_m, e.reacquisition_step_sigma, e.fault_free_step_m
         );
     }
-    for (name, (p, c)) in ["imu", "srs", "cns", "baro"]
-        .iter()
-        .zip(r.published.iter().zip(streams(&r.status)))
-    {
-        out += &format!(
-            "   {name:<4} published {p:>7}, received {:>7}, sequence gaps {}; received = accepted {:>7} + invalid {} + time {} + gate {} + not used {}\n",
-            c.received,
-            c.seq_gaps,
-            c.accepted,
-            c.rejected_invalid,
-            c.rejected_time,
-            c.rejected_gate,
-            c.not_used
-        );
-    }
+    out += &accounting_lines(&r.published, &r.status);
     if let Err(m) = &r.accounting {
         out += &format!("   ACCOUNTING MISMATCH: {m}\n");
     }

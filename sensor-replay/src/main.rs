@@ -244,12 +244,8 @@ fn run(cli: Cli) -> Result<(), Fail> {
             Ok(())
         }
         Cmd::Campaign { dir } => {
-            let mut files: Vec<PathBuf> = std::fs::read_dir(&dir)
-                .map_err(|e| bad(format!("{}: {e}", dir.display())))?
-                .filter_map(|e| e.ok().map(|e| e.path()))
-                .filter(|p| p.extension().is_some_and(|x| x == "toml"))
-                .collect();
-            files.sort();
+            let files = sensor_replay::campaign::scenario_files(&dir)
+                .map_err(|e| bad(format!("{}: {e}", dir.display())))?;
             if files.is_empty() {
                 return Err(bad(format!("{}: no scenario files", dir.display())));
             }

@@ -49,19 +49,7 @@ fn main() {
         ),
     )
     .expect("config");
-    // As deployed (systemd/nav-daemon.service: CPUSchedulingPolicy=fifo), the
-    // daemon runs SCHED_FIFO when this machine allows it.
-    let rt = Command::new("chrt")
-        .args(["-f", "50", "true"])
-        .status()
-        .is_ok_and(|s| s.success());
-    let mut cmd = if rt {
-        let mut c = Command::new("chrt");
-        c.args(["-f", "50"]).arg(&daemon_bin);
-        c
-    } else {
-        Command::new(&daemon_bin)
-    };
+    let (mut cmd, rt) = polarnav_tests::daemon_command(&daemon_bin);
     eprintln!(
         "daemon scheduling: {}",
         if rt {

@@ -84,19 +84,7 @@ fn main() {
         .env("RUST_LOG", "info")
         .stdin(Stdio::null());
     };
-    // As deployed (systemd/nav-daemon.service: CPUSchedulingPolicy=fifo), the
-    // daemon runs SCHED_FIFO when this machine allows it.
-    let rt = Command::new("chrt")
-        .args(["-f", "50", "true"])
-        .status()
-        .is_ok_and(|s| s.success());
-    let mut d = if rt {
-        let mut c = Command::new("chrt");
-        c.args(["-f", "50"]).arg(bin_dir.join("nav-daemon"));
-        c
-    } else {
-        Command::new(bin_dir.join("nav-daemon"))
-    };
+    let (mut d, rt) = polarnav_tests::daemon_command(&bin_dir.join("nav-daemon"));
     d.arg("--config").arg(&cfg_path);
     env(&mut d);
     let mut daemon = d
@@ -218,32 +206,17 @@ fn main() {
         "  RSS after 60 s: first {first} kB, last {lastkb} kB, max {maxkb} kB (growth {} kB)",
         lastkb as i64 - first as i64
     );
-    let mut consistent = true;
-    for (k, (name, c)) in [
-        ("imu", st.imu),
-        ("srs", st.srs),
-        ("cns", st.cns),
-        ("baro", st.baro),
-    ]
-    .into_iter()
-    .enumerate()
-    {
-        let sum = c.accepted + c.rejected_invalid + c.rejected_time + c.rejected_gate + c.not_used;
-        let p = published.get(k).copied();
-        let ok = sum == c.received && p == Some(c.received + c.seq_gaps);
-        consistent &= ok;
-        println!(
-            "  {name:<4} published {p:?} = received {} + lost {}; received = accepted {} + invalid {} + time {} + gate {} + not used {} [{}]",
-            c.received,
-            c.seq_gaps,
-            c.accepted,
-            c.rejected_invalid,
-            c.rejected_time,
-            c.rejected_gate,
-            c.not_used,
-            if ok { "consistent" } else { "INCONSISTENT" }
-        );
+    let published: [u64; 4] = published.try_into().unwrap_or([0; 4]);
+    print!(
+        "{}",
+        sensor_replay::campaign::accounting_lines(&published, &st)
+    );
+    // The replay publishes every sample of every pass: nothing is missing upstream.
+    let accounting = sensor_replay::campaign::check_accounting(published, Some([0; 4]), &st);
+    if let Err(m) = &accounting {
+        println!("  ACCOUNTING MISMATCH: {m}");
     }
+    let consistent = accounting.is_ok();
     println!(
         "  verdict: RSS flat {}, zero overruns {}, counters consistent {consistent}",
         maxkb <= first + 1024,

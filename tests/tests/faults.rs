@@ -206,13 +206,7 @@ fn a_reinitialization_publishes_its_reset_deltas_and_keeps_the_counters() {
 /// accounted (published = received = accepted + rejected + not used).
 #[test]
 fn fault_campaign_through_batch() {
-    let dir = repo("config/scenarios/faults");
-    let mut files: Vec<_> = std::fs::read_dir(&dir)
-        .expect("faults dir")
-        .map(|e| e.expect("entry").path())
-        .filter(|p| p.extension().is_some_and(|x| x == "toml"))
-        .collect();
-    files.sort();
+    let files = campaign::scenario_files(&repo("config/scenarios/faults")).expect("faults dir");
     assert!(files.len() >= 7, "{} fault scenarios", files.len());
     let results: Vec<_> = std::thread::scope(|s| {
         let handles: Vec<_> = files

@@ -110,6 +110,33 @@ impl Env {
         child
     }
 
+    /// `nav-daemon batch` (in process) on `log` with this environment's configuration.
+    fn batch_rows(&self, log: &Path) -> Vec<solution_csv::Row> {
+        let config = Config::load(&self.dir.join("nav.toml")).expect("config");
+        let csv = self.dir.join("batch.csv");
+        batch::run(
+            BufReader::new(std::fs::File::open(log).expect("log")),
+            "flight.navlog",
+            std::io::BufWriter::new(std::fs::File::create(&csv).expect("csv")),
+            &config,
+            &BatchOptions::default(),
+        )
+        .expect("batch");
+        solution_csv::read(&csv).expect("rows")
+    }
+
+    /// Starts the flight recorder writing `path` and waits until it has subscribed.
+    fn start_recorder(&self, path: &Path) -> Child {
+        let child = self
+            .command("sensor-replay", "record")
+            .args(["record", "--prefix", &self.cfg.prefix, "--out"])
+            .arg(path)
+            .spawn()
+            .expect("recorder");
+        self.wait_for("record", "subscribed", Duration::from_secs(20));
+        child
+    }
+
     /// Starts a replay of `log_file` at `speed`.
     fn start_play(&self, log: &str, log_file: &Path, speed: &str) -> Child {
         self.command("sensor-replay", log)
@@ -166,13 +193,7 @@ fn replay_daemon_recorder_equals_batch_row_for_row() {
 
     let mut daemon = env.start_daemon("daemon", None);
     let rec_path = env.dir.join("recorded.navlog");
-    let mut recorder = env
-        .command("sensor-replay", "record")
-        .args(["record", "--prefix", &env.cfg.prefix, "--out"])
-        .arg(&rec_path)
-        .spawn()
-        .expect("recorder");
-    env.wait_for("record", "subscribed", Duration::from_secs(20));
+    let mut recorder = env.start_recorder(&rec_path);
     let mut play = env.start_play("play", &log, "20");
     assert_eq!(
         wait(&mut play, Duration::from_secs(60)),
@@ -216,17 +237,7 @@ fn replay_daemon_recorder_equals_batch_row_for_row() {
     );
 
     // batch on the same log, same configuration.
-    let config = Config::load(&env.dir.join("nav.toml")).expect("config");
-    let csv = env.dir.join("batch.csv");
-    batch::run(
-        BufReader::new(std::fs::File::open(&log).expect("log")),
-        "flight.navlog",
-        std::io::BufWriter::new(std::fs::File::create(&csv).expect("csv")),
-        &config,
-        &BatchOptions::default(),
-    )
-    .expect("batch");
-    let rows = solution_csv::read(&csv).expect("rows");
+    let rows = env.batch_rows(&log);
     assert_eq!(
         live.len(),
         rows.len(),
@@ -563,17 +574,7 @@ fn python_consumer_receives_solution_and_status() {
         "{printed}"
     );
 
-    let config = Config::load(&env.dir.join("nav.toml")).expect("config");
-    let batch_csv = env.dir.join("batch.csv");
-    batch::run(
-        BufReader::new(std::fs::File::open(&log).expect("log")),
-        "flight.navlog",
-        std::io::BufWriter::new(std::fs::File::create(&batch_csv).expect("csv")),
-        &config,
-        &BatchOptions::default(),
-    )
-    .expect("batch");
-    let rows = solution_csv::read(&batch_csv).expect("rows");
+    let rows = env.batch_rows(&log);
     let text = std::fs::read_to_string(&csv).expect("python csv");
     let mut received = 0;
     let mut worst: f64 = 0.0;
@@ -745,13 +746,7 @@ fn killed_daemon_resumes_from_its_checkpoint_within_sigma() {
 #[test]
 fn fault_campaign_through_the_live_daemon() {
     use sensor_replay::campaign;
-    let dir = repo("config/scenarios/faults");
-    let mut files: Vec<_> = std::fs::read_dir(&dir)
-        .expect("faults dir")
-        .map(|e| e.expect("entry").path())
-        .filter(|p| p.extension().is_some_and(|x| x == "toml"))
-        .collect();
-    files.sort();
+    let files = campaign::scenario_files(&repo("config/scenarios/faults")).expect("faults dir");
     let mut failed = Vec::new();
     for f in &files {
         let r = campaign::run_scenario(f).expect("scenario");
@@ -760,13 +755,7 @@ fn fault_campaign_through_the_live_daemon() {
         std::fs::write(&log, &r.faulted_log).expect("log");
         let mut daemon = env.start_daemon("daemon", None);
         let rec_path = env.dir.join("recorded.navlog");
-        let mut recorder = env
-            .command("sensor-replay", "record")
-            .args(["record", "--prefix", &env.cfg.prefix, "--out"])
-            .arg(&rec_path)
-            .spawn()
-            .expect("recorder");
-        env.wait_for("record", "subscribed", Duration::from_secs(20));
+        let mut recorder = env.start_recorder(&rec_path);
         let mut play = env.start_play("play", &log, "50");
         assert_eq!(
             wait(&mut play, Duration::from_secs(120)),
