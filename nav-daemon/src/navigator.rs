@@ -204,73 +204,84 @@ pub struct Navigator {
 /// Length of the state history: 0.5 s at 1 kHz, 2.5 s at 200 Hz.
 const HISTORY: usize = 512;
 
-/// Frame-free nominal states after the last IMU samples (a ring), so that an
-/// aid that arrives late is fused against the state at its own time.
+/// Nominal states after the last IMU samples (a ring), so that an aid that
+/// arrives late is fused against the state at its own time. Stored as they
+/// are (a copy per sample); converted only when an aid needs one.
 #[derive(Debug, Clone)]
 struct History {
     t_ns: [u64; HISTORY],
-    r_e: [Vector3<f64>; HISTORY],
-    v_e: [Vector3<f64>; HISTORY],
-    q_b_e: [UnitQuaternion<f64>; HISTORY],
+    nav: [AnyNav; HISTORY],
     /// Index of the newest entry.
     head: usize,
     len: usize,
 }
 
 impl History {
-    fn new() -> Self {
+    fn new(nav: AnyNav) -> Self {
         Self {
             t_ns: [0; HISTORY],
-            r_e: [Vector3::zeros(); HISTORY],
-            v_e: [Vector3::zeros(); HISTORY],
-            q_b_e: [UnitQuaternion::identity(); HISTORY],
+            nav: [nav; HISTORY],
             head: HISTORY - 1,
             len: 0,
         }
     }
 
-    fn push(&mut self, t_ns: u64, ff: &crate::mech::FrameFree) {
+    fn push(&mut self, t_ns: u64, nav: &AnyNav) {
         self.head = (self.head + 1) % HISTORY;
         self.t_ns[self.head] = t_ns;
-        self.r_e[self.head] = ff.r_e;
-        self.v_e[self.head] = ff.v_e;
-        self.q_b_e[self.head] = ff.q_b_e;
+        self.nav[self.head] = *nav;
         self.len = (self.len + 1).min(HISTORY);
     }
 
-    /// Applies a correction of the current state to every stored state.
-    fn shift(&mut self, dr: &Vector3<f64>, dv: &Vector3<f64>, dq: &UnitQuaternion<f64>) {
+    /// Converts the stored states to the frame `to` (at a frame switch).
+    fn convert(&mut self, to: FrameKind) {
         for k in 0..self.len {
             let i = (self.head + HISTORY - k) % HISTORY;
-            self.r_e[i] += dr;
-            self.v_e[i] += dv;
-            self.q_b_e[i] = dq * self.q_b_e[i];
+            self.nav[i] = self.nav[i].converted(to);
         }
     }
 
-    /// The state at `t_ns`, linear between the stored states around it
-    /// (normalized linear interpolation of the attitude); `None` outside.
+    /// Applies the correction just made to the current state to the stored
+    /// states from `oldest_ns` on (older ones can no longer be used and are
+    /// dropped). Stored states are in the current frame (the history is
+    /// converted at a frame switch), so the same error-state feedback applies;
+    /// they differ from the current state by at most the latency limit.
+    fn correct(
+        &mut self,
+        oldest_ns: u64,
+        phi: &Vector3<f64>,
+        dv: &Vector3<f64>,
+        dp: &Vector3<f64>,
+    ) {
+        for k in 0..self.len {
+            let i = (self.head + HISTORY - k) % HISTORY;
+            if self.t_ns[i] < oldest_ns {
+                self.len = k;
+                break;
+            }
+            self.nav[i].correct(phi, dv, dp);
+        }
+    }
+
+    /// The frame-free state at `t_ns`, linear between the stored states
+    /// around it (attitude by slerp); `None` outside.
     fn at(&self, t_ns: u64) -> Option<(Vector3<f64>, Vector3<f64>, UnitQuaternion<f64>)> {
         let mut newer = self.head;
         for k in 0..self.len {
             let i = (self.head + HISTORY - k) % HISTORY;
             let t = self.t_ns[i];
             if t == t_ns {
-                return Some((self.r_e[i], self.v_e[i], self.q_b_e[i]));
+                let ff = self.nav[i].frame_free();
+                return Some((ff.r_e, ff.v_e, ff.q_b_e));
             }
             if t < t_ns {
                 if k == 0 {
                     return None;
                 }
                 let w = (t_ns - t) as f64 / (self.t_ns[newer] - t) as f64;
-                let q = self.q_b_e[i]
-                    .try_slerp(&self.q_b_e[newer], w, 1e-12)
-                    .unwrap_or(self.q_b_e[newer]);
-                return Some((
-                    self.r_e[i].lerp(&self.r_e[newer], w),
-                    self.v_e[i].lerp(&self.v_e[newer], w),
-                    q,
-                ));
+                let (a, b) = (self.nav[i].frame_free(), self.nav[newer].frame_free());
+                let q = a.q_b_e.try_slerp(&b.q_b_e, w, 1e-12).unwrap_or(b.q_b_e);
+                return Some((a.r_e.lerp(&b.r_e, w), a.v_e.lerp(&b.v_e, w), q));
             }
             newer = i;
         }
@@ -351,7 +362,7 @@ impl Navigator {
             coasting: false,
             resumed: false,
             reset: ResetRecord::default(),
-            history: History::new(),
+            history: History::new(nav),
         }
     }
 
@@ -585,7 +596,7 @@ impl Navigator {
         self.integrate(&inc);
         self.t_ns = s.t_ns;
         self.seq += 1;
-        self.history.push(self.t_ns, &self.nav.frame_free());
+        self.history.push(self.t_ns, &self.nav);
 
         let from = self.nav.kind();
         let lat = self.geo.lat_rad;
@@ -679,6 +690,7 @@ impl Navigator {
         let before = self.nav;
         self.nav = self.nav.converted(to);
         self.geo = self.nav.geodetic();
+        self.history.convert(to);
         if self.conversion == Conversion::Paper {
             let geo = before.geodetic();
             let v_grid = match (&before, &self.nav) {
@@ -766,15 +778,12 @@ impl Navigator {
             self.resumed = false;
             let dx = out.dx;
             let part = |o: usize| Vector3::new(dx[o], dx[o + 1], dx[o + 2]);
-            let before = self.nav.frame_free();
-            self.nav
-                .correct(&part(idx::PHI), &part(idx::DV), &part(idx::DP));
-            let after = self.nav.frame_free();
-            self.history.shift(
-                &(after.r_e - before.r_e),
-                &(after.v_e - before.v_e),
-                &(after.q_b_e * before.q_b_e.inverse()),
-            );
+            let (phi, dv, dp) = (part(idx::PHI), part(idx::DV), part(idx::DP));
+            self.nav.correct(&phi, &dv, &dp);
+            self.geo = self.nav.geodetic();
+            // Only states an aid may still be fused against (within the latency limit).
+            let oldest = t_ns.min(self.t_ns).saturating_sub(self.max_latency_ns);
+            self.history.correct(oldest, &phi, &dv, &dp);
             self.gyro_bias += part(idx::BG);
             self.accel_bias += part(idx::BA);
         }
