@@ -119,6 +119,7 @@ class Status(ctypes.Structure):
         ("baro_aid", AidStatus),
         ("cycles", ctypes.c_uint64),
         ("overruns", ctypes.c_uint64),
+        ("overruns_cpu", ctypes.c_uint64),
         ("cycle_time_mean_ns", ctypes.c_uint64),
         ("cycle_time_max_ns", ctypes.c_uint64),
         ("last_switch_t_ns", ctypes.c_uint64),

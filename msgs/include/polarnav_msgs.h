@@ -391,10 +391,16 @@ typedef struct {
   AidStatus cns_aid;
   AidStatus baro_aid;
   /**
-   * Filter cycles run and cycles that overran their period.
+   * Filter cycles run, and cycles that overran their period in wall-clock
+   * time (including time the thread was preempted).
    */
   uint64_t cycles;
   uint64_t overruns;
+  /**
+   * Cycles whose own CPU time exceeded the period (the daemon's work, not
+   * preemption by others): `overruns − overruns_cpu` were stalls from outside.
+   */
+  uint64_t overruns_cpu;
   /**
    * Cycle execution time statistics over the last status period (ns).
    */

@@ -285,9 +285,13 @@ pub struct Status {
     pub srs_aid: AidStatus,
     pub cns_aid: AidStatus,
     pub baro_aid: AidStatus,
-    /// Filter cycles run and cycles that overran their period.
+    /// Filter cycles run, and cycles that overran their period in wall-clock
+    /// time (including time the thread was preempted).
     pub cycles: u64,
     pub overruns: u64,
+    /// Cycles whose own CPU time exceeded the period (the daemon's work, not
+    /// preemption by others): `overruns − overruns_cpu` were stalls from outside.
+    pub overruns_cpu: u64,
     /// Cycle execution time statistics over the last status period (ns).
     pub cycle_time_mean_ns: u64,
     pub cycle_time_max_ns: u64,
@@ -371,7 +375,7 @@ mod tests {
         assert_eq!(size_of::<AidStatus>(), 48 + 8 + 8 + 8 + 8);
         assert_eq!(
             size_of::<Status>(),
-            16 + 4 * size_of::<StreamCounters>() + 3 * size_of::<AidStatus>() + 8 * 8 + 4 * 4 + 8
+            16 + 4 * size_of::<StreamCounters>() + 3 * size_of::<AidStatus>() + 9 * 8 + 4 * 4 + 8
         );
         for a in [
             align_of::<ImuSample>(),

@@ -160,7 +160,10 @@ pub struct LiveReport {
     pub cycles: u64,
     pub solutions: u64,
     pub reinits: u32,
+    /// Cycles longer than the period in wall-clock time, and of those the
+    /// ones whose own CPU time was longer (not a preemption).
     pub overruns: u64,
+    pub overruns_cpu: u64,
 }
 
 /// Preallocated capacity of the per-cycle input buffers (a cycle normally
@@ -283,8 +286,10 @@ pub fn run(
             ports.imu.clear_events();
         }
         let t0 = Instant::now();
+        let cpu0 = cpu_time::ThreadTime::try_now().ok();
         state.cycle(&ports)?;
-        if state.account(t0.elapsed(), period) {
+        let cpu = cpu0.and_then(|c| c.try_elapsed().ok()).unwrap_or_default();
+        if state.account(t0.elapsed(), cpu, period) {
             let st = state.status();
             ports.status.publish(&st)?;
             let line = status_line(
@@ -322,13 +327,14 @@ pub fn status_line(s: &Status, lat_deg: Option<f64>) -> String {
     };
     let lat = lat_deg.map_or_else(|| "-".to_owned(), |l| format!("{l:.4}°"));
     format!(
-        "frame {frame}, lat {lat}, switches {}, imu {imu}, srs {}, cns {}, baro {}, cycles {}, overruns {}",
+        "frame {frame}, lat {lat}, switches {}, imu {imu}, srs {}, cns {}, baro {}, cycles {}, overruns {} (CPU {})",
         s.switch_count,
         fresh(&s.srs_aid),
         fresh(&s.cns_aid),
         fresh(&s.baro_aid),
         s.cycles,
-        s.overruns
+        s.overruns,
+        s.overruns_cpu
     )
 }
 
@@ -611,12 +617,15 @@ impl LoopState {
     }
 
     /// Timing, IMU-lost detection and watchdog; true when a status is due.
-    fn account(&mut self, elapsed: Duration, period: Duration) -> bool {
+    fn account(&mut self, elapsed: Duration, cpu: Duration, period: Duration) -> bool {
         self.cycle_time_sum += elapsed;
         self.cycle_time_max = self.cycle_time_max.max(elapsed);
         self.cycle_count_window += 1;
         if elapsed > period {
             self.report.overruns += 1;
+            if cpu > period {
+                self.report.overruns_cpu += 1;
+            }
         }
         if let Some(t) = self.last_imu_wall
             && !self.imu_lost
@@ -666,6 +675,7 @@ impl LoopState {
         s.resumed = u8::from(self.resumed);
         s.cycles = self.report.cycles;
         s.overruns = self.report.overruns;
+        s.overruns_cpu = self.report.overruns_cpu;
         let n = self.cycle_count_window.max(1) as u32;
         s.cycle_time_mean_ns = (self.cycle_time_sum / n).as_nanos() as u64;
         s.cycle_time_max_ns = self.cycle_time_max.as_nanos() as u64;

@@ -211,6 +211,7 @@ fn main() -> ExitCode {
                         solutions = r.solutions,
                         reinits = r.reinits,
                         overruns = r.overruns,
+                        overruns_cpu = r.overruns_cpu,
                         "nav-daemon: clean exit"
                     );
                     ExitCode::SUCCESS

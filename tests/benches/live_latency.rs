@@ -220,9 +220,10 @@ fn main() {
         percentile(&mut latency_ns, 1.0)
     );
     println!(
-        "  daemon cycles {}, overruns {} (cycle time mean {:.1} µs, max {:.1} µs in the last status period)",
+        "  daemon cycles {}, overruns {} of which {} with the cycle's own CPU time over the period, the rest preemptions (cycle time mean {:.1} µs, max {:.1} µs in the last status period)",
         st.cycles,
         st.overruns,
+        st.overruns_cpu,
         st.cycle_time_mean_ns as f64 * 1e-3,
         st.cycle_time_max_ns as f64 * 1e-3
     );

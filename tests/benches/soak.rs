@@ -139,11 +139,12 @@ fn main() {
             next_print += 300.0;
             if let Some(s) = &last {
                 println!(
-                    "  t = {t:6.0} s: RSS {} kB, pass {}, cycles {}, overruns {}, imu accepted {}, cycle max {:.1} µs",
+                    "  t = {t:6.0} s: RSS {} kB, pass {}, cycles {}, overruns {} (CPU {}), imu accepted {}, cycle max {:.1} µs",
                     rss.last().map_or(0, |r| r.1),
                     s.reinit_count + 1,
                     s.cycles,
                     s.overruns,
+                    s.overruns_cpu,
                     s.imu.accepted,
                     s.cycle_time_max_ns as f64 * 1e-3
                 );
@@ -195,11 +196,12 @@ fn main() {
     );
     println!("  {}", play_out.trim());
     println!(
-        "  daemon: {} passes (re-inits {}), {} cycles, {} overruns (cycle time max {:.1} µs in the last status period)",
+        "  daemon: {} passes (re-inits {}), {} cycles, {} overruns, {} of them with the cycle's own CPU time over the period (cycle time max {:.1} µs in the last status period)",
         st.reinit_count + 1,
         st.reinit_count,
         st.cycles,
         st.overruns,
+        st.overruns_cpu,
         st.cycle_time_max_ns as f64 * 1e-3
     );
     println!(

@@ -513,7 +513,7 @@ fn python_ctypes_mirror_has_the_rust_layout() {
     );
     rust.extend(
         offsets!(Status: t_ns, seq, imu, srs, cns, baro, srs_aid, cns_aid, baro_aid,
-        cycles, overruns, cycle_time_mean_ns, cycle_time_max_ns, last_switch_t_ns, imu_gap_count,
+        cycles, overruns, overruns_cpu, cycle_time_mean_ns, cycle_time_max_ns, last_switch_t_ns, imu_gap_count,
         coasted_ns, checkpoints_written, reinit_count, switch_count, reset_count, flags, frame,
         resumed, _pad),
     );
