@@ -48,6 +48,8 @@ pub struct BatchReport {
     /// IMU samples consumed by the alignment.
     pub imu_aligning: u64,
     pub last_t_ns: u64,
+    /// Init records rejected as invalid (non-finite or implausible).
+    pub init_rejected: u64,
     /// The navigator's status at the end, with every record of the log
     /// accounted for: per stream `received = accepted + rejected_* + not_used`.
     pub status: msgs::Status,
@@ -174,6 +176,11 @@ pub fn run<R: BufRead, W: Write>(
                 report.frame.validate(log_name, "navigator")?;
             }
             Record::Init(init) => {
+                if let Err(e) = crate::navigator::check_init(&init) {
+                    report.init_rejected += 1;
+                    tracing::error!(t_ns = init.t_ns, "{log_name}: init record rejected: {e}");
+                    continue;
+                }
                 if opts.force_switch_s.is_some() && nav.is_none() {
                     report.frame.validate("--force-switch", "frame")?;
                 }

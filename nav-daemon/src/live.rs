@@ -434,6 +434,14 @@ impl LoopState {
         );
         init_buf.clear();
         ports.init.drain(|x| init_buf.push(x))?;
+        self.init_buf
+            .retain(|i| match crate::navigator::check_init(i) {
+                Ok(()) => true,
+                Err(e) => {
+                    tracing::error!(t_ns = i.t_ns, seq = i.seq, "init message rejected: {e}");
+                    false
+                }
+            });
         ports.imu.drain(|x| {
             seq[0].see(x.seq);
             imu_buf.push(x);

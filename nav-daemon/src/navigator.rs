@@ -132,7 +132,7 @@ pub enum InputRejection {
     #[error("interval dt = {dt_s} s inconsistent with the time stamps")]
     BadInterval { dt_s: f64 },
     /// A value outside what the sensor can physically produce.
-    #[error("{field} = {value} exceeds the physical limit {limit}")]
+    #[error("{field} = {value} is physically impossible (limit {limit})")]
     Implausible {
         field: &'static str,
         value: f64,
@@ -313,8 +313,56 @@ fn secs_to_ns(s: f64) -> u64 {
     (s * 1e9).round() as u64
 }
 
+/// Checks an init record before a navigator is built from it: finite
+/// values, a position between 1 km below and 100 km above the ellipsoid's
+/// radius range, a speed below 1 km/s, a quaternion of unit norm (±10 %),
+/// and σ that are finite and not negative.
+pub fn check_init(init: &InitState) -> Result<(), InputRejection> {
+    let sigmas = [
+        init.sigma_pos_h_m,
+        init.sigma_pos_v_m,
+        init.sigma_vel_h_mps,
+        init.sigma_vel_v_mps,
+        init.sigma_tilt_rad,
+        init.sigma_heading_rad,
+    ];
+    let all = init
+        .r_e_m
+        .iter()
+        .chain(&init.v_e_mps)
+        .chain(&init.q_b_e)
+        .chain(&sigmas);
+    if all.clone().any(|x| !x.is_finite()) {
+        return Err(InputRejection::NonFinite { field: "init" });
+    }
+    let implausible = |field, value: f64, limit| {
+        Err(InputRejection::Implausible {
+            field,
+            value,
+            limit,
+        })
+    };
+    let r = Vector3::from(init.r_e_m).norm();
+    if !(6_355_000.0..=6_478_137.0).contains(&r) {
+        return implausible("init |r_e| (m)", r, 6_478_137.0);
+    }
+    let v = Vector3::from(init.v_e_mps).norm();
+    if v > 1000.0 {
+        return implausible("init speed (m/s)", v, 1000.0);
+    }
+    let q = init.q_b_e.iter().map(|x| x * x).sum::<f64>().sqrt();
+    if !(0.9..=1.1).contains(&q) {
+        return implausible("init quaternion norm", q, 1.1);
+    }
+    if let Some(neg) = sigmas.iter().find(|x| **x < 0.0) {
+        return implausible("init σ", *neg, 0.0);
+    }
+    Ok(())
+}
+
 impl Navigator {
-    /// Starts from an init record.
+    /// Starts from an init record (see [`check_init`] for what a caller
+    /// should verify first).
     pub fn new(init: &InitState, config: &NavigatorConfig) -> Self {
         let r_e = Vector3::from(init.r_e_m);
         let v_e = Vector3::from(init.v_e_mps);

@@ -343,3 +343,28 @@ duration_s = 30.0
         "late aids change the position by {dp} m (CNS σ 20 m)"
     );
 }
+
+/// Init records that would poison the navigator are refused, each naming
+/// what is wrong; a valid one passes.
+#[test]
+fn invalid_init_records_are_refused() {
+    let records = simulate_records(&transpolar(1.0), 1);
+    let good = msgs::navlog::first_init(&records).expect("init");
+    assert!(polarnav::navigator::check_init(&good).is_ok());
+    type Spoil = fn(&mut msgs::InitState);
+    let cases: [(&str, Spoil); 6] = [
+        ("NaN position", |i| i.r_e_m[0] = f64::NAN),
+        ("infinite σ", |i| i.sigma_heading_rad = f64::INFINITY),
+        ("underground", |i| i.r_e_m = [0.0, 0.0, 6_000_000.0]),
+        ("supersonic init", |i| i.v_e_mps = [2000.0, 0.0, 0.0]),
+        ("zero quaternion", |i| i.q_b_e = [0.0; 4]),
+        ("negative σ", |i| i.sigma_pos_h_m = -1.0),
+    ];
+    for (what, spoil) in cases {
+        let mut bad = good;
+        spoil(&mut bad);
+        let e = polarnav::navigator::check_init(&bad).expect_err(what);
+        eprintln!("{what}: {e}");
+        assert!(e.to_string().contains("init"), "{what}: {e}");
+    }
+}
