@@ -46,13 +46,21 @@ pub fn render(sol: Option<&Solution>, st: Option<&Status>, solutions_per_s: f64)
                 x.roll_rad.to_degrees()
             ));
             s.push_str(&format!(
-                "flags: {} {} {} {} {} {}\n",
+                "flags: {} {} {} {} {} {} {} {}   resets {} (last Δr {:.2} m)\n",
                 flag(solution_flags::ALIGNED, "aligned"),
                 flag(solution_flags::SRS_FRESH, "srs"),
                 flag(solution_flags::CNS_FRESH, "cns"),
                 flag(solution_flags::BARO_FRESH, "baro"),
                 flag(solution_flags::IMU_LOST, "imu-lost"),
-                flag(solution_flags::LAST_INNOVATION_REJECTED, "rejected")
+                flag(solution_flags::LAST_INNOVATION_REJECTED, "rejected"),
+                flag(solution_flags::COASTING, "coasting"),
+                flag(solution_flags::RESUMED, "resumed"),
+                x.reset_count,
+                x.reset_delta_pos_e_m
+                    .iter()
+                    .map(|d| d * d)
+                    .sum::<f64>()
+                    .sqrt()
             ));
         }
     }
@@ -60,13 +68,18 @@ pub fn render(sol: Option<&Solution>, st: Option<&Status>, solutions_per_s: f64)
         None => s.push_str("status: none yet\n"),
         Some(x) => {
             s.push_str(&format!(
-                "status seq {}: cycles {}  overruns {}  cycle mean {:.1} µs max {:.1} µs  reinits {}\n",
+                "status seq {}: cycles {}  overruns {} (CPU {})  cycle mean {:.1} µs max {:.1} µs  reinits {}  IMU gaps {} ({:.2} s coasted)  checkpoints {}{}\n",
                 x.seq,
                 x.cycles,
                 x.overruns,
+                x.overruns_cpu,
                 x.cycle_time_mean_ns as f64 * 1e-3,
                 x.cycle_time_max_ns as f64 * 1e-3,
-                x.reinit_count
+                x.reinit_count,
+                x.imu_gap_count,
+                x.coasted_ns as f64 * 1e-9,
+                x.checkpoints_written,
+                if x.resumed == 1 { " (resumed)" } else { "" }
             ));
             for (name, c, a) in [
                 ("imu ", &x.imu, None),
@@ -75,12 +88,13 @@ pub fn render(sol: Option<&Solution>, st: Option<&Status>, solutions_per_s: f64)
                 ("baro", &x.baro, Some(&x.baro_aid)),
             ] {
                 s.push_str(&format!(
-                    "  {name} rx {:8} ok {:8} bad {:4} time {:4} gate {:4} gaps {:4}",
+                    "  {name} rx {:8} ok {:8} bad {:4} time {:4} gate {:4} unused {:4} gaps {:4}",
                     c.received,
                     c.accepted,
                     c.rejected_invalid,
                     c.rejected_time,
                     c.rejected_gate,
+                    c.not_used,
                     c.seq_gaps
                 ));
                 if let Some(a) = a {
