@@ -289,7 +289,11 @@ pub fn run(
         let cpu0 = cpu_time::ThreadTime::try_now().ok();
         state.cycle(&ports)?;
         let cpu = cpu0.and_then(|c| c.try_elapsed().ok()).unwrap_or_default();
-        if state.account(t0.elapsed(), cpu, period) {
+        let status_due = state.account(t0.elapsed(), cpu, period);
+        if state.imu_lost {
+            state.flush_waiting_aids();
+        }
+        if status_due {
             let st = state.status();
             ports.status.publish(&st)?;
             let line = status_line(
@@ -306,6 +310,7 @@ pub fn run(
             break;
         }
     }
+    state.flush_waiting_aids();
     ports.status.publish(&state.status())?;
     let _ = sd_notify::notify(&[sd_notify::NotifyState::Stopping]);
     tracing::info!(
@@ -605,6 +610,27 @@ impl LoopState {
             w.offer(nav);
         }
         Ok(())
+    }
+
+    /// Aids waiting for an IMU sample at or after their time, when none will
+    /// come (IMU lost, or stopping): offered to the navigator, which rejects
+    /// them as ahead of the IMU and counts them, so every received sample is
+    /// accounted for.
+    fn flush_waiting_aids(&mut self) {
+        if self.aid_buf.is_empty() {
+            return;
+        }
+        let Some(nav) = self.nav.as_mut() else {
+            self.drop_aids(|_| true);
+            return;
+        };
+        for a in self.aid_buf.drain(..) {
+            let _ = match &a {
+                Aid::Srs(x) => nav.on_srs(x),
+                Aid::Cns(x) => nav.on_cns(x),
+                Aid::Baro(x) => nav.on_baro(x),
+            };
+        }
     }
 
     /// Removes the buffered aids matching `pred`, counting them as not used.

@@ -117,15 +117,23 @@ pub fn play(
         .unwrap_or(0)
         + 1_000_000;
 
+    let sidereal_ns = (std::f64::consts::TAU / polarnav::earth::OMEGA_IE * 1e9).round() as u64;
+    let span_sidereal = span.div_ceil(sidereal_ns) * sidereal_ns;
     let mut lateness: Vec<u64> = Vec::with_capacity(sensors.len());
     let mut per_stream = [0u64; 4];
     let progress_every = (span / 10).max(1);
     let mut next_progress = progress_every;
     let start = Instant::now() + Duration::from_millis(100);
     'passes: for pass in 0..loops.max(1) {
-        let offset = pass * span;
-        let at =
-            |t_ns: u64| start + Duration::from_secs_f64((t_ns - t0 + offset) as f64 * 1e-9 / speed);
+        // Whole sidereal days (of the WGS-84 Earth rate) between passes: the
+        // Earth has the same orientation at every pass's time stamps, so
+        // observations made in the inertial frame (SRS) stay consistent.
+        let offset = pass * span_sidereal;
+        // Wall-clock: the passes follow each other without a pause.
+        let wall_offset = pass * span;
+        let at = |t_ns: u64| {
+            start + Duration::from_secs_f64((t_ns - t0 + wall_offset) as f64 * 1e-9 / speed)
+        };
         wait_until(at(t0));
         let mut last_deadline = at(t0);
         init_pub.publish(&InitState {

@@ -45,7 +45,8 @@ enum Cmd {
         /// Time scale (2 = twice as fast).
         #[arg(long, default_value_t = 1.0)]
         speed: f64,
-        /// Replay again and again (each pass re-initializes, the time base keeps increasing).
+        /// Replay again and again: each pass re-initializes, and its time stamps move on by whole
+        /// sidereal days (the Earth has the same orientation, so SRS stays consistent).
         #[arg(long = "loop")]
         repeat: bool,
         /// Number of passes with --loop (0 = until stopped).
