@@ -99,13 +99,13 @@ impl Drop for Env {
 
 impl Env {
     /// Starts nav-daemon with this environment's configuration and waits until its services are open.
-    fn start_daemon(&self, log: &str, extra_env: Option<(&str, &Path)>) -> Child {
+    fn start_daemon(&self, log: &str, extra_env: Option<(&str, &Path)>) -> Proc {
         let mut c = self.command("nav-daemon", log);
         c.arg("--config").arg(self.dir.join("nav.toml"));
         if let Some((k, v)) = extra_env {
             c.env(k, v);
         }
-        let child = c.spawn().expect("nav-daemon");
+        let child = Proc(c.spawn().expect("nav-daemon"));
         self.wait_for(log, "services open", Duration::from_secs(20));
         child
     }
@@ -126,25 +126,53 @@ impl Env {
     }
 
     /// Starts the flight recorder writing `path` and waits until it has subscribed.
-    fn start_recorder(&self, path: &Path) -> Child {
+    fn start_recorder(&self, path: &Path) -> Proc {
         let child = self
             .command("sensor-replay", "record")
             .args(["record", "--prefix", &self.cfg.prefix, "--out"])
             .arg(path)
             .spawn()
+            .map(Proc)
             .expect("recorder");
         self.wait_for("record", "subscribed", Duration::from_secs(20));
         child
     }
 
     /// Starts a replay of `log_file` at `speed`.
-    fn start_play(&self, log: &str, log_file: &Path, speed: &str) -> Child {
+    fn start_play(&self, log: &str, log_file: &Path, speed: &str) -> Proc {
         self.command("sensor-replay", log)
             .arg("play")
             .arg(log_file)
             .args(["--speed", speed, "--prefix", &self.cfg.prefix])
             .spawn()
+            .map(Proc)
             .expect("play")
+    }
+}
+
+/// A child process that is killed when dropped, so a failing test leaves
+/// nothing running.
+struct Proc(Child);
+
+impl std::ops::Deref for Proc {
+    type Target = Child;
+    fn deref(&self) -> &Child {
+        &self.0
+    }
+}
+
+impl std::ops::DerefMut for Proc {
+    fn deref_mut(&mut self) -> &mut Child {
+        &mut self.0
+    }
+}
+
+impl Drop for Proc {
+    fn drop(&mut self) {
+        if let Ok(None) = self.0.try_wait() {
+            let _ = self.0.kill();
+            let _ = self.0.wait();
+        }
     }
 }
 
@@ -542,7 +570,7 @@ fn python_consumer_receives_solution_and_status() {
         .args(["--prefix", &env.cfg.prefix, "--until-imu-accepted", "2000"])
         .args(["--timeout", "60", "--csv"])
         .arg(&csv);
-    let mut consumer = consumer.spawn().expect("python consumer");
+    let mut consumer = Proc(consumer.spawn().expect("python consumer"));
     let read = |f: &str| std::fs::read_to_string(env.dir.join(f)).unwrap_or_default();
     let t0 = Instant::now();
     while !read("python.out").contains("subscribed") {
@@ -882,6 +910,7 @@ fn looped_replay_reinitializes_and_keeps_every_stream_fused_and_accounted() {
             &env.cfg.prefix,
         ])
         .spawn()
+        .map(Proc)
         .expect("play");
     assert_eq!(
         wait(&mut play, Duration::from_secs(60)),
