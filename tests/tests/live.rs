@@ -790,19 +790,25 @@ fn fault_campaign_through_the_live_daemon() {
             Some(0),
             "play failed"
         );
-        // A periodic status (1 Hz, also while the IMU is silent) after the last sample.
-        std::thread::sleep(Duration::from_millis(1500));
+        // The daemon's status once every published sample is accounted for
+        // (status goes out at 1 Hz, also while the IMU is silent).
+        let (s, _) = Scenario::load(f).expect("scenario");
+        let injected: Vec<u64> = r.faults.iter().map(|x| x.injected).collect();
+        let upstream = campaign::upstream_missing(&s, &injected);
+        let status = status_until(&env, Duration::from_secs(20), |st| {
+            campaign::streams(st)
+                .iter()
+                .zip(r.published.iter().zip(upstream))
+                .all(|(c, (p, u))| c.received + c.seq_gaps >= p + u)
+        });
         assert_eq!(terminate(&mut daemon, Duration::from_secs(20)), Some(0));
         assert_eq!(terminate(&mut recorder, Duration::from_secs(20)), Some(0));
         let (records, report) = msgs::navlog::read_all(&std::fs::read(&rec_path).expect("rec"));
         assert!(report.is_clean(), "{report}");
         let mut csv = Vec::new();
-        let mut status = None;
         for rec in &records {
-            match rec {
-                Record::Solution(s) => solution_csv::write_row(&mut csv, s).expect("row"),
-                Record::Status(s) => status = Some(**s),
-                _ => {}
+            if let Record::Solution(s) = rec {
+                solution_csv::write_row(&mut csv, s).expect("row");
             }
         }
         let text = format!(
@@ -811,21 +817,10 @@ fn fault_campaign_through_the_live_daemon() {
             String::from_utf8(csv).expect("utf8")
         );
         let rows = solution_csv::parse(&text, "live").expect("rows");
-        let status = status.expect("final status recorded");
-        let (s, _) = Scenario::load(f).expect("scenario");
-        let injected: Vec<u64> = r.faults.iter().map(|x| x.injected).collect();
         let live = campaign::ScenarioResult {
-            faults: campaign::fault_lines(
-                &s,
-                &r.faults.iter().map(|x| x.injected).collect::<Vec<_>>(),
-                &status,
-            ),
+            faults: campaign::fault_lines(&s, &injected, &status),
             errors: campaign::judge(&r.truth, &r.fault_free_rows, &rows, &campaign::windows(&s)),
-            accounting: campaign::check_accounting(
-                r.published,
-                Some(campaign::upstream_missing(&s, &injected)),
-                &status,
-            ),
+            accounting: campaign::check_accounting(r.published, Some(upstream), &status),
             status,
             ..r.clone()
         };
