@@ -198,6 +198,26 @@ fn wait(child: &mut Child, deadline: Duration) -> Option<i32> {
     panic!("process {} did not exit within {deadline:?}", child.id());
 }
 
+/// The state columns of a solution row compared across transports:
+/// lat/lon (deg), h, ECEF position, ECEF velocity, body→ECEF quaternion.
+fn row_state(r: &solution_csv::Row) -> [f64; 13] {
+    [
+        r.lat_deg,
+        r.lon_deg,
+        r.h_m,
+        r.r_e_m[0],
+        r.r_e_m[1],
+        r.r_e_m[2],
+        r.v_e_mps[0],
+        r.v_e_mps[1],
+        r.v_e_mps[2],
+        r.q_b_e[0],
+        r.q_b_e[1],
+        r.q_b_e[2],
+        r.q_b_e[3],
+    ]
+}
+
 fn short_log(dir: &Path, seconds: f64) -> PathBuf {
     let text = std::fs::read_to_string(repo("config/scenarios/transpolar.toml"))
         .expect("scenario")
@@ -289,21 +309,7 @@ fn replay_daemon_recorder_equals_batch_row_for_row() {
             s.q_b_e[2],
             s.q_b_e[3],
         ];
-        let b = [
-            r.lat_deg,
-            r.lon_deg,
-            r.h_m,
-            r.r_e_m[0],
-            r.r_e_m[1],
-            r.r_e_m[2],
-            r.v_e_mps[0],
-            r.v_e_mps[1],
-            r.v_e_mps[2],
-            r.q_b_e[0],
-            r.q_b_e[1],
-            r.q_b_e[2],
-            r.q_b_e[3],
-        ];
+        let b = row_state(r);
         for (x, y) in a.iter().zip(b) {
             worst = worst.max((x - y).abs());
         }
@@ -628,21 +634,9 @@ fn python_consumer_receives_solution_and_status() {
             (r.t_s * 1e9).round() as u64,
             "t_ns of seq {seq}"
         );
-        let expect = [
-            r.lat_deg.to_radians(),
-            r.lon_deg.to_radians(),
-            r.h_m,
-            r.r_e_m[0],
-            r.r_e_m[1],
-            r.r_e_m[2],
-            r.v_e_mps[0],
-            r.v_e_mps[1],
-            r.v_e_mps[2],
-            r.q_b_e[0],
-            r.q_b_e[1],
-            r.q_b_e[2],
-            r.q_b_e[3],
-        ];
+        let mut expect = row_state(r);
+        expect[0] = expect[0].to_radians();
+        expect[1] = expect[1].to_radians();
         for (x, y) in v[2..15].iter().zip(expect) {
             worst = worst.max((x - y).abs());
         }
