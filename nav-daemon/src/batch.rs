@@ -184,13 +184,7 @@ pub fn run<R: BufRead, W: Write>(
                 if opts.force_switch_s.is_some() && nav.is_none() {
                     report.frame.validate("--force-switch", "frame")?;
                 }
-                let cfg = NavigatorConfig {
-                    frame_policy: report.frame.policy(),
-                    conversion: opts.conversion,
-                    aids: opts.aids,
-                    filter: report.filter.clone(),
-                    aid_settings: config.aids.clone(),
-                };
+                let cfg = navigator_config(&report, config, opts);
                 if let Some(n) = nav.as_ref().filter(|_| row_pending) {
                     write_solution_row(
                         &mut out,
@@ -256,13 +250,7 @@ pub fn run<R: BufRead, W: Write>(
                         t_ns = t0,
                         "no init record before the first IMU sample: initializing from the configuration"
                     );
-                    let cfg = NavigatorConfig {
-                        frame_policy: report.frame.policy(),
-                        conversion: opts.conversion,
-                        aids: opts.aids,
-                        filter: report.filter.clone(),
-                        aid_settings: config.aids.clone(),
-                    };
+                    let cfg = navigator_config(&report, config, opts);
                     nav = Some(Navigator::new(&ci.to_init(t0), &cfg));
                     report.first_t_ns = t0;
                 }
@@ -388,6 +376,18 @@ pub fn run<R: BufRead, W: Write>(
     }
     out.flush()?;
     Ok(report)
+}
+
+/// The navigator settings of this run: frame and filter from the
+/// configuration as overridden by the log header and the command line.
+fn navigator_config(report: &BatchReport, config: &Config, opts: &BatchOptions) -> NavigatorConfig {
+    NavigatorConfig {
+        frame_policy: report.frame.policy(),
+        conversion: opts.conversion,
+        aids: opts.aids,
+        filter: report.filter.clone(),
+        aid_settings: config.aids.clone(),
+    }
 }
 
 /// Offers one aid record to the navigator and accounts for the outcome.
