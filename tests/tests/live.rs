@@ -687,12 +687,9 @@ fn killed_daemon_resumes_from_its_checkpoint_within_sigma() {
         s.checkpoints_written >= 5 && s.cns.accepted >= 5
     });
     assert_eq!(before.resumed, 0, "the first daemon started cold");
-    daemon.kill().expect("kill -9 the daemon");
-    let _ = daemon.wait();
-    assert!(ckpt.exists(), "no checkpoint file");
-    let mut restarted = env.start_daemon("daemon2", None);
-
-    // The restarted daemon's solutions for a while, against the truth.
+    // Subscribe before the kill, so that the restarted daemon's very first
+    // solutions are received (the topic keeps no history); what the first
+    // daemon sent is drained and dropped once it is dead.
     let node = polarnav::transport::node(&env.cfg, "test_solutions").expect("node");
     let sub = polarnav::transport::TopicSubscriber::<Solution>::new(
         &node,
@@ -700,6 +697,14 @@ fn killed_daemon_resumes_from_its_checkpoint_within_sigma() {
         msgs::service::Topic::Solution,
     )
     .expect("solution");
+    daemon.kill().expect("kill -9 the daemon");
+    let _ = daemon.wait();
+    assert!(ckpt.exists(), "no checkpoint file");
+    sub.drain(|_| {})
+        .expect("drain the first daemon's solutions");
+    let mut restarted = env.start_daemon("daemon2", None);
+
+    // The restarted daemon's solutions for a while, against the truth.
     let mut sols = Vec::new();
     let t0 = Instant::now();
     while t0.elapsed() < Duration::from_secs(8) {
