@@ -13,7 +13,6 @@ use polarnav::navigator::{Navigator, NavigatorConfig, SwitchEvent};
 use sensor_replay::scenario::Scenario;
 use sensor_replay::simulate::{SimOptions, simulate};
 
-/// Path of a file in the repository.
 /// A command running the `nav-daemon` binary `bin` as deployed
 /// (systemd/nav-daemon.service: CPUSchedulingPolicy=fifo): under
 /// `chrt -f 50` when this machine permits it. Returns the command and
@@ -33,6 +32,7 @@ pub fn daemon_command(bin: &Path) -> (std::process::Command, bool) {
     }
 }
 
+/// Path of a file in the repository.
 pub fn repo(rel: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("..").join(rel)
 }

@@ -6,6 +6,12 @@
 //!
 //! `cargo build --release --bins && cargo bench -p polarnav-tests --bench soak [-- SECONDS [SPEED]]`
 //! (default 3600 s at ×10, as issue 5 asks).
+//!
+//! Next to the daemon runs a platform probe: this binary again, under
+//! `chrt -f 49` (just below the daemon), waking on a 1 ms grid and noting
+//! every wake-up 1 ms or more late. Such a stall delays any real-time
+//! thread on the machine, the daemon included, so each status line puts
+//! the probe's stalls next to the daemon's overruns.
 
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
@@ -28,11 +34,74 @@ fn rss_kb(pid: u32) -> Option<u64> {
         .ok()
 }
 
+/// Wake-ups at least this late count as a platform stall (the daemon's
+/// overrun budget at its nominal 1 kHz).
+const STALL: Duration = Duration::from_millis(1);
+
+/// Probe mode: wakes every millisecond for `seconds`, writes one line
+/// `t_s lateness_us` per stall to `out` as it happens, and a final
+/// `wakeups N max_us X`.
+fn probe(seconds: f64, out: &std::path::Path) {
+    use std::io::Write;
+    let mut f = std::fs::File::create(out).expect("probe output");
+    let start = Instant::now();
+    let tick = Duration::from_millis(1);
+    let (mut n, mut max) = (0u64, Duration::ZERO);
+    let mut target = start + tick;
+    while start.elapsed().as_secs_f64() < seconds {
+        if let Some(d) = target.checked_duration_since(Instant::now()) {
+            std::thread::sleep(d);
+        }
+        let late = Instant::now().saturating_duration_since(target);
+        n += 1;
+        max = max.max(late);
+        if late >= STALL {
+            let t = target.duration_since(start).as_secs_f64();
+            writeln!(f, "{t:.3} {:.0}", late.as_secs_f64() * 1e6).expect("probe write");
+        }
+        // Next tick on the grid after now (a long stall skips ticks, not counted twice).
+        while target <= Instant::now() {
+            target += tick;
+        }
+    }
+    writeln!(f, "wakeups {n} max_us {:.0}", max.as_secs_f64() * 1e6).expect("probe write");
+}
+
+/// Stalls the probe has written so far (count, max lateness µs), and once
+/// it has finished its wake-up count and largest lateness of any wake-up.
+fn probe_stalls(path: &std::path::Path) -> (u64, f64, Option<(u64, f64)>) {
+    let text = std::fs::read_to_string(path).unwrap_or_default();
+    let (mut n, mut max, mut wakeups) = (0, 0.0f64, None);
+    for line in text.lines() {
+        let f: Vec<&str> = line.split_whitespace().collect();
+        match f.as_slice() {
+            ["wakeups", w, "max_us", m] => {
+                wakeups = w.parse().ok().zip(m.parse().ok());
+            }
+            [_, late] => {
+                n += 1;
+                max = max.max(late.parse().unwrap_or(0.0));
+            }
+            _ => {}
+        }
+    }
+    (n, max, wakeups)
+}
+
 fn main() {
-    let args: Vec<f64> = std::env::args()
-        .skip(1)
-        .filter_map(|a| a.parse().ok())
-        .collect();
+    let raw: Vec<String> = std::env::args().skip(1).collect();
+    if raw.first().map(String::as_str) == Some("probe") {
+        let seconds = raw
+            .get(1)
+            .and_then(|s| s.parse().ok())
+            .expect("probe SECONDS OUT");
+        probe(
+            seconds,
+            std::path::Path::new(raw.get(2).expect("probe SECONDS OUT")),
+        );
+        return;
+    }
+    let args: Vec<f64> = raw.iter().filter_map(|a| a.parse().ok()).collect();
     let seconds = args.first().copied().unwrap_or(3600.0);
     let speed = args.get(1).copied().unwrap_or(10.0);
     let exe = std::env::current_exe().expect("exe");
@@ -111,6 +180,19 @@ fn main() {
         .spawn()
         .expect("play");
 
+    // The platform probe, one step below the daemon's priority.
+    let probe_out = dir.join("probe.txt");
+    let mut probe_child = rt.then(|| {
+        Command::new("chrt")
+            .args(["-f", "49"])
+            .arg(&exe)
+            .arg("probe")
+            .arg(seconds.to_string())
+            .arg(&probe_out)
+            .stdin(Stdio::null())
+            .spawn()
+            .expect("probe")
+    });
     println!(
         "soak: transpolar.toml (4480 s flight) looped at x{speed} for {seconds:.0} s; daemon pid {}, scheduling {}",
         daemon.id(),
@@ -138,15 +220,17 @@ fn main() {
         if t >= next_print {
             next_print += 300.0;
             if let Some(s) = &last {
+                let (stalls, stall_max, _) = probe_stalls(&probe_out);
                 println!(
-                    "  t = {t:6.0} s: RSS {} kB, pass {}, cycles {}, overruns {} (CPU {}), imu accepted {}, cycle max {:.1} µs",
+                    "  t = {t:6.0} s: RSS {} kB, pass {}, cycles {}, overruns {} (CPU {}), imu accepted {}, cycle max {:.1} µs; platform stalls {stalls} (max {:.0} µs)",
                     rss.last().map_or(0, |r| r.1),
                     s.reinit_count + 1,
                     s.cycles,
                     s.overruns,
                     s.overruns_cpu,
                     s.imu.accepted,
-                    s.cycle_time_max_ns as f64 * 1e-3
+                    s.cycle_time_max_ns as f64 * 1e-3,
+                    stall_max
                 );
             }
         }
@@ -166,6 +250,9 @@ fn main() {
         .arg(daemon.id().to_string())
         .status();
     let exit = daemon.wait().expect("daemon");
+    if let Some(c) = probe_child.as_mut() {
+        let _ = c.wait();
+    }
     let st = last.expect("no status from the daemon");
     let play_out = std::fs::read_to_string(dir.join("play.out")).unwrap_or_default();
     let published: Vec<u64> = play_out
@@ -204,6 +291,17 @@ fn main() {
         st.overruns_cpu,
         st.cycle_time_max_ns as f64 * 1e-3
     );
+    match probe_stalls(&probe_out) {
+        (n, _, Some((w, max))) => println!(
+            "  platform probe (SCHED_FIFO 49, 1 ms grid): {n} of {w} wake-ups at least 1 ms late, largest lateness {max:.0} µs{}",
+            if n > 0 {
+                "; a stall this long delays the daemon's cycle as well"
+            } else {
+                ""
+            }
+        ),
+        _ => println!("  platform probe: not run (real-time scheduling not permitted)"),
+    }
     println!(
         "  RSS after 60 s: first {first} kB, last {lastkb} kB, max {maxkb} kB (growth {} kB)",
         lastkb as i64 - first as i64
