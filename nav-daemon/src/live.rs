@@ -26,7 +26,7 @@ use msgs::{
 
 use crate::checkpoint::{self, Checkpoint};
 use crate::config::Config;
-use crate::navigator::{Navigator, NavigatorConfig};
+use crate::navigator::{AidOutcome, InputRejection, Navigator, NavigatorConfig};
 use crate::transport::{self, TopicPublisher, TopicSubscriber, TransportConfig, TransportError};
 
 /// Settings of the live loop.
@@ -188,6 +188,15 @@ impl Aid {
             Aid::Srs(x) => x.t_ns,
             Aid::Cns(x) => x.t_ns,
             Aid::Baro(x) => x.t_ns,
+        }
+    }
+
+    /// Offers the sample to the navigator, which fuses or rejects and counts it.
+    fn offer(&self, nav: &mut Navigator) -> Result<AidOutcome, InputRejection> {
+        match self {
+            Aid::Srs(x) => nav.on_srs(x),
+            Aid::Cns(x) => nav.on_cns(x),
+            Aid::Baro(x) => nav.on_baro(x),
         }
     }
 }
@@ -575,12 +584,7 @@ impl LoopState {
             }
             // Aids up to this IMU time, in time order.
             while next_aid < self.aid_buf.len() && self.aid_buf[next_aid].t_ns() <= nav.t_ns() {
-                let r = match &self.aid_buf[next_aid] {
-                    Aid::Srs(x) => nav.on_srs(x),
-                    Aid::Cns(x) => nav.on_cns(x),
-                    Aid::Baro(x) => nav.on_baro(x),
-                };
-                if let Err(e) = r
+                if let Err(e) = self.aid_buf[next_aid].offer(nav)
                     && let Some(suppressed) = self.aid_rejections.due()
                 {
                     tracing::warn!(
@@ -625,11 +629,7 @@ impl LoopState {
             return;
         };
         for a in self.aid_buf.drain(..) {
-            let _ = match &a {
-                Aid::Srs(x) => nav.on_srs(x),
-                Aid::Cns(x) => nav.on_cns(x),
-                Aid::Baro(x) => nav.on_baro(x),
-            };
+            let _ = a.offer(nav);
         }
     }
 

@@ -22,6 +22,29 @@ pub struct Pacing {
     pub max_us: f64,
 }
 
+impl Pacing {
+    /// The one-line summary `play` prints when it ends.
+    pub fn summary(&self) -> String {
+        let [imu, srs, cns, baro] = self.per_stream;
+        format!(
+            "play: {} samples published (imu {imu}, srs {srs}, cns {cns}, baro {baro}); pacing lateness p50 {:.1} µs, p99 {:.1} µs, max {:.1} µs",
+            self.published, self.p50_us, self.p99_us, self.max_us
+        )
+    }
+
+    /// The per-stream counts (IMU, SRS, CNS, baro) read back from text
+    /// containing a [`Pacing::summary`] line (e.g. `play`'s captured stdout).
+    pub fn published_in(text: &str) -> Option<[u64; 4]> {
+        let line = text.lines().find(|l| l.starts_with("play: "))?;
+        let inner = line.split_once('(')?.1.split(')').next()?;
+        let counts: Vec<u64> = inner
+            .split(", ")
+            .map(|kv| kv.split_whitespace().nth(1)?.parse().ok())
+            .collect::<Option<_>>()?;
+        counts.try_into().ok()
+    }
+}
+
 #[derive(Debug, Clone, Copy)]
 enum Sensor<'a> {
     Imu(&'a ImuSample),
@@ -301,4 +324,24 @@ pub enum RecordError {
     Write(#[from] msgs::navlog::WriteError),
     #[error("iceoryx2 waitset: {0}")]
     WaitSet(String),
+}
+
+#[cfg(test)]
+mod tests {
+    use super::Pacing;
+
+    #[test]
+    fn summary_counts_read_back() {
+        let p = Pacing {
+            published: 1_234_567 + 89 + 1011 + 12_131,
+            per_stream: [1_234_567, 89, 1011, 12_131],
+            p50_us: 3.25,
+            p99_us: 41.0,
+            max_us: 1200.5,
+        };
+        let out = format!("progress line (not it)\n{}\n", p.summary());
+        assert_eq!(Pacing::published_in(&out), Some(p.per_stream));
+        assert_eq!(Pacing::published_in("play: nothing here"), None);
+        assert_eq!(Pacing::published_in(""), None);
+    }
 }

@@ -296,17 +296,7 @@ fn run(cli: Cli) -> Result<(), Fail> {
             );
             let p = sensor_replay::live::play(&c, &cfg, speed, loops, &stop)
                 .map_err(|e| Fail(1, e.to_string()))?;
-            println!(
-                "play: {} samples published (imu {}, srs {}, cns {}, baro {}); pacing lateness p50 {:.1} µs, p99 {:.1} µs, max {:.1} µs",
-                p.published,
-                p.per_stream[0],
-                p.per_stream[1],
-                p.per_stream[2],
-                p.per_stream[3],
-                p.p50_us,
-                p.p99_us,
-                p.max_us
-            );
+            println!("{}", p.summary());
             Ok(())
         }
         Cmd::Record {

@@ -49,6 +49,8 @@ fn probe(seconds: f64, out: &std::path::Path) {
     let (mut n, mut max) = (0u64, Duration::ZERO);
     let mut target = start + tick;
     while start.elapsed().as_secs_f64() < seconds {
+        // The sleep is the measurement: how late a real-time thread wakes
+        // from it (no spinning, which would hide nothing but burn a core).
         if let Some(d) = target.checked_duration_since(Instant::now()) {
             std::thread::sleep(d);
         }
@@ -255,17 +257,8 @@ fn main() {
     }
     let st = last.expect("no status from the daemon");
     let play_out = std::fs::read_to_string(dir.join("play.out")).unwrap_or_default();
-    let published: Vec<u64> = play_out
-        .split_once('(')
-        .map(|(_, r)| {
-            r.split(')')
-                .next()
-                .unwrap_or("")
-                .split(", ")
-                .filter_map(|kv| kv.split_whitespace().nth(1)?.parse().ok())
-                .collect()
-        })
-        .unwrap_or_default();
+    // All zero when play printed no summary: the accounting check then fails loudly.
+    let published = sensor_replay::live::Pacing::published_in(&play_out).unwrap_or([0; 4]);
 
     let settled: Vec<u64> = rss
         .iter()
@@ -306,7 +299,6 @@ fn main() {
         "  RSS after 60 s: first {first} kB, last {lastkb} kB, max {maxkb} kB (growth {} kB)",
         lastkb as i64 - first as i64
     );
-    let published: [u64; 4] = published.try_into().unwrap_or([0; 4]);
     print!(
         "{}",
         sensor_replay::campaign::accounting_lines(&published, &st)

@@ -914,15 +914,7 @@ fn looped_replay_reinitializes_and_keeps_every_stream_fused_and_accounted() {
     let st = status_until(&env, Duration::from_secs(10), |s| s.imu.received >= 12_000);
     assert_eq!(terminate(&mut daemon, Duration::from_secs(20)), Some(0));
     let out = std::fs::read_to_string(env.dir.join("play.out")).unwrap_or_default();
-    let published: Vec<u64> = out
-        .split_once('(')
-        .and_then(|(_, r)| r.split(')').next())
-        .map(|r| {
-            r.split(", ")
-                .filter_map(|kv| kv.split_whitespace().nth(1)?.parse().ok())
-                .collect()
-        })
-        .unwrap_or_default();
+    let published = sensor_replay::live::Pacing::published_in(&out).expect("per-stream counts");
     eprintln!(
         "{} | daemon: reinits {}, SRS accepted {} of {}, CNS {} of {}",
         out.trim(),
@@ -938,6 +930,5 @@ fn looped_replay_reinitializes_and_keeps_every_stream_fused_and_accounted() {
     );
     // 20 SRS per pass; a few may fall to the gate, but never a whole pass.
     assert!(st.srs.accepted >= 54, "SRS fused {} of 60", st.srs.accepted);
-    let published: [u64; 4] = published.try_into().expect("per-stream counts");
     sensor_replay::campaign::check_accounting(published, Some([0; 4]), &st).expect("accounting");
 }
