@@ -9,7 +9,8 @@ use msgs::{InitState, TruthRecord};
 use nalgebra::{Matrix3, Quaternion, UnitQuaternion, Vector3};
 use polarnav::earth;
 use polarnav::frames;
-use polarnav::navigator::{Navigator, NavigatorConfig, SwitchEvent};
+use polarnav::navigator::{NavigatorConfig, SwitchEvent};
+use polarnav::session::{Event, Input, Session, SessionSettings, Sink, Stream};
 use sensor_replay::scenario::Scenario;
 use sensor_replay::simulate::{SimOptions, simulate};
 
@@ -83,45 +84,83 @@ pub fn quat(q: &[f64; 4]) -> UnitQuaternion<f64> {
     UnitQuaternion::from_quaternion(Quaternion::new(q[0], q[1], q[2], q[3]))
 }
 
-/// Runs the navigator over records; `init` replaces the log's init record when given.
-pub fn run(records: &[Record], cfg: &NavigatorConfig, init: Option<InitState>) -> Run {
-    let init = init.unwrap_or_else(|| msgs::navlog::first_init(records).expect("init"));
-    let mut nav = Navigator::new(&init, cfg);
-    let mut out = Run::default();
-    let count =
-        |r: Result<polarnav::navigator::AidOutcome, polarnav::navigator::InputRejection>,
-         out: &mut Run| match r {
-            Ok(o) if o.fused => out.fused += 1,
-            Ok(_) | Err(_) => out.rejected += 1,
-        };
-    for rec in records {
-        match rec {
-            Record::Imu(s) if s.t_ns > init.t_ns => {
-                if let Some(sw) = nav.on_imu(s).expect("valid IMU").switch {
-                    out.switches.push(sw);
-                }
-            }
-            Record::Srs(x) if x.t_ns > init.t_ns => count(nav.on_srs(x), &mut out),
-            Record::Cns(x) if x.t_ns > init.t_ns => count(nav.on_cns(x), &mut out),
-            Record::Baro(x) if x.t_ns > init.t_ns => count(nav.on_baro(x), &mut out),
-            Record::Truth(t) if t.t_ns > init.t_ns && t.t_ns == nav.t_ns() => {
-                let ff = nav.state().frame_free();
-                let (cov_pos, cov_vel, cov_att) = nav.covariances_enu();
-                out.snaps.push(Snapshot {
-                    t_ns: t.t_ns,
-                    r_e: ff.r_e,
-                    v_e: ff.v_e,
-                    q_b_e: ff.q_b_e,
-                    cov_pos,
-                    cov_vel,
-                    cov_att,
-                    frame: nav.solution().frame,
-                });
-                out.truth.push(*t);
-            }
+/// Collects the frame switches and the refused IMU samples from the
+/// session's events.
+#[derive(Debug, Default)]
+struct RunSink {
+    switches: Vec<SwitchEvent>,
+    rejected_imu: u64,
+}
+
+impl Sink for RunSink {
+    fn solution(&mut self, _s: &msgs::Solution) {}
+    fn event(&mut self, e: &Event) {
+        match e {
+            Event::Switch(sw) => self.switches.push(*sw),
+            Event::Rejected {
+                stream: Stream::Imu,
+                ..
+            } => self.rejected_imu += 1,
             _ => {}
         }
     }
+}
+
+/// Runs the session over records, as `batch` and the daemon do; `init`
+/// replaces the log's init records when given. Snapshots are taken at every
+/// truth epoch that an IMU sample reached (after the aids stamped at it).
+/// Panics if any IMU sample is refused (the logs of these tests are clean).
+pub fn run(records: &[Record], cfg: &NavigatorConfig, init: Option<InitState>) -> Run {
+    let mut session = Session::new(SessionSettings {
+        navigator: cfg.clone(),
+        ..Default::default()
+    });
+    let mut sink = RunSink::default();
+    if let Some(i) = &init {
+        session.push(Input::Init(i), &mut sink);
+    }
+    let mut out = Run::default();
+    for rec in records {
+        match rec {
+            Record::Init(_) if init.is_some() => {}
+            Record::Truth(t) => {
+                if let Some(nav) = session.navigator().filter(|n| n.t_ns() == t.t_ns)
+                    && session.span_ns().0 < t.t_ns
+                {
+                    let ff = nav.state().frame_free();
+                    let (cov_pos, cov_vel, cov_att) = nav.covariances_enu();
+                    out.snaps.push(Snapshot {
+                        t_ns: t.t_ns,
+                        r_e: ff.r_e,
+                        v_e: ff.v_e,
+                        q_b_e: ff.q_b_e,
+                        cov_pos,
+                        cov_vel,
+                        cov_att,
+                        frame: nav.solution().frame,
+                    });
+                    out.truth.push(*t);
+                }
+            }
+            other => {
+                if let Some(input) = Input::from_record(other) {
+                    session.push(input, &mut sink);
+                }
+            }
+        }
+    }
+    session.finish(&mut sink);
+    assert_eq!(
+        sink.rejected_imu, 0,
+        "an IMU sample of a clean log was refused"
+    );
+    let st = session.status();
+    out.switches = sink.switches;
+    out.fused = st.srs.accepted + st.cns.accepted + st.baro.accepted;
+    out.rejected = [&st.srs, &st.cns, &st.baro]
+        .iter()
+        .map(|c| c.rejected_invalid + c.rejected_time + c.rejected_gate)
+        .sum();
     out
 }
 

@@ -428,3 +428,61 @@ mod tests {
         assert_eq!(WireFrame::from_u8(7), None);
     }
 }
+
+/// Longest effective-settings text (bytes of UTF-8).
+pub const SETTINGS_TEXT_MAX: usize = 8192;
+
+/// The daemon's effective settings as TOML text: the navlog header's
+/// `[navigator]` table, every key. Published once at start on
+/// `<prefix>/settings` (history 1, so a flight recorder started at any time
+/// receives it), so that `batch` on a recording uses exactly the settings
+/// the daemon flew with.
+#[derive(Clone, Copy, ZeroCopySend)]
+#[repr(C)]
+#[type_name("polarnav::EffectiveSettings_v1")]
+pub struct EffectiveSettings {
+    /// Zero (the settings hold from the daemon's start).
+    pub t_ns: u64,
+    pub seq: u64,
+    /// Bytes of `text` used.
+    pub len: u32,
+    pub _pad: u32,
+    pub text: [u8; SETTINGS_TEXT_MAX],
+}
+
+impl EffectiveSettings {
+    /// `None` when `text` is longer than [`SETTINGS_TEXT_MAX`].
+    pub fn new(seq: u64, text: &str) -> Option<Self> {
+        let b = text.as_bytes();
+        if b.len() > SETTINGS_TEXT_MAX {
+            return None;
+        }
+        let mut s = Self {
+            t_ns: 0,
+            seq,
+            len: b.len() as u32,
+            _pad: 0,
+            text: [0; SETTINGS_TEXT_MAX],
+        };
+        s.text[..b.len()].copy_from_slice(b);
+        Some(s)
+    }
+
+    /// The text; `None` when the length or the UTF-8 is not valid.
+    pub fn text(&self) -> Option<&str> {
+        let n = usize::try_from(self.len)
+            .ok()
+            .filter(|n| *n <= SETTINGS_TEXT_MAX)?;
+        std::str::from_utf8(&self.text[..n]).ok()
+    }
+}
+
+impl std::fmt::Debug for EffectiveSettings {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("EffectiveSettings")
+            .field("seq", &self.seq)
+            .field("len", &self.len)
+            .field("text", &self.text())
+            .finish()
+    }
+}

@@ -15,11 +15,13 @@ pub enum Topic {
     Init,
     Solution,
     Status,
+    /// The daemon's effective settings (`EffectiveSettings`), once at start.
+    Settings,
 }
 
 impl Topic {
     /// Every topic, in a fixed order.
-    pub const ALL: [Topic; 7] = [
+    pub const ALL: [Topic; 8] = [
         Topic::Imu,
         Topic::Srs,
         Topic::Cns,
@@ -27,6 +29,7 @@ impl Topic {
         Topic::Init,
         Topic::Solution,
         Topic::Status,
+        Topic::Settings,
     ];
 
     /// The last path component of the service name.
@@ -39,6 +42,7 @@ impl Topic {
             Topic::Init => "init",
             Topic::Solution => "solution",
             Topic::Status => "status",
+            Topic::Settings => "settings",
         }
     }
 

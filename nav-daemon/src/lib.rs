@@ -1,28 +1,5 @@
-//! polarnav estimator core.
-//!
-//! Glossary of names (KF-GINS style, used everywhere in this crate):
-//! - frames: `i` inertial, `e` ECEF, `g` local geographic ENU, `grid`/`G`
-//!   grid, `n` whichever nav frame is in use, `b` body (x right, y forward, z up);
-//! - `c_a_b`: DCM mapping a vector from frame a to frame b; `q_a_b` the same as a quaternion;
-//! - `v_n`: Earth-relative velocity in nav axes; `r_e`: ECEF position;
-//! - `omega_ie_n`: Earth rate in nav axes; `omega_en_n`: transport rate; `omega_in_n` their sum;
-//! - `f_b`: specific force in body axes; `d_theta`, `d_v`: IMU increments.
-//!
-//! Units are SI (rad, m, s) inside the math; names carry units at the boundaries.
+//! The `nav-daemon` drivers around the estimator core's session: the live
+//! iceoryx2 service and `batch` over a navlog.
 
-pub mod aids;
-pub mod align;
 pub mod batch;
-pub mod checkpoint;
-pub mod config;
-pub mod earth;
-pub mod error_model;
-pub mod filter;
-pub mod frame_select;
-pub mod frames;
 pub mod live;
-pub mod mech;
-pub mod navigator;
-pub mod solution_csv;
-pub mod switch;
-pub mod transport;

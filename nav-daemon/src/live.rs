@@ -1,14 +1,14 @@
-//! The live service: a fixed-rate cycle locked to the IMU over iceoryx2.
+//! The live service: drain → session → publish, at a fixed rate locked to
+//! the IMU over iceoryx2.
 //!
 //! A WaitSet wakes on the IMU topic's event and on an interval tick at the
 //! nominal IMU period (which detects a missing IMU and keeps status flowing).
-//! Each cycle drains every subscriber into preallocated buffers, orders the
-//! inputs by time, runs the same [`Navigator`] as `batch` and publishes a
-//! solution per IMU sample; status goes out at 1 Hz. Aids ahead of the
-//! newest IMU sample wait for it; late aids are fused at their own time
-//! stamp by the navigator. A new init message re-initializes (and is counted).
-//! systemd: READY=1 after the first valid solution, WATCHDOG=1 from this
-//! loop only, STATUS= once a second.
+//! Each cycle drains every subscriber into a preallocated buffer, orders the
+//! inputs by time stamp (then stream), pushes them into the same
+//! [`Session`] as `batch` and flushes it, publishing one solution per
+//! accepted IMU sample; status goes out at 1 Hz. Every decision between an
+//! input and a solution is the session's. systemd: READY=1 after the first
+//! solution, WATCHDOG=1 from this loop only, STATUS= once a second.
 
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -20,14 +20,13 @@ use iceoryx2::prelude::*;
 use iceoryx2::waitset::WaitSetRunResult;
 use msgs::service::Topic;
 use msgs::{
-    BaroSample, CnsFix, ImuSample, InitState, Solution, SrsSample, Status, StreamCounters,
+    BaroSample, CnsFix, EffectiveSettings, ImuSample, InitState, Solution, SrsSample, Status,
     solution_flags,
 };
-
-use crate::checkpoint::{self, Checkpoint};
-use crate::config::Config;
-use crate::navigator::{AidOutcome, InputRejection, Navigator, NavigatorConfig};
-use crate::transport::{self, TopicPublisher, TopicSubscriber, TransportConfig, TransportError};
+use polarnav::checkpoint::{self, Checkpoint};
+use polarnav::session::{Event, Input, Session, Sink, Stream};
+use polarnav_config::Effective;
+use polarnav_ipc::{TopicPublisher, TopicSubscriber, TransportConfig, TransportError};
 
 /// Settings of the live loop.
 #[derive(Debug, Clone, PartialEq)]
@@ -54,7 +53,7 @@ pub struct CheckpointOptions {
 
 impl CheckpointOptions {
     /// From `[live]`; `None` when `checkpoint_path` is empty.
-    pub fn from_config(c: &crate::config::LiveSettings) -> Option<Self> {
+    pub fn from_config(c: &polarnav_config::LiveSettings) -> Option<Self> {
         (!c.checkpoint_path.is_empty()).then(|| Self {
             path: PathBuf::from(&c.checkpoint_path),
             period_ns: (c.checkpoint_period_s * 1e9).round() as u64,
@@ -109,14 +108,17 @@ impl CheckpointWriter {
         }
     }
 
-    fn offer(&mut self, nav: &Navigator) {
-        if nav.t_ns() < self.last_t_ns.saturating_add(self.period_ns) {
+    fn offer(&mut self, session: &Session) {
+        let Some(c) = session.checkpoint() else {
+            return;
+        };
+        if c.t_ns >= self.last_t_ns && c.t_ns < self.last_t_ns.saturating_add(self.period_ns) {
             return;
         }
         if let Some(tx) = &self.tx
-            && tx.try_send(nav.checkpoint()).is_ok()
+            && tx.try_send(c).is_ok()
         {
-            self.last_t_ns = nav.t_ns();
+            self.last_t_ns = c.t_ns;
         }
     }
 
@@ -166,57 +168,44 @@ pub struct LiveReport {
     pub overruns_cpu: u64,
 }
 
-/// Preallocated capacity of the per-cycle input buffers (a cycle normally
+/// Preallocated capacity of the per-cycle input buffer (a cycle normally
 /// sees one IMU sample; 45 ms stalls at 1 kHz leave ~45). It exceeds the sum
-/// of the subscriber buffers, so the buffers never grow and nothing drained
+/// of the subscriber buffers, so the buffer never grows and nothing drained
 /// is dropped.
 const CAPACITY: usize = 1024;
 
-/// An aid sample waiting in the preallocated per-cycle buffer. Not boxed on
-/// purpose: boxing the SRS variant would allocate in the loop.
+/// An input drained this cycle, held by value in the preallocated buffer.
+/// Not boxed on purpose: boxing the SRS variant would allocate in the loop.
 #[allow(clippy::large_enum_variant)]
 #[derive(Debug, Clone, Copy)]
-enum Aid {
+enum Drained {
+    Init(InitState),
+    Imu(ImuSample),
     Srs(SrsSample),
     Cns(CnsFix),
     Baro(BaroSample),
 }
 
-impl Aid {
-    fn t_ns(&self) -> u64 {
+impl Drained {
+    /// Order within a cycle: time stamp, then init before IMU before the aids
+    /// (the order of a navlog, so the session sees what `batch` sees).
+    fn key(&self) -> (u64, u8) {
         match self {
-            Aid::Srs(x) => x.t_ns,
-            Aid::Cns(x) => x.t_ns,
-            Aid::Baro(x) => x.t_ns,
+            Drained::Init(x) => (x.t_ns, 0),
+            Drained::Imu(x) => (x.t_ns, 1),
+            Drained::Srs(x) => (x.t_ns, 2),
+            Drained::Cns(x) => (x.t_ns, 3),
+            Drained::Baro(x) => (x.t_ns, 4),
         }
     }
-
-    /// Offers the sample to the navigator, which fuses or rejects and counts it.
-    fn offer(&self, nav: &mut Navigator) -> Result<AidOutcome, InputRejection> {
+    fn input(&self) -> Input<'_> {
         match self {
-            Aid::Srs(x) => nav.on_srs(x),
-            Aid::Cns(x) => nav.on_cns(x),
-            Aid::Baro(x) => nav.on_baro(x),
+            Drained::Init(x) => Input::Init(x),
+            Drained::Imu(x) => Input::Imu(x),
+            Drained::Srs(x) => Input::Srs(x),
+            Drained::Cns(x) => Input::Cns(x),
+            Drained::Baro(x) => Input::Baro(x),
         }
-    }
-}
-
-/// Counts sequence gaps of one stream (samples lost upstream or overwritten
-/// by the safe-overflow buffer).
-#[derive(Debug, Clone, Copy, Default)]
-struct SeqTracker {
-    next: Option<u64>,
-    gaps: u64,
-}
-
-impl SeqTracker {
-    fn see(&mut self, seq: u64) {
-        if let Some(n) = self.next
-            && seq > n
-        {
-            self.gaps += seq - n;
-        }
-        self.next = Some(seq.wrapping_add(1));
     }
 }
 
@@ -228,16 +217,17 @@ struct Ports {
     init: TopicSubscriber<InitState>,
     solution: TopicPublisher<Solution>,
     status: TopicPublisher<Status>,
+    settings: TopicPublisher<EffectiveSettings>,
 }
 
 /// Runs the service until `stop` is set. Publishes a final status before returning.
 pub fn run(
-    config: &Config,
+    settings: &Effective,
     transport_cfg: &TransportConfig,
     opts: &LiveOptions,
     stop: &AtomicBool,
 ) -> Result<LiveReport, LiveError> {
-    let node = transport::node(transport_cfg, "nav_daemon")?;
+    let node = polarnav_ipc::node(transport_cfg, "nav_daemon")?;
     // Stale resources of dead nodes (e.g. a previous daemon killed with SIGKILL).
     let _ = Node::<ipc::Service>::list(node.config(), |state| {
         if let NodeState::Dead(view) = state {
@@ -245,15 +235,29 @@ pub fn run(
         }
         CallbackProgression::Continue
     });
+    // The init subscriber first: a publisher hands it the init topic's
+    // history (the init sent before this daemon started) at its next send.
+    let init = TopicSubscriber::new(&node, transport_cfg, Topic::Init)?;
     let ports = Ports {
+        init,
         imu: TopicSubscriber::new(&node, transport_cfg, Topic::Imu)?,
         srs: TopicSubscriber::new(&node, transport_cfg, Topic::Srs)?,
         cns: TopicSubscriber::new(&node, transport_cfg, Topic::Cns)?,
         baro: TopicSubscriber::new(&node, transport_cfg, Topic::Baro)?,
-        init: TopicSubscriber::new(&node, transport_cfg, Topic::Init)?,
         solution: TopicPublisher::new(&node, transport_cfg, Topic::Solution)?,
         status: TopicPublisher::new(&node, transport_cfg, Topic::Status)?,
+        settings: TopicPublisher::new(&node, transport_cfg, Topic::Settings)?,
     };
+    // The effective settings, for flight recorders (history 1).
+    match EffectiveSettings::new(0, &settings.header_toml()) {
+        Some(m) => {
+            ports.settings.publish(&m)?;
+        }
+        None => tracing::warn!(
+            "effective settings longer than {} bytes: not published",
+            msgs::SETTINGS_TEXT_MAX
+        ),
+    }
     let waitset = WaitSetBuilder::new()
         .signal_handling_mode(SignalHandlingMode::Disabled)
         .create::<ipc::Service>()
@@ -267,12 +271,12 @@ pub fn run(
         .map_err(|e| LiveError::WaitSet(format!("{e:?}")))?;
     tracing::info!(prefix = %transport_cfg.prefix, imu_rate_hz = opts.imu_rate_hz, "nav-daemon live: services open, waiting for init and IMU");
 
-    let mut state = LoopState::new(config, opts);
+    let mut state = LoopState::new(settings, opts);
     if let Some(c) = &opts.checkpoint {
         match Checkpoint::load(&c.path) {
             Ok(Some(ck)) => {
                 tracing::info!(path = %c.path.display(), t_ns = ck.t_ns, "checkpoint found: resuming if the IMU continues from it");
-                state.pending_resume = Some(ck);
+                state.session.offer_checkpoint(ck);
             }
             Ok(None) => {
                 tracing::info!(path = %c.path.display(), "no checkpoint: cold start");
@@ -298,28 +302,28 @@ pub fn run(
         let cpu0 = cpu_time::ThreadTime::try_now().ok();
         state.cycle(&ports)?;
         let cpu = cpu0.and_then(|c| c.try_elapsed().ok()).unwrap_or_default();
-        let status_due = state.account(t0.elapsed(), cpu, period);
-        if state.imu_lost {
-            state.flush_waiting_aids();
-        }
+        let status_due = state.account(t0.elapsed(), cpu, period, &ports)?;
         if status_due {
             let st = state.status();
             ports.status.publish(&st)?;
-            let line = status_line(
-                &st,
-                state
-                    .nav
-                    .as_ref()
-                    .map(|n| n.state().geodetic().lat_rad.to_degrees()),
-            );
-            let _ = sd_notify::notify(&[sd_notify::NotifyState::Status(&line)]);
+            // A recorder that subscribed since gets the settings now.
+            ports.settings.update_connections()?;
+            let lat = state
+                .session
+                .navigator()
+                .map(|n| n.state().geodetic().lat_rad.to_degrees());
+            let _ = sd_notify::notify(&[sd_notify::NotifyState::Status(&status_line(&st, lat))]);
             state.reset_window();
         }
         if stop.load(Ordering::Relaxed) {
             break;
         }
     }
-    state.flush_waiting_aids();
+    {
+        let mut sink = PublishSink::new(&ports.solution, &mut state.out);
+        state.session.finish(&mut sink);
+        sink.done()?;
+    }
     ports.status.publish(&state.status())?;
     let _ = sd_notify::notify(&[sd_notify::NotifyState::Stopping]);
     tracing::info!(
@@ -374,30 +378,93 @@ impl RateLimit {
     }
 }
 
+/// Publishes the session's solutions and logs its decisions (rejections at
+/// most once a second per stream).
+struct PublishSink<'a> {
+    solution: &'a TopicPublisher<Solution>,
+    error: Option<TransportError>,
+    published: u64,
+    out: &'a mut OutputState,
+}
+
+/// What the publishing sink keeps from cycle to cycle.
+#[derive(Debug, Default)]
+struct OutputState {
+    ready_sent: bool,
+    rejections: [RateLimit; 4],
+    gaps: RateLimit,
+}
+
+impl<'a> PublishSink<'a> {
+    fn new(solution: &'a TopicPublisher<Solution>, out: &'a mut OutputState) -> Self {
+        Self {
+            solution,
+            error: None,
+            published: 0,
+            out,
+        }
+    }
+
+    fn done(self) -> Result<u64, LiveError> {
+        match self.error {
+            Some(e) => Err(e.into()),
+            None => Ok(self.published),
+        }
+    }
+}
+
+impl Sink for PublishSink<'_> {
+    fn solution(&mut self, s: &Solution) {
+        if self.error.is_some() {
+            return;
+        }
+        if let Err(e) = self.solution.publish(s) {
+            self.error = Some(e);
+            return;
+        }
+        self.published += 1;
+        if !self.out.ready_sent {
+            let _ = sd_notify::notify(&[sd_notify::NotifyState::Ready]);
+            self.out.ready_sent = true;
+            tracing::info!(t_ns = s.t_ns, "first solution published: ready");
+        }
+    }
+
+    fn event(&mut self, e: &Event) {
+        if let Event::Rejected {
+            stream,
+            t_ns,
+            seq,
+            reason,
+        } = e
+        {
+            let k = Stream::ALL.iter().position(|s| s == stream).unwrap_or(0);
+            if let Some(suppressed) = self.out.rejections[k].due() {
+                tracing::warn!(
+                    t_ns,
+                    seq,
+                    suppressed,
+                    "{} sample rejected: {reason}",
+                    stream.name()
+                );
+            }
+            return;
+        }
+        crate::batch::log_event("live", e);
+    }
+}
+
 struct LoopState {
-    nav_cfg: NavigatorConfig,
-    init_cfg: Option<crate::config::InitSettings>,
+    session: Session,
     opts: LiveOptions,
-    nav: Option<Navigator>,
-    imu_buf: Vec<ImuSample>,
-    aid_buf: Vec<Aid>,
-    init_buf: Vec<InitState>,
-    seq: [SeqTracker; 4],
-    /// Per stream (IMU, SRS, CNS, baro): samples received by this loop but
-    /// never handed to a navigator (no state yet, or stamped before a new init).
-    not_used: [u64; 4],
+    buf: Vec<Drained>,
     checkpoint: Option<CheckpointWriter>,
-    /// A checkpoint to resume from when the IMU continues from it.
-    pending_resume: Option<Checkpoint>,
-    resumed: bool,
-    imu_rejections: RateLimit,
-    aid_rejections: RateLimit,
+    out: OutputState,
     /// Freshness of SRS, CNS, baro in the last status (for transition events).
     aid_fresh: [bool; 3],
     last_imu_wall: Option<Instant>,
     imu_lost: bool,
     last_status: Instant,
-    ready_sent: bool,
     last_watchdog: Instant,
     cycle_time_sum: Duration,
     cycle_time_max: Duration,
@@ -407,27 +474,17 @@ struct LoopState {
 }
 
 impl LoopState {
-    fn new(config: &Config, opts: &LiveOptions) -> Self {
+    fn new(settings: &Effective, opts: &LiveOptions) -> Self {
         Self {
-            nav_cfg: config.navigator(),
-            init_cfg: config.init.clone(),
+            session: Session::new(settings.session()),
             opts: opts.clone(),
-            nav: None,
-            imu_buf: Vec::with_capacity(CAPACITY),
-            aid_buf: Vec::with_capacity(CAPACITY),
-            init_buf: Vec::with_capacity(16),
-            seq: [SeqTracker::default(); 4],
-            not_used: [0; 4],
+            buf: Vec::with_capacity(CAPACITY),
             checkpoint: opts.checkpoint.as_ref().map(CheckpointWriter::start),
-            pending_resume: None,
-            resumed: false,
-            imu_rejections: RateLimit::default(),
-            aid_rejections: RateLimit::default(),
+            out: OutputState::default(),
             aid_fresh: [false; 3],
             last_imu_wall: None,
             imu_lost: false,
             last_status: Instant::now(),
-            ready_sent: false,
             last_watchdog: Instant::now(),
             cycle_time_sum: Duration::ZERO,
             cycle_time_max: Duration::ZERO,
@@ -437,221 +494,66 @@ impl LoopState {
         }
     }
 
-    /// One cycle: drain, order, navigate, publish.
+    /// One cycle: drain, order, push into the session, flush (publish).
     fn cycle(&mut self, ports: &Ports) -> Result<(), LiveError> {
         self.report.cycles += 1;
-        let (imu_buf, aid_buf, init_buf, seq) = (
-            &mut self.imu_buf,
-            &mut self.aid_buf,
-            &mut self.init_buf,
-            &mut self.seq,
-        );
-        init_buf.clear();
-        ports.init.drain(|x| init_buf.push(x))?;
-        self.init_buf
-            .retain(|i| match crate::navigator::check_init(i) {
-                Ok(()) => true,
-                Err(e) => {
-                    tracing::error!(t_ns = i.t_ns, seq = i.seq, "init message rejected: {e}");
-                    false
-                }
-            });
+        let buf = &mut self.buf;
+        buf.clear();
+        let mut imu_seen = false;
+        ports.init.drain(|x| buf.push(Drained::Init(x)))?;
         ports.imu.drain(|x| {
-            seq[0].see(x.seq);
-            imu_buf.push(x);
+            imu_seen = true;
+            buf.push(Drained::Imu(x));
         })?;
-        ports.srs.drain(|x| {
-            seq[1].see(x.seq);
-            aid_buf.push(Aid::Srs(x));
-        })?;
-        ports.cns.drain(|x| {
-            seq[2].see(x.seq);
-            aid_buf.push(Aid::Cns(x));
-        })?;
-        ports.baro.drain(|x| {
-            seq[3].see(x.seq);
-            aid_buf.push(Aid::Baro(x));
-        })?;
+        ports.srs.drain(|x| buf.push(Drained::Srs(x)))?;
+        ports.cns.drain(|x| buf.push(Drained::Cns(x)))?;
+        ports.baro.drain(|x| buf.push(Drained::Baro(x)))?;
         ports.srs.clear_events();
         ports.cns.clear_events();
         ports.baro.clear_events();
         ports.init.clear_events();
-
-        // An init no newer than the checkpoint (e.g. the init topic's history
-        // delivered to a restarted daemon) describes an older state: resume instead.
-        if let Some(c) = &self.pending_resume {
-            let n = self.init_buf.len();
-            self.init_buf.retain(|i| i.t_ns > c.t_ns);
-            if self.init_buf.len() < n {
-                tracing::info!(
-                    "init message older than the checkpoint ignored: resuming from the checkpoint"
-                );
+        // Sequence gaps in arrival order; then the cycle's inputs in time
+        // order (in place, without allocation) as a navlog has them.
+        for d in &self.buf {
+            if let Some(e) = self.session.arrived(&d.input())
+                && let Some(suppressed) = self.out.gaps.due()
+            {
+                tracing::warn!(suppressed, "{e:?}");
             }
         }
-        if let Some(init) = self.init_buf.iter().max_by_key(|i| i.t_ns).copied() {
-            if self.nav.is_some() {
-                self.report.reinits += 1;
-                tracing::info!(
-                    t_ns = init.t_ns,
-                    reinit = self.report.reinits,
-                    "new init message: re-initializing"
-                );
-            } else {
-                tracing::info!(t_ns = init.t_ns, "init message received");
-            }
-            match self.nav.as_mut() {
-                Some(nav) => nav.reinitialize(&init, &self.nav_cfg),
-                None => self.nav = Some(Navigator::new(&init, &self.nav_cfg)),
-            }
-            if self.pending_resume.take().is_some() {
-                tracing::info!("init message received: the checkpoint is not used (cold start)");
-            }
-            // Inputs from before the new init belong to the previous pass.
-            let n = self.imu_buf.len();
-            self.imu_buf.retain(|s| s.t_ns > init.t_ns);
-            self.not_used[0] += (n - self.imu_buf.len()) as u64;
-            self.drop_aids(|a| a.t_ns() <= init.t_ns);
-        }
-        self.imu_buf.sort_unstable_by_key(|s| s.t_ns);
-        self.aid_buf.sort_unstable_by_key(Aid::t_ns);
-
-        if !self.imu_buf.is_empty() {
+        self.buf.sort_unstable_by_key(Drained::key);
+        if imu_seen {
             self.last_imu_wall = Some(Instant::now());
             if self.imu_lost {
                 tracing::info!("IMU back");
             }
             self.imu_lost = false;
         }
-        if self.nav.is_none()
-            && let Some(first) = self.imu_buf.first()
-            && let Some(c) = self.pending_resume.take()
-        {
-            let max_age = self.opts.checkpoint.as_ref().map_or(0, |o| o.max_age_ns);
-            if first.t_ns > c.t_ns && first.t_ns - c.t_ns <= max_age {
-                tracing::info!(
-                    checkpoint_t_ns = c.t_ns,
-                    gap_s = (first.t_ns - c.t_ns) as f64 * 1e-9,
-                    "resumed from checkpoint (no re-alignment); the gap to the first IMU sample is coasted"
-                );
-                self.nav = Some(Navigator::from_checkpoint(&c, &self.nav_cfg));
-                self.resumed = true;
-            } else {
-                tracing::warn!(
-                    checkpoint_t_ns = c.t_ns,
-                    first_imu_t_ns = first.t_ns,
-                    max_age_s = max_age as f64 * 1e-9,
-                    "checkpoint not used: the IMU does not continue from it; cold start"
-                );
+        let buf = std::mem::take(&mut self.buf);
+        let published = {
+            let mut sink = PublishSink::new(&ports.solution, &mut self.out);
+            for d in &buf {
+                self.session.handle(d.input(), &mut sink);
             }
-        }
-        if self.nav.is_none()
-            && let (Some(ci), Some(first)) = (&self.init_cfg, self.imu_buf.first())
-        {
-            let t0 = first.t_ns.saturating_sub((first.dt_s * 1e9).round() as u64);
-            tracing::info!(
-                t_ns = t0,
-                "no init message: initializing from the configuration"
-            );
-            self.nav = Some(Navigator::new(&ci.to_init(t0), &self.nav_cfg));
-        }
-        let Some(nav) = self.nav.as_mut() else {
-            self.not_used[0] += self.imu_buf.len() as u64;
-            self.imu_buf.clear();
-            self.drop_aids(|_| true);
-            return Ok(());
+            self.session.flush(&mut sink);
+            sink.done()
         };
-
-        let mut next_aid = 0;
-        for k in 0..self.imu_buf.len() {
-            let s = self.imu_buf[k];
-            match nav.on_imu(&s) {
-                Ok(out) => {
-                    if let Some(sw) = out.switch {
-                        tracing::info!(t_s = sw.t_ns as f64 * 1e-9, from = ?sw.from, to = ?sw.to, lat_deg = sw.lat_rad.to_degrees(), count = sw.count, "frame switch");
-                    }
-                }
-                Err(e) => {
-                    if let Some(suppressed) = self.imu_rejections.due() {
-                        tracing::warn!(
-                            t_ns = s.t_ns,
-                            seq = s.seq,
-                            suppressed,
-                            "IMU sample rejected: {e}"
-                        );
-                    }
-                    continue;
-                }
-            }
-            // Aids up to this IMU time, in time order.
-            while next_aid < self.aid_buf.len() && self.aid_buf[next_aid].t_ns() <= nav.t_ns() {
-                if let Err(e) = self.aid_buf[next_aid].offer(nav)
-                    && let Some(suppressed) = self.aid_rejections.due()
-                {
-                    tracing::warn!(
-                        t_ns = self.aid_buf[next_aid].t_ns(),
-                        suppressed,
-                        "aid sample rejected: {e}"
-                    );
-                }
-                next_aid += 1;
-            }
-            let mut sol = nav.solution();
-            if self.imu_lost {
-                sol.flags |= solution_flags::IMU_LOST;
-            }
-            ports.solution.publish(&sol)?;
-            self.report.solutions += 1;
-            if !self.ready_sent {
-                let _ = sd_notify::notify(&[sd_notify::NotifyState::Ready]);
-                self.ready_sent = true;
-                tracing::info!(t_ns = sol.t_ns, "first valid solution published: ready");
-            }
-        }
-        self.imu_buf.clear();
-        // Aids ahead of the newest IMU sample wait for it.
-        self.aid_buf.drain(..next_aid);
-        if let (Some(w), Some(nav)) = (self.checkpoint.as_mut(), self.nav.as_ref()) {
-            w.offer(nav);
+        self.buf = buf;
+        self.report.solutions += published?;
+        if let Some(w) = self.checkpoint.as_mut() {
+            w.offer(&self.session);
         }
         Ok(())
     }
 
-    /// Aids waiting for an IMU sample at or after their time, when none will
-    /// come (IMU lost, or stopping): offered to the navigator, which rejects
-    /// them as ahead of the IMU and counts them, so every received sample is
-    /// accounted for.
-    fn flush_waiting_aids(&mut self) {
-        if self.aid_buf.is_empty() {
-            return;
-        }
-        let Some(nav) = self.nav.as_mut() else {
-            self.drop_aids(|_| true);
-            return;
-        };
-        for a in self.aid_buf.drain(..) {
-            let _ = a.offer(nav);
-        }
-    }
-
-    /// Removes the buffered aids matching `pred`, counting them as not used.
-    fn drop_aids(&mut self, pred: impl Fn(&Aid) -> bool) {
-        let not_used = &mut self.not_used;
-        self.aid_buf.retain(|a| {
-            if !pred(a) {
-                return true;
-            }
-            let k = match a {
-                Aid::Srs(_) => 1,
-                Aid::Cns(_) => 2,
-                Aid::Baro(_) => 3,
-            };
-            not_used[k] += 1;
-            false
-        });
-    }
-
     /// Timing, IMU-lost detection and watchdog; true when a status is due.
-    fn account(&mut self, elapsed: Duration, cpu: Duration, period: Duration) -> bool {
+    fn account(
+        &mut self,
+        elapsed: Duration,
+        cpu: Duration,
+        period: Duration,
+        ports: &Ports,
+    ) -> Result<bool, LiveError> {
         self.cycle_time_sum += elapsed;
         self.cycle_time_max = self.cycle_time_max.max(elapsed);
         self.cycle_count_window += 1;
@@ -670,12 +572,15 @@ impl LoopState {
                 "IMU lost: no sample for {} nominal periods",
                 self.opts.imu_lost_periods
             );
+            let mut sink = PublishSink::new(&ports.solution, &mut self.out);
+            self.session.imu_lost(&mut sink);
+            sink.done()?;
         }
         if self.last_watchdog.elapsed() >= Duration::from_millis(100) {
             let _ = sd_notify::notify(&[sd_notify::NotifyState::Watchdog]);
             self.last_watchdog = Instant::now();
         }
-        self.last_status.elapsed() >= self.opts.status_period
+        Ok(self.last_status.elapsed() >= self.opts.status_period)
     }
 
     fn reset_window(&mut self) {
@@ -686,48 +591,20 @@ impl LoopState {
     }
 
     fn status(&mut self) -> Status {
-        let mut s = self.nav.as_ref().map(Navigator::status).unwrap_or_default();
+        let mut s = self.session.status();
         self.status_seq += 1;
         s.seq = self.status_seq;
-        let gaps = |c: &mut StreamCounters, t: &SeqTracker| c.seq_gaps = t.gaps;
-        gaps(&mut s.imu, &self.seq[0]);
-        gaps(&mut s.srs, &self.seq[1]);
-        gaps(&mut s.cns, &self.seq[2]);
-        gaps(&mut s.baro, &self.seq[3]);
-        // Samples that never reached a navigator were received and not used.
-        for (c, n) in [&mut s.imu, &mut s.srs, &mut s.cns, &mut s.baro]
-            .into_iter()
-            .zip(self.not_used)
-        {
-            c.received += n;
-            c.not_used += n;
-        }
         s.checkpoints_written = self
             .checkpoint
             .as_ref()
             .map_or(0, CheckpointWriter::written);
-        s.resumed = u8::from(self.resumed);
         s.cycles = self.report.cycles;
         s.overruns = self.report.overruns;
         s.overruns_cpu = self.report.overruns_cpu;
         let n = self.cycle_count_window.max(1) as u32;
         s.cycle_time_mean_ns = (self.cycle_time_sum / n).as_nanos() as u64;
         s.cycle_time_max_ns = self.cycle_time_max.as_nanos() as u64;
-        s.reinit_count = self.report.reinits;
-        if self.imu_lost {
-            // Aid freshness is judged in sensor time, which stops with the IMU:
-            // without it no aid can be called fresh.
-            s.flags |= solution_flags::IMU_LOST;
-            s.flags &= !(solution_flags::SRS_FRESH
-                | solution_flags::CNS_FRESH
-                | solution_flags::BARO_FRESH);
-            for a in [&mut s.srs_aid, &mut s.cns_aid, &mut s.baro_aid] {
-                a.fresh = 0;
-            }
-        }
-        if self.nav.is_none() {
-            s.flags &= !solution_flags::ALIGNED;
-        }
+        self.report.reinits = s.reinit_count;
         // Aid timeouts and recoveries, once per transition.
         for (k, (name, a)) in [
             ("SRS", &s.srs_aid),
@@ -741,7 +618,7 @@ impl LoopState {
             if fresh != self.aid_fresh[k] {
                 if fresh {
                     tracing::info!(aid = name, "aid fresh: fusing");
-                } else if self.nav.is_some() {
+                } else if self.session.navigator().is_some() {
                     tracing::warn!(
                         aid = name,
                         last_fuse_t_ns = a.last_fuse_t_ns,
@@ -769,14 +646,5 @@ mod tests {
         r.last = Some(Instant::now() - Duration::from_millis(1001));
         assert_eq!(r.due(), Some(2));
         assert_eq!(r.due(), None);
-    }
-
-    #[test]
-    fn seq_tracker_counts_lost_samples() {
-        let mut t = SeqTracker::default();
-        for s in [0, 1, 2, 5, 6, 10] {
-            t.see(s);
-        }
-        assert_eq!(t.gaps, 2 + 3);
     }
 }

@@ -6,8 +6,8 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
-use polarnav::batch::{self, AidSet, BatchOptions, Conversion};
-use polarnav::config::Config;
+use nav_daemon::batch::{self, BatchOptions};
+use polarnav_config::{AidSet, CliOverrides, ConfigFile, Conversion, effective};
 
 #[derive(Debug, Parser)]
 #[command(
@@ -37,9 +37,10 @@ enum Cmd {
         log: PathBuf,
         #[arg(long)]
         out: PathBuf,
-        /// Filter parameter conversion at frame switches: paper or none.
-        #[arg(long, default_value = "paper")]
-        conversion: String,
+        /// Filter parameter conversion at frame switches: paper or none
+        /// (default: the configuration's `[frame] conversion`, paper).
+        #[arg(long)]
+        conversion: Option<String>,
         /// Forced frame-switch times in seconds, comma-separated (disables the latitude rule).
         #[arg(long, value_delimiter = ',')]
         force_switch: Option<Vec<f64>>,
@@ -50,16 +51,17 @@ enum Cmd {
         /// Never switch frames: stay in g throughout (the reference run of the switching experiments).
         #[arg(long, conflicts_with = "force_switch")]
         no_switch: bool,
-        /// Aids to fuse: a list of srs, cns, baro, or none.
-        #[arg(long, default_value = "srs,cns,baro")]
-        aids: String,
+        /// Aids to fuse: a list of srs, cns, baro, or none (default: the
+        /// configuration's `[aids] fuse`, all of them).
+        #[arg(long)]
+        aids: Option<String>,
         /// Print a progress line every this many seconds of flight (0 = quiet).
         #[arg(long, default_value_t = 0.0)]
         progress: f64,
     },
 }
 
-fn find_config(explicit: Option<&PathBuf>) -> Result<Config, (String, i32)> {
+fn find_config(explicit: Option<&PathBuf>) -> Result<ConfigFile, (String, i32)> {
     let candidates: Vec<PathBuf> = match explicit {
         Some(p) => vec![p.clone()],
         None => {
@@ -73,10 +75,10 @@ fn find_config(explicit: Option<&PathBuf>) -> Result<Config, (String, i32)> {
     };
     for p in &candidates {
         if explicit.is_some() || p.exists() {
-            return Config::load(p).map_err(|e| (e.to_string(), 2));
+            return ConfigFile::load(p).map_err(|e| (e.to_string(), 2));
         }
     }
-    Ok(Config::default())
+    Ok(ConfigFile::defaults())
 }
 
 fn main() -> ExitCode {
@@ -88,7 +90,10 @@ fn main() -> ExitCode {
         .init();
     let cli = Cli::parse();
     if let Some(path) = &cli.check_config {
-        return match Config::load(path) {
+        // Exactly the validation the daemon runs at start.
+        let checked =
+            ConfigFile::load(path).and_then(|f| effective(&f, None, &CliOverrides::default()));
+        return match checked {
             Ok(_) => {
                 println!("{}: valid", path.display());
                 ExitCode::SUCCESS
@@ -107,7 +112,7 @@ fn main() -> ExitCode {
         }
     };
     if let Some(p) = cli.prefix {
-        config.prefix = p;
+        config.config.prefix = p;
     }
     match cli.cmd {
         Some(Cmd::Batch {
@@ -124,29 +129,32 @@ fn main() -> ExitCode {
                 eprintln!("error: {m}");
                 ExitCode::from(2)
             };
-            let aids = match AidSet::parse(&aids) {
+            let fuse = match aids.as_deref().map(AidSet::parse).transpose() {
                 Ok(a) => a,
                 Err(m) => return usage(format!("--aids: {m}")),
             };
-            let conversion = match conversion.as_str() {
-                "paper" => Conversion::Paper,
-                "none" => Conversion::None,
-                other => {
+            let conversion = match conversion.as_deref() {
+                None => None,
+                Some("paper") => Some(Conversion::Paper),
+                Some("none") => Some(Conversion::None),
+                Some(other) => {
                     return usage(format!(
                         "--conversion: expected paper or none, got {other:?}"
                     ));
                 }
             };
             let opts = BatchOptions {
-                aids,
-                conversion,
-                force_switch_s: if no_switch {
-                    Some(Vec::new())
-                } else {
-                    force_switch
+                cli: CliOverrides {
+                    conversion,
+                    fuse,
+                    force_switch_s: if no_switch {
+                        Some(Vec::new())
+                    } else {
+                        force_switch
+                    },
+                    align_s: align,
                 },
                 progress_every_s: progress,
-                align_s: align,
             };
             let log_name = log.display().to_string();
             let input = match File::open(&log) {
@@ -165,19 +173,27 @@ fn main() -> ExitCode {
                 Ok(r) => {
                     let wall = t0.elapsed().as_secs_f64();
                     let span = (r.last_t_ns.saturating_sub(r.first_t_ns)) as f64 * 1e-9;
+                    let s = &r.status;
+                    let (fused, rejected) = r.aid_totals();
+                    let not_used = s.srs.not_used + s.cns.not_used + s.baro.not_used;
                     eprintln!(
-                        "batch: {} rows, {:.1} s of flight in {:.2} s ({:.0}x real time), {} frame switch(es), {} IMU rejected, {} IMU before init; aids: {} fused, {} rejected, {} not selected, {} SRS line exclusions; log: {}",
+                        "batch: {} rows, {:.1} s of flight in {:.2} s ({:.0}x real time), {} frame switch(es), {} IMU rejected, {} IMU not used, {} time resync(s), {} covariance repair(s); aids: {} fused, {} rejected, {} not used, {} SRS line exclusions; inits: {} used, {} rejected, {} not used; log: {}",
                         r.rows,
                         span,
                         wall,
                         span / wall.max(1e-9),
                         r.switches.len(),
-                        r.imu_rejected,
-                        r.imu_before_init,
-                        r.aid_fused,
-                        r.aid_rejected,
-                        r.aid_records_unused,
-                        r.srs_exclusions,
+                        s.imu.rejected_invalid + s.imu.rejected_time,
+                        s.imu.not_used,
+                        r.time_resyncs,
+                        r.covariance_repairs,
+                        fused,
+                        rejected,
+                        not_used,
+                        s.srs_aid.exclusions,
+                        r.inits.used,
+                        r.inits.rejected,
+                        r.inits.not_used,
                         r.read
                     );
                     ExitCode::SUCCESS
@@ -197,14 +213,23 @@ fn main() -> ExitCode {
                 eprintln!("error: cannot install the SIGINT/SIGTERM handler: {e}");
                 return ExitCode::from(1);
             }
-            let transport = polarnav::transport::TransportConfig::new(&config.prefix);
-            let opts = polarnav::live::LiveOptions {
+            let settings = match effective(&config, None, &CliOverrides::default()) {
+                Ok(s) => s,
+                Err(e) => {
+                    eprintln!("error: {e}");
+                    return ExitCode::from(2);
+                }
+            };
+            tracing::info!("effective settings:\n{}", settings.describe());
+            let config = &settings.config;
+            let transport = polarnav_ipc::TransportConfig::new(&config.prefix);
+            let opts = nav_daemon::live::LiveOptions {
                 imu_rate_hz: config.live.imu_rate_hz,
                 imu_lost_periods: config.live.imu_lost_periods,
-                checkpoint: polarnav::live::CheckpointOptions::from_config(&config.live),
+                checkpoint: nav_daemon::live::CheckpointOptions::from_config(&config.live),
                 ..Default::default()
             };
-            match polarnav::live::run(&config, &transport, &opts, &stop) {
+            match nav_daemon::live::run(&settings, &transport, &opts, &stop) {
                 Ok(r) => {
                     tracing::info!(
                         cycles = r.cycles,

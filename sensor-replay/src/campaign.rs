@@ -15,9 +15,9 @@ use std::path::Path;
 
 use msgs::navlog::Record;
 use msgs::{Status, StreamCounters, TruthRecord};
-use polarnav::batch::{self, BatchOptions};
-use polarnav::config::Config;
-use polarnav::solution_csv::{self, Row};
+use polarnav::session;
+use polarnav::solution_csv::Row;
+use polarnav_config::{CliOverrides, ConfigFile, effective};
 
 use crate::eval;
 use crate::faults::{FaultKind, Stream};
@@ -444,20 +444,23 @@ fn simulate_bytes(s: &Scenario, text: &str, faults: bool) -> Result<(Vec<u8>, Ve
     Ok((buf, sum.injected))
 }
 
-/// Runs `batch` (default configuration) on navlog bytes; the rows and the report.
-pub fn batch_rows(log: &[u8], name: &str) -> Result<(Vec<Row>, batch::BatchReport), String> {
-    let mut csv = Vec::new();
-    let report = batch::run(
-        log,
-        name,
-        &mut csv,
-        &Config::default(),
-        &BatchOptions::default(),
-    )
-    .map_err(|e| e.to_string())?;
-    let text = String::from_utf8(csv).map_err(|e| e.to_string())?;
-    let rows = solution_csv::parse(&text, name).map_err(|e| e.to_string())?;
-    Ok((rows, report))
+/// Navigates navlog bytes as `batch` does with the default configuration
+/// (the same session, the header's settings applied): the rows and the
+/// final status.
+pub fn batch_rows(log: &[u8], name: &str) -> Result<(Vec<Row>, Status), String> {
+    let (records, report) = msgs::navlog::read_all(log);
+    if !report.is_clean() {
+        return Err(format!("{name}: damaged log: {report}"));
+    }
+    let metadata = records.iter().find_map(|r| match r {
+        Record::Header(h) => Some(h.metadata.as_str()),
+        _ => None,
+    });
+    let eff = effective(&ConfigFile::defaults(), metadata, &CliOverrides::default())
+        .map_err(|e| e.to_string())?;
+    let (out, status) = session::navigate(&records, eff.session());
+    let rows = out.solutions.iter().map(Row::from_solution).collect();
+    Ok((rows, status))
 }
 
 /// Simulates (with and without faults) and navigates one scenario file through `batch`.
@@ -483,15 +486,17 @@ pub fn run_scenario(path: &Path) -> Result<ScenarioResult, String> {
         })
         .collect();
     let (rows_ff, _) = batch_rows(&clean, &s.name)?;
-    let (rows, rep) = batch_rows(&faulted, &s.name)?;
+    let (rows, status) = batch_rows(&faulted, &s.name)?;
     let published = published(&records);
     Ok(ScenarioResult {
         name: s.name.clone(),
-        faults: fault_lines(&s, &injected, &rep.status),
+        faults: fault_lines(&s, &injected, &status),
         errors: judge(&truth, &rows_ff, &rows, &windows(&s)),
         published,
-        accounting: check_accounting(published, None, &rep.status),
-        status: rep.status,
+        // The log's own sequence gaps are the samples the fault never let
+        // the source send (outages), as a live replay reports them.
+        accounting: check_accounting(published, Some(upstream_missing(&s, &injected)), &status),
+        status,
         faulted_log: faulted,
         truth,
         fault_free_rows: rows_ff,

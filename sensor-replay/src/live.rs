@@ -6,8 +6,10 @@ use std::time::{Duration, Instant};
 
 use msgs::navlog::{Header, NavlogWriter, Record};
 use msgs::service::Topic;
-use msgs::{BaroSample, CnsFix, ImuSample, InitState, Solution, SrsSample, Status};
-use polarnav::transport::{self, TopicPublisher, TopicSubscriber, TransportConfig, TransportError};
+use msgs::{
+    BaroSample, CnsFix, EffectiveSettings, ImuSample, InitState, Solution, SrsSample, Status,
+};
+use polarnav_ipc::{TopicPublisher, TopicSubscriber, TransportConfig, TransportError};
 
 use crate::logfile::{LogContents, SensorRef};
 
@@ -123,7 +125,7 @@ pub fn play(
     loops: u64,
     stop: &AtomicBool,
 ) -> Result<Pacing, TransportError> {
-    let node = transport::node(cfg, "sensor_replay_play")?;
+    let node = polarnav_ipc::node(cfg, "sensor_replay_play")?;
     let imu = TopicPublisher::<ImuSample>::new(&node, cfg, Topic::Imu)?;
     let srs = TopicPublisher::<SrsSample>::new(&node, cfg, Topic::Srs)?;
     let cns = TopicPublisher::<CnsFix>::new(&node, cfg, Topic::Cns)?;
@@ -179,6 +181,9 @@ pub fn play(
                 Sensor::Cns(_) => 2,
                 Sensor::Baro(_) => 3,
             }] += 1;
+            // A daemon that subscribed after this pass's init went out gets
+            // it now, from the init topic's history, before the IMU it needs.
+            init_pub.update_connections()?;
             match s {
                 Sensor::Imu(x) => imu.publish(&ImuSample {
                     t_ns: x.t_ns + offset,
@@ -236,6 +241,9 @@ pub struct Recorded {
 
 /// Subscribes to every service and writes a navlog of inputs and outputs
 /// until `stop` is set (or `max_duration` passes).
+/// Records held while the recorder waits for the daemon's settings.
+const HOLD_RECORDS: usize = 100_000;
+
 pub fn record<W: Write>(
     cfg: &TransportConfig,
     out: W,
@@ -243,7 +251,7 @@ pub fn record<W: Write>(
     max_duration: Option<Duration>,
 ) -> Result<Recorded, RecordError> {
     use iceoryx2::prelude::*;
-    let node = transport::node(cfg, "sensor_replay_record")?;
+    let node = polarnav_ipc::node(cfg, "sensor_replay_record")?;
     let imu = TopicSubscriber::<ImuSample>::new(&node, cfg, Topic::Imu)?;
     let srs = TopicSubscriber::<SrsSample>::new(&node, cfg, Topic::Srs)?;
     let cns = TopicSubscriber::<CnsFix>::new(&node, cfg, Topic::Cns)?;
@@ -251,14 +259,29 @@ pub fn record<W: Write>(
     let init = TopicSubscriber::<InitState>::new(&node, cfg, Topic::Init)?;
     let sol = TopicSubscriber::<Solution>::new(&node, cfg, Topic::Solution)?;
     let status = TopicSubscriber::<Status>::new(&node, cfg, Topic::Status)?;
+    let settings = TopicSubscriber::<EffectiveSettings>::new(&node, cfg, Topic::Settings)?;
     eprintln!("record: subscribed to {}/*", cfg.prefix);
-    let header = Header::new(
-        concat!("sensor-replay ", env!("CARGO_PKG_VERSION"), " record"),
-        &cfg.prefix,
-        0,
-        "recorded live",
-    );
-    let mut w = NavlogWriter::new(out, header)?;
+    // The header carries the daemon's effective settings, so the writer
+    // starts once they arrive (or, without a daemon, when the records held
+    // meanwhile reach HOLD_RECORDS, or at the end).
+    let mut out = Some(out);
+    let mut w: Option<NavlogWriter<W>> = None;
+    let open = |out: &mut Option<W>, text: Option<&str>| -> Result<NavlogWriter<W>, RecordError> {
+        let metadata = match text {
+            Some(t) => format!("# recorded live; the daemon's effective settings:\n{t}"),
+            None => "recorded live (no daemon settings received)".to_owned(),
+        };
+        let header = Header::new(
+            concat!("sensor-replay ", env!("CARGO_PKG_VERSION"), " record"),
+            &cfg.prefix,
+            0,
+            &metadata,
+        );
+        let out = out
+            .take()
+            .ok_or(RecordError::WaitSet("writer opened twice".into()))?;
+        Ok(NavlogWriter::new(out, header)?)
+    };
     let waitset = WaitSetBuilder::new()
         .signal_handling_mode(SignalHandlingMode::Disabled)
         .create::<ipc::Service>()
@@ -290,6 +313,16 @@ pub fn record<W: Write>(
             buf.push(Record::Solution(Box::new(x)));
         })?;
         status.drain(|x| buf.push(Record::Status(Box::new(x))))?;
+        if w.is_none() {
+            let mut text: Option<String> = None;
+            settings.drain(|m| text = m.text().map(str::to_owned))?;
+            if let Some(t) = text {
+                eprintln!("record: the daemon's effective settings go into the header");
+                w = Some(open(&mut out, Some(&t))?);
+            } else if buf.len() >= HOLD_RECORDS || done {
+                w = Some(open(&mut out, None)?);
+            }
+        }
         for s in [
             imu.listener(),
             srs.listener(),
@@ -301,17 +334,22 @@ pub fn record<W: Write>(
         ] {
             let _ = s.try_wait(|_| {});
         }
+        let Some(writer) = w.as_mut() else {
+            continue;
+        };
         // Time order within the batch (inputs and outputs of a cycle arrive together).
         buf.sort_by_key(|r| r.t_ns().unwrap_or(0));
         for r in buf.drain(..) {
-            w.write(&r)?;
+            writer.write(&r)?;
             n.records += 1;
         }
         if done {
             break;
         }
     }
-    w.finish()?;
+    if let Some(w) = w {
+        w.finish()?;
+    }
     Ok(n)
 }
 

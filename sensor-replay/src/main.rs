@@ -288,7 +288,7 @@ fn run(cli: Cli) -> Result<(), Fail> {
             } else {
                 1
             };
-            let cfg = polarnav::transport::TransportConfig::new(&prefix);
+            let cfg = polarnav_ipc::TransportConfig::new(&prefix);
             eprintln!(
                 "play: {} ({} IMU samples) on {prefix}/... at {speed}x",
                 log.display(),
@@ -307,7 +307,7 @@ fn run(cli: Cli) -> Result<(), Fail> {
             let stop = stop_flag()?;
             let f = File::create(&out)
                 .map_err(|e| Fail(1, format!("{}: cannot create: {e}", out.display())))?;
-            let cfg = polarnav::transport::TransportConfig::new(&prefix);
+            let cfg = polarnav_ipc::TransportConfig::new(&prefix);
             eprintln!(
                 "record: {prefix}/... -> {} (stop with Ctrl-C)",
                 out.display()
@@ -329,7 +329,7 @@ fn run(cli: Cli) -> Result<(), Fail> {
         }
         Cmd::Listen { prefix, duration } => {
             let stop = stop_flag()?;
-            let cfg = polarnav::transport::TransportConfig::new(&prefix);
+            let cfg = polarnav_ipc::TransportConfig::new(&prefix);
             sensor_replay::monitor::listen(
                 &cfg,
                 &stop,

@@ -5,7 +5,7 @@ use std::time::{Duration, Instant};
 
 use msgs::service::Topic;
 use msgs::{Solution, Status, WireFrame, solution_flags};
-use polarnav::transport::{self, TopicSubscriber, TransportConfig, TransportError};
+use polarnav_ipc::{TopicSubscriber, TransportConfig, TransportError};
 
 /// One screen of text for the newest solution and status.
 pub fn render(sol: Option<&Solution>, st: Option<&Status>, solutions_per_s: f64) -> String {
@@ -117,7 +117,7 @@ pub fn listen(
     stop: &AtomicBool,
     duration: Option<Duration>,
 ) -> Result<(), TransportError> {
-    let node = transport::node(cfg, "sensor_replay_listen")?;
+    let node = polarnav_ipc::node(cfg, "sensor_replay_listen")?;
     let sol = TopicSubscriber::<Solution>::new(&node, cfg, Topic::Solution)?;
     let st = TopicSubscriber::<Status>::new(&node, cfg, Topic::Status)?;
     let start = Instant::now();

@@ -186,7 +186,7 @@ pub struct InitErrorSpec {
 
 /// Navigator settings a scenario may impose: the navigator's own type, so
 /// the simulator validates exactly what `nav-daemon batch` will apply.
-pub type NavigatorOverrides = polarnav::config::ScenarioOverrides;
+pub type NavigatorOverrides = polarnav_config::ScenarioOverrides;
 
 /// One trajectory segment. Changes ramp in and out smoothly over `ramp_s`.
 #[derive(Debug, Clone, Deserialize)]
@@ -227,7 +227,7 @@ impl Segment {
 
 /// Errors of loading a scenario: the same shape as a config error (file,
 /// key, what was expected), so both are reported the same way.
-pub type ScenarioError = polarnav::config::ConfigError;
+pub type ScenarioError = polarnav_config::ConfigError;
 
 impl Scenario {
     /// Loads and validates a scenario file.

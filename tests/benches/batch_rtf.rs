@@ -7,10 +7,10 @@ use std::io::{BufReader, BufWriter, Write};
 use std::time::Instant;
 
 use msgs::navlog::{NavlogReader, Record};
-use polarnav::batch::{self, BatchOptions};
-use polarnav::config::Config;
+use nav_daemon::batch::{self, BatchOptions};
 use polarnav::navigator::{Navigator, NavigatorConfig};
 use polarnav::solution_csv;
+use polarnav_config::ConfigFile;
 use sensor_replay::scenario::Scenario;
 use sensor_replay::simulate::{SimOptions, simulate};
 
@@ -52,7 +52,7 @@ fn main() {
             BufReader::with_capacity(1 << 20, std::fs::File::open(&log).expect("open")),
             "flight.navlog",
             BufWriter::with_capacity(1 << 20, std::fs::File::create(&out).expect("create")),
-            &Config::default(),
+            &ConfigFile::defaults(),
             &BatchOptions::default(),
         )
         .expect("batch");

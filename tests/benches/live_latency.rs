@@ -13,7 +13,7 @@ use msgs::{BaroSample, CnsFix, ImuSample, InitState, Solution, Status};
 use nalgebra::{UnitQuaternion, Vector3};
 use polarnav::earth::{self, Geodetic, isa};
 use polarnav::frames;
-use polarnav::transport::{self, TopicPublisher, TopicSubscriber, TransportConfig};
+use polarnav_ipc::{TopicPublisher, TopicSubscriber, TransportConfig};
 
 fn percentile(v: &mut [u64], q: f64) -> f64 {
     v.sort_unstable();
@@ -76,7 +76,7 @@ fn main() {
         .spawn()
         .expect("daemon");
 
-    let node = transport::node(&cfg, "bench").expect("node");
+    let node = polarnav_ipc::node(&cfg, "bench").expect("node");
     let imu = TopicPublisher::<ImuSample>::new(&node, &cfg, Topic::Imu).expect("imu");
     let cns = TopicPublisher::<CnsFix>::new(&node, &cfg, Topic::Cns).expect("cns");
     let baro = TopicPublisher::<BaroSample>::new(&node, &cfg, Topic::Baro).expect("baro");
@@ -240,6 +240,6 @@ fn main() {
         rss_kb.iter().copied().max().unwrap_or(0)
     );
     drop((imu, cns, baro, init_pub, sol, status, node));
-    transport::remove_isolated(&cfg);
+    polarnav_ipc::remove_isolated(&cfg);
     let _ = std::fs::remove_dir_all(&dir);
 }

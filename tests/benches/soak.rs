@@ -18,7 +18,7 @@ use std::time::{Duration, Instant};
 
 use msgs::Status;
 use msgs::service::Topic;
-use polarnav::transport::{self, TopicSubscriber, TransportConfig};
+use polarnav_ipc::{TopicSubscriber, TransportConfig};
 use polarnav_tests::repo;
 use sensor_replay::scenario::Scenario;
 use sensor_replay::simulate::{SimOptions, simulate};
@@ -163,7 +163,7 @@ fn main() {
         .stderr(std::fs::File::create(dir.join("daemon.err")).expect("log"))
         .spawn()
         .expect("daemon");
-    let node = transport::node(&cfg, "soak").expect("node");
+    let node = polarnav_ipc::node(&cfg, "soak").expect("node");
     let status = TopicSubscriber::<Status>::new(&node, &cfg, Topic::Status).expect("status");
     std::thread::sleep(Duration::from_secs(2));
 
@@ -314,6 +314,6 @@ fn main() {
         maxkb <= first + 1024,
         st.overruns == 0
     );
-    transport::remove_isolated(&cfg);
+    polarnav_ipc::remove_isolated(&cfg);
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -2,17 +2,16 @@
 //! replay → daemon → recorder, each a separate process with its own service
 //! prefix and iceoryx2 root, and a deadline on every wait.
 
-use std::io::BufReader;
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
 use msgs::Solution;
 use msgs::navlog::Record;
-use polarnav::batch::{self, BatchOptions};
-use polarnav::config::Config;
+use polarnav::session;
 use polarnav::solution_csv;
-use polarnav::transport::{TransportConfig, remove_isolated};
+use polarnav_config::{CliOverrides, ConfigFile, effective};
+use polarnav_ipc::{TransportConfig, remove_isolated};
 use polarnav_tests::repo;
 use sensor_replay::scenario::Scenario;
 use sensor_replay::simulate::{SimOptions, simulate};
@@ -110,19 +109,19 @@ impl Env {
         child
     }
 
-    /// `nav-daemon batch` (in process) on `log` with this environment's configuration.
+    /// What `nav-daemon batch` computes on `log` with this environment's
+    /// configuration: the same session with the same effective settings
+    /// (file, then the log's header), in process, solutions read directly.
+    fn batch_solutions(&self, log: &Path) -> Vec<Solution> {
+        let file = ConfigFile::load(&self.dir.join("nav.toml")).expect("config");
+        navigate_log(&std::fs::read(log).expect("log"), &file)
+    }
+
     fn batch_rows(&self, log: &Path) -> Vec<solution_csv::Row> {
-        let config = Config::load(&self.dir.join("nav.toml")).expect("config");
-        let csv = self.dir.join("batch.csv");
-        batch::run(
-            BufReader::new(std::fs::File::open(log).expect("log")),
-            "flight.navlog",
-            std::io::BufWriter::new(std::fs::File::create(&csv).expect("csv")),
-            &config,
-            &BatchOptions::default(),
-        )
-        .expect("batch");
-        solution_csv::read(&csv).expect("rows")
+        self.batch_solutions(log)
+            .iter()
+            .map(solution_csv::Row::from_solution)
+            .collect()
     }
 
     /// Starts the flight recorder writing `path` and waits until it has subscribed.
@@ -196,6 +195,30 @@ fn wait(child: &mut Child, deadline: Duration) -> Option<i32> {
     let _ = child.kill();
     let _ = child.wait();
     panic!("process {} did not exit within {deadline:?}", child.id());
+}
+
+/// The session over a navlog's records with the settings `batch` would use
+/// (`file`, then the log's header `[navigator]` table).
+fn navigate_log(bytes: &[u8], file: &ConfigFile) -> Vec<Solution> {
+    let (records, report) = msgs::navlog::read_all(bytes);
+    assert!(report.is_clean(), "{report}");
+    let meta = records.iter().find_map(|r| match r {
+        Record::Header(h) => Some(h.metadata.as_str()),
+        _ => None,
+    });
+    let eff = effective(file, meta, &CliOverrides::default()).expect("settings");
+    session::navigate(&records, eff.session()).0.solutions
+}
+
+/// The solutions a recording holds.
+fn recorded_solutions(records: &[Record]) -> Vec<Solution> {
+    records
+        .iter()
+        .filter_map(|r| match r {
+            Record::Solution(s) => Some(**s),
+            _ => None,
+        })
+        .collect()
 }
 
 /// The state columns of a solution row compared across transports:
@@ -327,8 +350,8 @@ fn status_until(
     deadline: Duration,
     pred: impl Fn(&msgs::Status) -> bool,
 ) -> msgs::Status {
-    let node = polarnav::transport::node(&env.cfg, "test_monitor").expect("node");
-    let sub = polarnav::transport::TopicSubscriber::<msgs::Status>::new(
+    let node = polarnav_ipc::node(&env.cfg, "test_monitor").expect("node");
+    let sub = polarnav_ipc::TopicSubscriber::<msgs::Status>::new(
         &node,
         &env.cfg,
         msgs::service::Topic::Status,
@@ -690,8 +713,8 @@ fn killed_daemon_resumes_from_its_checkpoint_within_sigma() {
     // Subscribe before the kill, so that the restarted daemon's very first
     // solutions are received (the topic keeps no history); what the first
     // daemon sent is drained and dropped once it is dead.
-    let node = polarnav::transport::node(&env.cfg, "test_solutions").expect("node");
-    let sub = polarnav::transport::TopicSubscriber::<Solution>::new(
+    let node = polarnav_ipc::node(&env.cfg, "test_solutions").expect("node");
+    let sub = polarnav_ipc::TopicSubscriber::<Solution>::new(
         &node,
         &env.cfg,
         msgs::service::Topic::Solution,
@@ -840,8 +863,8 @@ fn a_stalled_subscriber_never_blocks_the_daemon() {
     let env = Env::new("slowsub");
     let log = short_log(&env.dir, 20.0);
     let mut daemon = env.start_daemon("daemon", None);
-    let node = polarnav::transport::node(&env.cfg, "test_stalled").expect("node");
-    let stalled = polarnav::transport::TopicSubscriber::<Solution>::new(
+    let node = polarnav_ipc::node(&env.cfg, "test_stalled").expect("node");
+    let stalled = polarnav_ipc::TopicSubscriber::<Solution>::new(
         &node,
         &env.cfg,
         msgs::service::Topic::Solution,
@@ -858,7 +881,7 @@ fn a_stalled_subscriber_never_blocks_the_daemon() {
     let mut seqs = Vec::new();
     stalled.drain(|s| seqs.push(s.seq)).expect("drain");
     assert_eq!(terminate(&mut daemon, Duration::from_secs(20)), Some(0));
-    let qos = polarnav::transport::qos(msgs::service::Topic::Solution);
+    let qos = polarnav_ipc::qos(msgs::service::Topic::Solution);
     eprintln!(
         "stalled subscriber: {} of {} solutions kept (seq {:?}..{:?}); daemon: {} IMU accepted, {} overruns",
         seqs.len(),
@@ -931,4 +954,92 @@ fn looped_replay_reinitializes_and_keeps_every_stream_fused_and_accounted() {
     // 20 SRS per pass; a few may fall to the gate, but never a whole pass.
     assert!(st.srs.accepted >= 54, "SRS fused {} of 60", st.srs.accepted);
     sensor_replay::campaign::check_accounting(published, Some([0; 4]), &st).expect("accounting");
+}
+
+/// papers/001 §5.1 live: the scenario's header moves the switch to 88°; the
+/// daemon is given the same effective settings as a configuration file
+/// (what `batch` builds from defaults + that header), and every solution it
+/// publishes equals `batch`'s bit for bit. The flight recorder writes the
+/// daemon's effective settings into its header, so `batch` on the recording,
+/// whatever its own configuration, reproduces the live run bit for bit too.
+#[test]
+fn paper_sim_live_equals_batch_bit_for_bit_and_the_recording_reproduces_it() {
+    let env = Env::new("paper");
+    let text = std::fs::read_to_string(repo("config/scenarios/paper-sim.toml")).expect("scenario");
+    let s = Scenario::parse(&text, "paper-sim").expect("scenario");
+    let log = env.dir.join("paper.navlog");
+    simulate(
+        &s,
+        &text,
+        SimOptions::default(),
+        std::fs::File::create(&log).expect("create"),
+    )
+    .expect("simulate");
+    let bytes = std::fs::read(&log).expect("log");
+    let (records, _) = msgs::navlog::read_all(&bytes);
+    let meta = records.iter().find_map(|r| match r {
+        Record::Header(h) => Some(h.metadata.clone()),
+        _ => None,
+    });
+    let eff = effective(
+        &ConfigFile::defaults(),
+        meta.as_deref(),
+        &CliOverrides::default(),
+    )
+    .expect("settings");
+    assert!((eff.config.frame.switch_enter_deg - 88.0).abs() < 1e-12);
+    // The daemon's configuration: exactly those settings, this test's prefix.
+    let mut daemon_cfg = eff.config.clone();
+    daemon_cfg.prefix = env.cfg.prefix.clone();
+    std::fs::write(
+        env.dir.join("nav.toml"),
+        toml::to_string(&daemon_cfg).expect("toml"),
+    )
+    .expect("config");
+
+    let mut daemon = env.start_daemon("daemon", None);
+    let rec_path = env.dir.join("recorded.navlog");
+    let mut recorder = env.start_recorder(&rec_path);
+    let mut play = env.start_play("play", &log, "20");
+    assert_eq!(
+        wait(&mut play, Duration::from_secs(120)),
+        Some(0),
+        "play failed"
+    );
+    assert_eq!(terminate(&mut daemon, Duration::from_secs(20)), Some(0));
+    assert_eq!(terminate(&mut recorder, Duration::from_secs(20)), Some(0));
+
+    let recording = std::fs::read(&rec_path).expect("recording");
+    let (rec_records, report) = msgs::navlog::read_all(&recording);
+    assert!(report.is_clean(), "{report}");
+    let live = recorded_solutions(&rec_records);
+    let batch = env.batch_solutions(&log);
+    assert_eq!(
+        live.len(),
+        batch.len(),
+        "the transport lost or added solutions"
+    );
+    let switches = live.last().map_or(0, |s| s.switch_count);
+    assert_eq!(switches, 1, "one switch at 88°");
+    let differing = live.iter().zip(&batch).filter(|(a, b)| a != b).count();
+    eprintln!(
+        "paper-sim live vs batch: {} solutions, {differing} differ, {switches} switch",
+        live.len()
+    );
+    assert_eq!(differing, 0, "live and batch differ");
+
+    // batch on the recording, with a configuration that disagrees with the
+    // daemon's (the recording's header wins, key by key).
+    let other = ConfigFile::parse(
+        "[frame]\nswitch_enter_deg = 75.0\nswitch_leave_deg = 74.0\n[filter]\narw_dpsh = 0.5\n",
+        "other.toml",
+    )
+    .expect("config");
+    let replayed = navigate_log(&recording, &other);
+    assert_eq!(replayed.len(), live.len());
+    let differing = live.iter().zip(&replayed).filter(|(a, b)| a != b).count();
+    assert_eq!(
+        differing, 0,
+        "batch on the recording differs from the live run"
+    );
 }

@@ -4,10 +4,10 @@
 use std::io::BufReader;
 use std::path::Path;
 
-use polarnav::batch::{self, BatchOptions};
-use polarnav::config::Config;
+use nav_daemon::batch::{self, BatchOptions};
 use polarnav::mech::FrameKind;
 use polarnav::solution_csv;
+use polarnav_config::ConfigFile;
 use sensor_replay::eval;
 use sensor_replay::logfile;
 use sensor_replay::scenario::Scenario;
@@ -36,12 +36,17 @@ fn paper_sim_switches_at_88n_at_212s_through_the_header_override() {
         BufReader::new(std::fs::File::open(&log).expect("open")),
         "paper.navlog",
         std::io::BufWriter::new(std::fs::File::create(&csv).expect("create")),
-        &Config::default(),
+        &ConfigFile::defaults(),
         &BatchOptions::default(),
     )
     .expect("batch");
     // The scenario's [navigator] table (88°) reached the navigator through the navlog header.
-    assert!((report.frame.switch_enter_deg - 88.0).abs() < 1e-12);
+    let frame = &report.effective.config.frame;
+    assert!((frame.switch_enter_deg - 88.0).abs() < 1e-12);
+    assert_eq!(
+        report.effective.source("frame.switch_enter_deg"),
+        Some(&polarnav_config::Source::Header)
+    );
     assert_eq!(report.switches.len(), 1, "{:?}", report.switches);
     let sw = report.switches[0];
     assert_eq!((sw.from, sw.to), (FrameKind::Geographic, FrameKind::Grid));

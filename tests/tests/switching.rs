@@ -7,9 +7,9 @@
 
 use msgs::navlog::Record;
 use polarnav::align::AlignmentAccumulator;
-use polarnav::config::FilterSettings;
 use polarnav::frame_select::FramePolicy;
 use polarnav::navigator::{Conversion, NavigatorConfig};
+use polarnav_config::FilterSettings;
 use polarnav_tests::{Run, deviation_after_switches, repo, rmse, run, simulate_records};
 use sensor_replay::interop::{AidSynthesis, import_psins};
 

@@ -24,12 +24,7 @@ pub fn measurement(nav: &AnyNav, c: &CnsFix) -> Result<Measurement<2>, AidError>
             value: c.lat_rad,
         });
     }
-    if c.sigma_h_m <= 0.0 {
-        return Err(AidError::OutOfRange {
-            what: "cns.sigma_h_m",
-            value: c.sigma_h_m,
-        });
-    }
+    super::check_sigma("cns.sigma_h_m", c.sigma_h_m, super::SIGMA_RANGE_CNS_M)?;
     let geo = nav.geodetic();
     let s2 = c.sigma_h_m * c.sigma_h_m;
     let mut h = SMatrix::<f64, 2, 15>::zeros();

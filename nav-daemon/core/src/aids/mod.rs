@@ -23,6 +23,25 @@ pub struct Measurement<const M: usize> {
     pub r: SMatrix<f64, M, M>,
 }
 
+/// Physical range of an aid's stated 1-σ (m for CNS and baro, m/s for an
+/// SRS line). Below the lower bound no real sensor measures (and R would
+/// make the update numerically singular); above the upper bound the sample
+/// carries no information and R² would overflow the innovation covariance.
+pub const SIGMA_RANGE_CNS_M: (f64, f64) = (1e-3, 1e6);
+pub const SIGMA_RANGE_BARO_M: (f64, f64) = (1e-3, 1e5);
+pub const SIGMA_RANGE_SRS_MPS: (f64, f64) = (1e-4, 1e5);
+
+/// Checks a stated σ against its physical range.
+pub fn check_sigma(what: &'static str, sigma: f64, range: (f64, f64)) -> Result<(), AidError> {
+    if !sigma.is_finite() {
+        return Err(AidError::NonFinite(what));
+    }
+    if !(range.0..=range.1).contains(&sigma) {
+        return Err(AidError::OutOfRange { what, value: sigma });
+    }
+    Ok(())
+}
+
 /// Why an aid sample could not be turned into a measurement.
 #[derive(Debug, Clone, Copy, PartialEq, thiserror::Error)]
 pub enum AidError {

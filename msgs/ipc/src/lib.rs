@@ -144,6 +144,12 @@ pub fn qos(topic: Topic) -> Qos {
             history: 1,
             safe_overflow: true,
         },
+        // Sent once; a recorder started later gets it from the history.
+        Topic::Settings => Qos {
+            buffer: 2,
+            history: 1,
+            safe_overflow: true,
+        },
     }
 }
 
@@ -228,6 +234,16 @@ impl<T: Debug + ZeroCopySend + Copy + 'static> TopicPublisher<T> {
 
     /// Writes `value` into a loaned shared-memory sample, sends it and notifies.
     /// Returns the number of subscribers reached.
+    /// Connects subscribers that appeared since the last send and hands
+    /// them this topic's history (iceoryx2 delivers history only from the
+    /// publisher's side, at a send or here). Cheap when nothing changed.
+    pub fn update_connections(&self) -> Result<(), TransportError> {
+        use iceoryx2::port::update_connections::UpdateConnections;
+        self.publisher
+            .update_connections()
+            .map_err(|e| iox("update connections", &self.name, e))
+    }
+
     pub fn publish(&self, value: &T) -> Result<usize, TransportError> {
         let sample = self
             .publisher

@@ -1,65 +1,112 @@
-//! nav-daemon configuration (`config/nav-daemon.toml`). Unknown keys and bad
-//! values are errors that name the file and the key.
+//! Navigator settings: plain structs the core owns, in datasheet units, each
+//! with its validation. The daemon's TOML schema (crate `polarnav-config`)
+//! deserializes into them; nothing here knows a file format.
 
-use std::path::Path;
-
-use serde::Deserialize;
+use serde::{Deserialize, Serialize};
 
 use crate::frame_select::{FramePolicy, SwitchLatitudes};
-use crate::navigator::NavigatorConfig;
 
-/// The whole file.
-#[derive(Debug, Clone, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct Config {
-    /// iceoryx2 service prefix.
-    #[serde(default = "default_prefix")]
-    pub prefix: String,
-    #[serde(default)]
-    pub frame: FrameConfig,
-    #[serde(default)]
-    pub filter: FilterSettings,
-    #[serde(default)]
-    pub aids: AidSettings,
-    /// Initial state when no init record/message is received.
-    pub init: Option<InitSettings>,
-    #[serde(default)]
-    pub live: LiveSettings,
+/// A settings value out of range: names where it came from and the key.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[error("{origin}: key `{key}`: {message}")]
+pub struct SettingsError {
+    /// The file, header or option the value came from.
+    pub origin: String,
+    /// The key, `table.name`.
+    pub key: String,
+    /// What was expected and what was found.
+    pub message: String,
 }
 
-/// `[live]`: the fixed-rate service.
-#[derive(Debug, Clone, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields, default)]
-pub struct LiveSettings {
-    /// Nominal IMU rate (Hz): the interval tick that detects a missing IMU and the overrun budget.
-    pub imu_rate_hz: f64,
-    /// The IMU is lost after this many nominal periods without a sample.
-    pub imu_lost_periods: u32,
-    /// Checkpoint file of the navigation state and covariance, written
-    /// atomically (write, fsync, rename) every `checkpoint_period_s` of sensor
-    /// time; empty disables checkpoints. At start the daemon resumes from it
-    /// if the first IMU sample is no more than `checkpoint_max_age_s` after it
-    /// (and no init message arrives), else it starts cold; it logs which.
-    pub checkpoint_path: String,
-    pub checkpoint_period_s: f64,
-    pub checkpoint_max_age_s: f64,
+/// Filter parameter conversion at a frame switch.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Conversion {
+    /// X and P converted (papers/001 eqs 32–38).
+    #[default]
+    Paper,
+    /// Nominal parameters converted, P carried over unchanged (the papers' baseline).
+    None,
 }
 
-impl Default for LiveSettings {
+/// Which aids to fuse.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Serialize)]
+#[serde(try_from = "String", into = "String")]
+pub struct AidSet {
+    pub srs: bool,
+    pub cns: bool,
+    pub baro: bool,
+}
+
+impl Default for AidSet {
     fn default() -> Self {
         Self {
-            imu_rate_hz: 200.0,
-            imu_lost_periods: 5,
-            checkpoint_path: String::new(),
-            checkpoint_period_s: 1.0,
-            checkpoint_max_age_s: 30.0,
+            srs: true,
+            cns: true,
+            baro: true,
+        }
+    }
+}
+
+impl AidSet {
+    pub const NONE: AidSet = AidSet {
+        srs: false,
+        cns: false,
+        baro: false,
+    };
+
+    /// Parses `srs,cns,baro` (any subset) or `none`.
+    pub fn parse(s: &str) -> Result<Self, String> {
+        if s.trim() == "none" {
+            return Ok(Self::NONE);
+        }
+        let mut a = Self::NONE;
+        for part in s.split(',').map(str::trim) {
+            match part {
+                "srs" => a.srs = true,
+                "cns" => a.cns = true,
+                "baro" => a.baro = true,
+                other => {
+                    return Err(format!(
+                        "unknown aid {other:?}: expected a list of srs, cns, baro, or none"
+                    ));
+                }
+            }
+        }
+        Ok(a)
+    }
+}
+
+impl TryFrom<String> for AidSet {
+    type Error = String;
+    fn try_from(s: String) -> Result<Self, String> {
+        Self::parse(&s)
+    }
+}
+
+impl From<AidSet> for String {
+    fn from(a: AidSet) -> String {
+        a.to_string()
+    }
+}
+
+impl std::fmt::Display for AidSet {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let names: Vec<&str> = [(self.srs, "srs"), (self.cns, "cns"), (self.baro, "baro")]
+            .into_iter()
+            .filter_map(|(on, n)| on.then_some(n))
+            .collect();
+        if names.is_empty() {
+            f.write_str("none")
+        } else {
+            f.write_str(&names.join(","))
         }
     }
 }
 
 /// `[init]`: the initial state from configuration (used when a log or the
 /// transport provides no init record), with its 1-σ.
-#[derive(Debug, Clone, Deserialize, PartialEq)]
+#[derive(Debug, Clone, Deserialize, Serialize, PartialEq)]
 #[serde(deny_unknown_fields)]
 pub struct InitSettings {
     pub lat_deg: f64,
@@ -81,7 +128,7 @@ pub struct InitSettings {
 }
 
 impl InitSettings {
-    pub fn validate(&self, origin: &str) -> Result<(), ConfigError> {
+    pub fn validate(&self, origin: &str) -> Result<(), SettingsError> {
         check(
             origin,
             "init.lat_deg",
@@ -159,7 +206,7 @@ impl InitSettings {
 }
 
 /// `[filter]`: IMU noise model and initial bias uncertainty, in datasheet units.
-#[derive(Debug, Clone, Deserialize, PartialEq)]
+#[derive(Debug, Clone, Deserialize, Serialize, PartialEq)]
 #[serde(deny_unknown_fields, default)]
 pub struct FilterSettings {
     /// Angle random walk (deg/√h).
@@ -186,6 +233,11 @@ pub struct FilterSettings {
     /// covered by extra covariance for an unknown manoeuvre of 1-σ
     /// `coast_accel_mps2` and `coast_rate_dps` over the gap.
     pub imu_gap_s: f64,
+    /// The longest gap that is coasted (s). A sample further ahead of the
+    /// previous one, or behind it, is a time jump: the session holds it and
+    /// re-synchronizes only when the samples after it confirm the new time
+    /// base (the covariance then grows as for a coast of this length).
+    pub imu_max_coast_s: f64,
     pub coast_accel_mps2: f64,
     pub coast_rate_dps: f64,
 }
@@ -206,6 +258,7 @@ impl Default for FilterSettings {
             max_gyro_rate_dps: 2000.0,
             max_accel_mps2: 300.0,
             imu_gap_s: 0.05,
+            imu_max_coast_s: 60.0,
             coast_accel_mps2: 1.0,
             coast_rate_dps: 0.05,
         }
@@ -214,7 +267,7 @@ impl Default for FilterSettings {
 
 /// `[aids]`: χ² gates (thresholds on the normalized innovation squared),
 /// timeouts after which an aid is stale, and the latest an aid may arrive.
-#[derive(Debug, Clone, Deserialize, PartialEq)]
+#[derive(Debug, Clone, Deserialize, Serialize, PartialEq)]
 #[serde(deny_unknown_fields, default)]
 pub struct AidSettings {
     pub srs_gate: f64,
@@ -225,6 +278,9 @@ pub struct AidSettings {
     pub baro_timeout_s: f64,
     /// Aids older than this relative to the newest IMU sample are rejected as late (s).
     pub max_latency_s: f64,
+    /// The aids to fuse: a list of `srs`, `cns`, `baro`, or `none`
+    /// (received samples of the others are counted as not used).
+    pub fuse: AidSet,
 }
 
 impl Default for AidSettings {
@@ -238,31 +294,15 @@ impl Default for AidSettings {
             cns_timeout_s: 3.0,
             baro_timeout_s: 1.0,
             max_latency_s: 0.1,
-        }
-    }
-}
-
-fn default_prefix() -> String {
-    msgs::service::DEFAULT_PREFIX.to_owned()
-}
-
-impl Default for Config {
-    fn default() -> Self {
-        Self {
-            prefix: default_prefix(),
-            frame: FrameConfig::default(),
-            filter: FilterSettings::default(),
-            aids: AidSettings::default(),
-            init: None,
-            live: LiveSettings::default(),
+            fuse: AidSet::default(),
         }
     }
 }
 
 /// `[frame]`: when to use the grid frame.
-#[derive(Debug, Clone, Deserialize, PartialEq)]
+#[derive(Debug, Clone, Deserialize, Serialize, PartialEq)]
 #[serde(deny_unknown_fields, default)]
-pub struct FrameConfig {
+pub struct FrameSettings {
     /// Enter the grid frame at |latitude| ≥ this (deg).
     pub switch_enter_deg: f64,
     /// Leave it at |latitude| ≤ this (deg).
@@ -271,43 +311,29 @@ pub struct FrameConfig {
     pub force_switch_s: Vec<f64>,
     /// Stay in g for the whole run (reference runs of the switching experiments).
     pub never_switch: bool,
+    /// Filter parameter conversion at a switch: `paper` (X and P converted)
+    /// or `none` (the papers' baseline: nominal state only).
+    pub conversion: Conversion,
 }
 
-impl Default for FrameConfig {
+impl Default for FrameSettings {
     fn default() -> Self {
         Self {
             switch_enter_deg: 70.0,
             switch_leave_deg: 69.5,
             force_switch_s: Vec::new(),
             never_switch: false,
+            conversion: Conversion::Paper,
         }
     }
 }
 
-/// A configuration error: exit status 2.
-#[derive(Debug, thiserror::Error)]
-pub enum ConfigError {
-    #[error("{path}: cannot read: {source}")]
-    Io {
-        path: String,
-        source: std::io::Error,
-    },
-    #[error("{path}: {message}")]
-    Parse { path: String, message: String },
-    #[error("{path}: key `{key}`: {message}")]
-    Invalid {
-        path: String,
-        key: String,
-        message: String,
-    },
-}
-
-fn check(origin: &str, key: &str, v: f64, ok: bool, expected: &str) -> Result<(), ConfigError> {
+fn check(origin: &str, key: &str, v: f64, ok: bool, expected: &str) -> Result<(), SettingsError> {
     if v.is_finite() && ok {
         Ok(())
     } else {
-        Err(ConfigError::Invalid {
-            path: origin.to_owned(),
+        Err(SettingsError {
+            origin: origin.to_owned(),
             key: key.to_owned(),
             message: format!("expected {expected}, got {v}"),
         })
@@ -315,7 +341,7 @@ fn check(origin: &str, key: &str, v: f64, ok: bool, expected: &str) -> Result<()
 }
 
 impl FilterSettings {
-    pub fn validate(&self, origin: &str) -> Result<(), ConfigError> {
+    pub fn validate(&self, origin: &str) -> Result<(), SettingsError> {
         for (k, v) in [
             ("filter.arw_dpsh", self.arw_dpsh),
             ("filter.vrw_ug_psqhz", self.vrw_ug_psqhz),
@@ -345,6 +371,13 @@ impl FilterSettings {
         ] {
             check(origin, k, v, v > 0.0, "a positive number")?;
         }
+        check(
+            origin,
+            "filter.imu_max_coast_s",
+            self.imu_max_coast_s,
+            self.imu_max_coast_s > self.imu_gap_s && self.imu_max_coast_s <= 3600.0,
+            "a time in seconds above filter.imu_gap_s and at most 3600",
+        )?;
         for (k, v) in [
             ("filter.coast_accel_mps2", self.coast_accel_mps2),
             ("filter.coast_rate_dps", self.coast_rate_dps),
@@ -385,7 +418,7 @@ impl FilterSettings {
 }
 
 impl AidSettings {
-    pub fn validate(&self, origin: &str) -> Result<(), ConfigError> {
+    pub fn validate(&self, origin: &str) -> Result<(), SettingsError> {
         for (k, v) in [
             ("aids.srs_gate", self.srs_gate),
             ("aids.cns_gate", self.cns_gate),
@@ -405,11 +438,11 @@ impl AidSettings {
     }
 }
 
-impl FrameConfig {
+impl FrameSettings {
     /// Checks the values; `origin` and `table` name the place in errors.
-    pub fn validate(&self, origin: &str, table: &str) -> Result<(), ConfigError> {
-        let bad = |key: &str, message: String| ConfigError::Invalid {
-            path: origin.to_owned(),
+    pub fn validate(&self, origin: &str, table: &str) -> Result<(), SettingsError> {
+        let bad = |key: &str, message: String| SettingsError {
+            origin: origin.to_owned(),
             key: format!("{table}.{key}"),
             message,
         };
@@ -465,218 +498,5 @@ impl FrameConfig {
                     .collect(),
             )
         }
-    }
-}
-
-impl Config {
-    /// Parses configuration text; `origin` names it in errors.
-    pub fn parse(text: &str, origin: &str) -> Result<Self, ConfigError> {
-        let c: Config = toml::from_str(text).map_err(|e| ConfigError::Parse {
-            path: origin.to_owned(),
-            message: e.to_string(),
-        })?;
-        if c.prefix.is_empty() || c.prefix.contains(char::is_whitespace) {
-            return Err(ConfigError::Invalid {
-                path: origin.to_owned(),
-                key: "prefix".into(),
-                message: format!(
-                    "expected a non-empty service prefix without spaces, got {:?}",
-                    c.prefix
-                ),
-            });
-        }
-        c.frame.validate(origin, "frame")?;
-        c.filter.validate(origin)?;
-        c.aids.validate(origin)?;
-        if let Some(i) = &c.init {
-            i.validate(origin)?;
-        }
-        let r = c.live.imu_rate_hz;
-        check(
-            origin,
-            "live.imu_rate_hz",
-            r,
-            (10.0..=1000.0).contains(&r),
-            "an IMU rate in [10, 1000] Hz",
-        )?;
-        for (k, v) in [
-            ("live.checkpoint_period_s", c.live.checkpoint_period_s),
-            ("live.checkpoint_max_age_s", c.live.checkpoint_max_age_s),
-        ] {
-            check(origin, k, v, v > 0.0, "a positive time in seconds")?;
-        }
-        if c.live.imu_lost_periods == 0 {
-            return Err(ConfigError::Invalid {
-                path: origin.to_owned(),
-                key: "live.imu_lost_periods".into(),
-                message: "expected at least 1".into(),
-            });
-        }
-        Ok(c)
-    }
-
-    pub fn load(path: &Path) -> Result<Self, ConfigError> {
-        let p = path.display().to_string();
-        let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Io {
-            path: p.clone(),
-            source,
-        })?;
-        Self::parse(&text, &p)
-    }
-
-    pub fn navigator(&self) -> NavigatorConfig {
-        NavigatorConfig {
-            frame_policy: self.frame.policy(),
-            filter: self.filter.clone(),
-            aid_settings: self.aids.clone(),
-            ..Default::default()
-        }
-    }
-}
-
-/// The `[navigator]` table a scenario may carry in a navlog header's metadata.
-#[derive(Debug, Clone, Default, Deserialize, PartialEq)]
-#[serde(deny_unknown_fields)]
-pub struct ScenarioOverrides {
-    pub switch_enter_deg: Option<f64>,
-    pub switch_leave_deg: Option<f64>,
-    pub force_switch_s: Option<Vec<f64>>,
-    /// IMU noise model of the scenario's sensor class (replaces `[filter]` values that are set).
-    pub gyro_bias_dph: Option<f64>,
-    pub accel_bias_ug: Option<f64>,
-    pub arw_dpsh: Option<f64>,
-    pub vrw_ug_psqhz: Option<f64>,
-}
-
-impl ScenarioOverrides {
-    /// Extracts `[navigator]` from header metadata (TOML); other tables are ignored.
-    pub fn from_metadata(metadata: &str) -> Result<Option<Self>, ConfigError> {
-        let origin = "navlog header [navigator]";
-        let Ok(table) = metadata.parse::<toml::Table>() else {
-            // Metadata of imported logs is free text, not TOML.
-            return Ok(None);
-        };
-        let Some(nav) = table.get("navigator") else {
-            return Ok(None);
-        };
-        let o: Self = nav
-            .clone()
-            .try_into()
-            .map_err(|e: toml::de::Error| ConfigError::Parse {
-                path: origin.to_owned(),
-                message: e.to_string(),
-            })?;
-        Ok(Some(o))
-    }
-
-    /// Applies the overrides on top of `frame`.
-    pub fn apply(&self, frame: &mut FrameConfig) {
-        if let Some(v) = self.switch_enter_deg {
-            frame.switch_enter_deg = v;
-        }
-        if let Some(v) = self.switch_leave_deg {
-            frame.switch_leave_deg = v;
-        } else if self.switch_enter_deg.is_some() {
-            frame.switch_leave_deg = frame.switch_enter_deg - 0.5;
-        }
-        if let Some(v) = &self.force_switch_s {
-            frame.force_switch_s.clone_from(v);
-        }
-    }
-
-    /// Applies the IMU-noise overrides on top of `filter`.
-    pub fn apply_filter(&self, filter: &mut FilterSettings) {
-        for (dst, src) in [
-            (&mut filter.gyro_bias_dph, self.gyro_bias_dph),
-            (&mut filter.accel_bias_ug, self.accel_bias_ug),
-            (&mut filter.arw_dpsh, self.arw_dpsh),
-            (&mut filter.vrw_ug_psqhz, self.vrw_ug_psqhz),
-        ] {
-            if let Some(v) = src {
-                *dst = v;
-            }
-        }
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn shipped_config_parses() {
-        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../config/nav-daemon.toml");
-        let c = Config::load(&path).expect("shipped config");
-        assert_eq!(c.prefix, "polarnav");
-    }
-
-    #[test]
-    fn init_from_config_builds_the_stated_attitude() {
-        let c = Config::parse(
-            "[init]\nlat_deg = 34.246048\nlon_deg = 108.909664\nh_m = 380.0\nheading_deg = 90.6\npitch_deg = 0.9\nroll_deg = 0.36\nsigma_pos_h_m = 10.0\nsigma_pos_v_m = 10.0\nsigma_vel_mps = 0.1\nsigma_tilt_arcmin = 30.0\nsigma_heading_arcmin = 300.0\n",
-            "x.toml",
-        )
-        .expect("config");
-        let init = c.init.expect("init").to_init(5);
-        let r = nalgebra::Vector3::from(init.r_e_m);
-        let g = crate::earth::ecef_to_geodetic(&r);
-        let [w, x, y, z] = init.q_b_e;
-        let c_b_e =
-            nalgebra::UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(w, x, y, z))
-                .to_rotation_matrix()
-                .into_inner();
-        let (h, p, rl) =
-            crate::frames::euler_from_c_b_n(&(crate::frames::c_e_g(g.lat_rad, g.lon_rad) * c_b_e));
-        assert!(
-            (h.to_degrees() - 90.6).abs() < 1e-9
-                && (p.to_degrees() - 0.9).abs() < 1e-9
-                && (rl.to_degrees() - 0.36).abs() < 1e-9
-        );
-        let e = Config::parse("[init]\nlat_deg = 95.0\nlon_deg = 0\nh_m = 0\nheading_deg = 0\nsigma_pos_h_m = 1\nsigma_pos_v_m = 1\nsigma_vel_mps = 1\nsigma_tilt_arcmin = 1\nsigma_heading_arcmin = 1\n", "x.toml")
-            .expect_err("bad latitude")
-            .to_string();
-        assert!(e.contains("init.lat_deg"), "{e}");
-    }
-
-    #[test]
-    fn unknown_key_names_file_and_key() {
-        let e = Config::parse("[frame]\nswitch_entr_deg = 70\n", "x.toml")
-            .expect_err("fails")
-            .to_string();
-        assert!(e.contains("x.toml") && e.contains("switch_entr_deg"), "{e}");
-    }
-
-    #[test]
-    fn bad_hysteresis_names_the_key() {
-        let e = Config::parse(
-            "[frame]\nswitch_enter_deg = 70\nswitch_leave_deg = 71\n",
-            "x.toml",
-        )
-        .expect_err("fails")
-        .to_string();
-        assert!(e.contains("frame.switch_leave_deg"), "{e}");
-        let e = Config::parse("[frame]\nforce_switch_s = [900, 300]\n", "x.toml")
-            .expect_err("fails")
-            .to_string();
-        assert!(e.contains("frame.force_switch_s"), "{e}");
-    }
-
-    #[test]
-    fn scenario_overrides_apply_and_keep_hysteresis() {
-        let o = ScenarioOverrides::from_metadata(
-            "name='x'\n[navigator]\nswitch_enter_deg = 88.0\n[generated]\nseed=1\n",
-        )
-        .expect("parse")
-        .expect("present");
-        let mut f = FrameConfig::default();
-        o.apply(&mut f);
-        assert!((f.switch_enter_deg - 88.0).abs() < 1e-12);
-        assert!((f.switch_leave_deg - 87.5).abs() < 1e-12);
-        f.validate("t", "frame").expect("valid");
-        assert!(
-            ScenarioOverrides::from_metadata("not toml at all ===")
-                .expect("ok")
-                .is_none()
-        );
     }
 }

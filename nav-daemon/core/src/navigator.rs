@@ -20,71 +20,15 @@ use nalgebra::{Matrix3, SMatrix, UnitQuaternion, Vector3};
 use crate::aids::control::AidControl;
 use crate::aids::{self, AidError, Measurement};
 use crate::checkpoint::Checkpoint;
-use crate::config::{AidSettings, FilterSettings};
 use crate::earth;
 use crate::error_model::{self, Mat15, idx};
 use crate::filter::{self, ProcessNoise};
 use crate::frame_select::{FramePolicy, FrameSelector};
 use crate::frames;
 use crate::mech::{AnyNav, FrameKind, Increment};
+pub use crate::settings::{AidSet, Conversion};
+use crate::settings::{AidSettings, FilterSettings};
 use crate::switch;
-
-/// Filter parameter conversion at a frame switch.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub enum Conversion {
-    /// X and P converted (papers/001 eqs 32–38).
-    #[default]
-    Paper,
-    /// Nominal parameters converted, P carried over unchanged (the papers' baseline).
-    None,
-}
-
-/// Which aids to fuse.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub struct AidSet {
-    pub srs: bool,
-    pub cns: bool,
-    pub baro: bool,
-}
-
-impl Default for AidSet {
-    fn default() -> Self {
-        Self {
-            srs: true,
-            cns: true,
-            baro: true,
-        }
-    }
-}
-
-impl AidSet {
-    pub const NONE: AidSet = AidSet {
-        srs: false,
-        cns: false,
-        baro: false,
-    };
-
-    /// Parses `srs,cns,baro` (any subset) or `none`.
-    pub fn parse(s: &str) -> Result<Self, String> {
-        if s.trim() == "none" {
-            return Ok(Self::NONE);
-        }
-        let mut a = Self::NONE;
-        for part in s.split(',').map(str::trim) {
-            match part {
-                "srs" => a.srs = true,
-                "cns" => a.cns = true,
-                "baro" => a.baro = true,
-                other => {
-                    return Err(format!(
-                        "unknown aid {other:?}: expected a list of srs, cns, baro, or none"
-                    ));
-                }
-            }
-        }
-        Ok(a)
-    }
-}
 
 /// Navigator settings.
 #[derive(Debug, Clone, PartialEq)]
@@ -141,6 +85,13 @@ pub enum InputRejection {
     /// An aid older than the allowed latency.
     #[error("aid at {t_ns} ns is {age_s:.3} s behind the IMU (limit {limit_s} s)")]
     TooLate { t_ns: u64, age_s: f64, limit_s: f64 },
+    /// The time since the previous sample is longer than the longest gap that
+    /// is coasted (`[filter] imu_max_coast_s`): a time jump, which only the
+    /// session may confirm and re-synchronize to.
+    #[error(
+        "time stamp {t_ns} ns is {gap_s:.3} s after the previous one (longest coast {limit_s} s)"
+    )]
+    TimeJump { t_ns: u64, gap_s: f64, limit_s: f64 },
     /// An aid ahead of the newest IMU sample (the caller must feed IMU first).
     #[error("aid at {t_ns} ns is ahead of the newest IMU sample at {imu_ns} ns")]
     AheadOfImu { t_ns: u64, imu_ns: u64 },
@@ -199,6 +150,11 @@ pub struct Navigator {
     resumed: bool,
     reset: ResetRecord,
     history: History,
+    bias_sigma: BiasSigma,
+    covariance_repairs: u64,
+    /// Mechanization steps and covariance propagations since the start: the
+    /// work the navigator did, for tests that bound the work per input.
+    work: u64,
 }
 
 /// Length of the state history: 0.5 s at 1 kHz, 2.5 s at 200 Hz.
@@ -224,6 +180,10 @@ impl History {
             head: HISTORY - 1,
             len: 0,
         }
+    }
+
+    fn clear(&mut self) {
+        self.len = 0;
     }
 
     fn push(&mut self, t_ns: u64, nav: &AnyNav) {
@@ -295,9 +255,18 @@ struct ImuLimits {
     max_rate_rps: f64,
     max_accel_mps2: f64,
     gap_s: f64,
+    max_coast_s: f64,
     coast_accel_mps2: f64,
     coast_rate_rps: f64,
 }
+
+/// Shortest and longest IMU interval a sample may state (s): 100 kHz and
+/// 1 Hz, beyond any strapdown IMU this navigator is built for.
+pub const IMU_DT_RANGE_S: (f64, f64) = (1e-5, 1.0);
+
+/// Most mechanization steps a bridged or coasted gap takes, so that a gap
+/// costs bounded work whatever its length (up to `imu_max_coast_s`).
+pub const MAX_BRIDGE_STEPS: u64 = 64;
 
 /// The last reset of the navigation state and the step it made.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
@@ -313,10 +282,19 @@ fn secs_to_ns(s: f64) -> u64 {
     (s * 1e9).round() as u64
 }
 
+/// The largest 1-σ an init may state: position 100 km, velocity 1 km/s,
+/// tilt 1 rad, heading 2π (beyond these the state carries no information
+/// and P₀ would span more magnitudes than a double resolves).
+pub const INIT_SIGMA_MAX: [f64; 6] = [1e5, 1e5, 1e3, 1e3, 1.0, std::f64::consts::TAU];
+/// The smallest 1-σ P₀ is built from (smaller ones, an "exact" init
+/// included, are raised to these): position 1 cm, velocity 1 mm/s, attitude
+/// 1 µrad.
+pub const INIT_SIGMA_FLOOR: [f64; 6] = [1e-2, 1e-2, 1e-3, 1e-3, 1e-6, 1e-6];
+
 /// Checks an init record before a navigator is built from it: finite
 /// values, a position between 1 km below and 100 km above the ellipsoid's
 /// radius range, a speed below 1 km/s, a quaternion of unit norm (±10 %),
-/// and σ that are finite and not negative.
+/// and σ that are not negative and not above [`INIT_SIGMA_MAX`].
 pub fn check_init(init: &InitState) -> Result<(), InputRejection> {
     let sigmas = [
         init.sigma_pos_h_m,
@@ -357,6 +335,19 @@ pub fn check_init(init: &InitState) -> Result<(), InputRejection> {
     if let Some(neg) = sigmas.iter().find(|x| **x < 0.0) {
         return implausible("init σ", *neg, 0.0);
     }
+    const NAMES: [&str; 6] = [
+        "init.sigma_pos_h_m",
+        "init.sigma_pos_v_m",
+        "init.sigma_vel_h_mps",
+        "init.sigma_vel_v_mps",
+        "init.sigma_tilt_rad",
+        "init.sigma_heading_rad",
+    ];
+    for ((x, max), name) in sigmas.iter().zip(INIT_SIGMA_MAX).zip(NAMES) {
+        if *x > max {
+            return implausible(name, *x, max);
+        }
+    }
     Ok(())
 }
 
@@ -371,11 +362,20 @@ impl Navigator {
         let selector = FrameSelector::new(config.frame_policy.clone());
         let lat = earth::ecef_to_geodetic(&r_e).lat_rad;
         let kind = selector.initial(lat);
-        let nav = AnyNav::from_frame_free(kind, &r_e, &v_e, &q_b_e);
         let a = &config.aid_settings;
         let f = &config.filter;
-        Self {
-            p: initial_covariance(&nav, init, f),
+        let bias_sigma = BiasSigma::from_settings(f);
+        // One initialization path in either frame: P₀ is stated in g (the
+        // init's σ are horizontal/vertical), and a start in G is the start in
+        // g converted with Φ, as a switch would (papers/001 eqs 26, 32–36).
+        let nav_g = AnyNav::from_frame_free(FrameKind::Geographic, &r_e, &v_e, &q_b_e);
+        let p_g = initial_covariance(&nav_g, init, &bias_sigma);
+        let nav = nav_g.converted(kind);
+        let mut n = Self {
+            p: p_g,
+            bias_sigma,
+            covariance_repairs: 0,
+            work: 0,
             geo: nav.geodetic(),
             nav,
             prev_inc: None,
@@ -402,6 +402,7 @@ impl Navigator {
                 max_rate_rps: f.max_gyro_rate_dps.to_radians(),
                 max_accel_mps2: f.max_accel_mps2,
                 gap_s: f.imu_gap_s,
+                max_coast_s: f.imu_max_coast_s,
                 coast_accel_mps2: f.coast_accel_mps2,
                 coast_rate_rps: f.coast_rate_dps.to_radians(),
             },
@@ -411,7 +412,13 @@ impl Navigator {
             resumed: false,
             reset: ResetRecord::default(),
             history: History::new(nav),
+        };
+        if kind == FrameKind::Grid {
+            let phi = n.phi_to(FrameKind::Grid, &nav_g);
+            n.p = phi * n.p * phi.transpose();
+            filter::symmetrize(&mut n.p);
         }
+        n
     }
 
     /// Takes a new init while running: the state and covariance start again
@@ -426,6 +433,8 @@ impl Navigator {
         fresh.imu = self.imu;
         fresh.imu_gap_count = self.imu_gap_count;
         fresh.coasted_ns = self.coasted_ns;
+        fresh.covariance_repairs = self.covariance_repairs;
+        fresh.work = self.work;
         for (n, o) in [
             (&mut fresh.srs, &self.srs),
             (&mut fresh.cns, &self.cns),
@@ -580,7 +589,15 @@ impl Navigator {
         if !s.dt_s.is_finite() {
             return Err(InputRejection::NonFinite { field: "imu.dt_s" });
         }
-        if s.dt_s > 0.0 {
+        let (dt_min, dt_max) = IMU_DT_RANGE_S;
+        if !(dt_min..=dt_max).contains(&s.dt_s) {
+            return Err(InputRejection::Implausible {
+                field: "imu.dt_s (s)",
+                value: s.dt_s,
+                limit: if s.dt_s < dt_min { dt_min } else { dt_max },
+            });
+        }
+        {
             let norm = |a: &[f64; 3]| Vector3::from(*a).norm();
             let rate = norm(&s.d_theta_rad) / s.dt_s;
             if rate > self.limits.max_rate_rps {
@@ -609,6 +626,13 @@ impl Navigator {
         // previous sample by more than 1 %: a longer dt would claim motion over
         // time already integrated.
         let span_s = (s.t_ns - self.t_ns) as f64 * 1e-9;
+        if span_s > self.limits.max_coast_s {
+            return Err(InputRejection::TimeJump {
+                t_ns: s.t_ns,
+                gap_s: span_s,
+                limit_s: self.limits.max_coast_s,
+            });
+        }
         if s.dt_s <= 0.0 || s.dt_s > span_s * 1.01 {
             return Err(InputRejection::BadInterval { dt_s: s.dt_s });
         }
@@ -628,7 +652,9 @@ impl Navigator {
             Ok(inc) => inc,
             Err(e) => {
                 match e {
-                    InputRejection::TimeNotIncreasing { .. } => self.imu.rejected_time += 1,
+                    InputRejection::TimeNotIncreasing { .. } | InputRejection::TimeJump { .. } => {
+                        self.imu.rejected_time += 1
+                    }
                     _ => self.imu.rejected_invalid += 1,
                 }
                 return Err(e);
@@ -655,6 +681,7 @@ impl Navigator {
 
     /// Mechanization and covariance bookkeeping of one increment.
     fn integrate(&mut self, inc: &Increment) {
+        self.work += 1;
         let prev = self.prev_inc.unwrap_or(*inc);
         self.nav = self.nav.mechanize_at(&self.geo, &prev, inc);
         self.geo = self.nav.geodetic();
@@ -672,7 +699,11 @@ impl Navigator {
     /// added to the covariance.
     fn bridge(&mut self, missing_s: f64, next: &Increment) {
         let last = self.prev_inc.unwrap_or(*next);
-        let n = (missing_s / last.dt_s).ceil().max(1.0);
+        // At most MAX_BRIDGE_STEPS steps: bounded work for any gap up to the
+        // longest coast (longer ones are time jumps, refused in `validate`).
+        let n = (missing_s / last.dt_s)
+            .ceil()
+            .clamp(1.0, MAX_BRIDGE_STEPS as f64);
         let h = missing_s / n;
         let step = Increment {
             d_theta: last.d_theta * (h / last.dt_s),
@@ -683,29 +714,52 @@ impl Navigator {
             self.integrate(&step);
         }
         if missing_s > self.limits.gap_s {
-            self.imu_gap_count += 1;
-            self.coasted_ns += (missing_s * 1e9).round() as u64;
-            self.coasting = true;
-            self.propagate_covariance();
-            let (sa, sw, t) = (
-                self.limits.coast_accel_mps2,
-                self.limits.coast_rate_rps,
-                missing_s,
-            );
-            // Unknown acceleration a over the gap: δv = a t, δp = a t²/2 (per axis).
-            let var_v = (sa * t).powi(2);
-            let var_p = (0.5 * sa * t * t).powi(2);
-            let var_phi = (sw * t).powi(2);
-            let geo = self.geo;
-            let m = self.position_map_enu(&frames::c_e_g(geo.lat_rad, geo.lon_rad));
-            let m_inv = m.try_inverse().unwrap_or_else(Matrix3::identity);
-            let add_p = m_inv * m_inv.transpose() * var_p;
-            for i in 0..3 {
-                self.p[(idx::DV + i, idx::DV + i)] += var_v;
-                self.p[(idx::PHI + i, idx::PHI + i)] += var_phi;
-                for j in 0..3 {
-                    self.p[(idx::DP + i, idx::DP + j)] += add_p[(i, j)];
-                }
+            self.coast(missing_s);
+        }
+    }
+
+    /// Re-synchronizes to a confirmed time jump: the state is kept, the time
+    /// base moves to `t_ns` (the start of the first sample after the jump),
+    /// and the covariance grows as for a coast of the longest coasted gap
+    /// (the true time elapsed is unknown). The state history and the aids'
+    /// time order start again.
+    pub fn resync(&mut self, t_ns: u64) {
+        self.propagate_covariance();
+        self.t_ns = t_ns;
+        self.history.clear();
+        for c in [&mut self.srs, &mut self.cns, &mut self.baro] {
+            c.counters.last_t_ns = 0;
+        }
+        self.coast(self.limits.max_coast_s);
+    }
+
+    /// A gap of `gap_s` without IMU data: counted, flagged `COASTING`, and
+    /// covered by the covariance of an unknown manoeuvre over it.
+    fn coast(&mut self, missing_s: f64) {
+        self.imu_gap_count += 1;
+        self.coasted_ns = self
+            .coasted_ns
+            .saturating_add((missing_s * 1e9).round() as u64);
+        self.coasting = true;
+        self.propagate_covariance();
+        let (sa, sw, t) = (
+            self.limits.coast_accel_mps2,
+            self.limits.coast_rate_rps,
+            missing_s,
+        );
+        // Unknown acceleration a over the gap: δv = a t, δp = a t²/2 (per axis).
+        let var_v = (sa * t).powi(2);
+        let var_p = (0.5 * sa * t * t).powi(2);
+        let var_phi = (sw * t).powi(2);
+        let geo = self.geo;
+        let m = self.position_map_enu(&frames::c_e_g(geo.lat_rad, geo.lon_rad));
+        let m_inv = m.try_inverse().unwrap_or_else(Matrix3::identity);
+        let add_p = m_inv * m_inv.transpose() * var_p;
+        for i in 0..3 {
+            self.p[(idx::DV + i, idx::DV + i)] += var_v;
+            self.p[(idx::PHI + i, idx::PHI + i)] += var_phi;
+            for j in 0..3 {
+                self.p[(idx::DP + i, idx::DP + j)] += add_p[(i, j)];
             }
         }
     }
@@ -715,6 +769,7 @@ impl Navigator {
         if self.acc_dt <= 0.0 {
             return;
         }
+        self.work += 1;
         let f_b = self.acc_dv_b / self.acc_dt;
         let mut f = match &self.nav {
             AnyNav::Geographic(s) => {
@@ -730,6 +785,9 @@ impl Navigator {
         filter::propagate(&mut self.p, &f, &self.noise, self.acc_dt);
         self.acc_dt = 0.0;
         self.acc_dv_b = Vector3::zeros();
+        if !covariance_usable(&self.p) {
+            self.repair_covariance();
+        }
     }
 
     fn switch_frame(&mut self, to: FrameKind, lat: f64) -> SwitchEvent {
@@ -740,15 +798,7 @@ impl Navigator {
         self.geo = self.nav.geodetic();
         self.history.convert(to);
         if self.conversion == Conversion::Paper {
-            let geo = before.geodetic();
-            let v_grid = match (&before, &self.nav) {
-                (AnyNav::Grid(g), _) | (_, AnyNav::Grid(g)) => g.v_n,
-                _ => unreachable!("a switch always involves the grid frame"),
-            };
-            let phi = match to {
-                FrameKind::Grid => switch::phi_geo_to_grid(&geo, &v_grid),
-                FrameKind::Geographic => switch::phi_grid_to_geo(&geo, &v_grid),
-            };
+            let phi = self.phi_to(to, &before);
             self.p = phi * self.p * phi.transpose();
             filter::symmetrize(&mut self.p);
         }
@@ -803,7 +853,63 @@ impl Navigator {
         )
     }
 
-    /// Gate, update and feedback for one measurement.
+    /// Replaces a covariance that lost finiteness or positive variances by
+    /// the re-inflated one a cold start would have (P₀ from the largest σ an
+    /// init may state, in the current frame), counts it and flags
+    /// `COASTING` until an aid is fused: a published σ is never a NaN in
+    /// disguise.
+    fn repair_covariance(&mut self) {
+        let wide = InitState {
+            sigma_pos_h_m: REPAIR_SIGMA.0,
+            sigma_pos_v_m: REPAIR_SIGMA.0,
+            sigma_vel_h_mps: REPAIR_SIGMA.1,
+            sigma_vel_v_mps: REPAIR_SIGMA.1,
+            sigma_tilt_rad: REPAIR_SIGMA.2,
+            sigma_heading_rad: REPAIR_SIGMA.2,
+            ..Default::default()
+        };
+        let geo_nav = self.nav.converted(FrameKind::Geographic);
+        let p_g = initial_covariance(&geo_nav, &wide, &self.bias_sigma);
+        self.p = match self.nav.kind() {
+            FrameKind::Geographic => p_g,
+            FrameKind::Grid => {
+                let phi = self.phi_to(FrameKind::Grid, &geo_nav);
+                phi * p_g * phi.transpose()
+            }
+        };
+        filter::symmetrize(&mut self.p);
+        self.covariance_repairs += 1;
+        self.coasting = true;
+    }
+
+    /// Φ of the parameter conversion from `from` (a state in the other
+    /// frame) to `to` (papers/001 eqs 32–38).
+    fn phi_to(&self, to: FrameKind, from: &AnyNav) -> Mat15 {
+        let geo = from.geodetic();
+        let v_grid = match (from, &from.converted(FrameKind::Grid)) {
+            (AnyNav::Grid(g), _) | (_, AnyNav::Grid(g)) => g.v_n,
+            _ => unreachable!("conversion to grid gives the grid frame"),
+        };
+        match to {
+            FrameKind::Grid => switch::phi_geo_to_grid(&geo, &v_grid),
+            FrameKind::Geographic => switch::phi_grid_to_geo(&geo, &v_grid),
+        }
+    }
+
+    /// Mechanization steps plus covariance propagations so far (a measure of
+    /// work that does not depend on the machine).
+    pub fn work(&self) -> u64 {
+        self.work
+    }
+
+    /// Covariance repairs since the start (a non-finite or non-positive P replaced).
+    pub fn covariance_repairs(&self) -> u64 {
+        self.covariance_repairs
+    }
+
+    /// Gate, update and feedback for one measurement. An update that would
+    /// leave P or the correction non-finite (σ at the edge of the range, a
+    /// degenerate geometry) is undone and counted as invalid.
     fn fuse<const M: usize>(
         &mut self,
         which: AidKind,
@@ -811,7 +917,13 @@ impl Navigator {
         m: &Measurement<M>,
     ) -> AidOutcome {
         let gate = self.control(which).gate;
-        let Some(out) = filter::update(&mut self.p, &m.z, &m.h, &m.r, gate) else {
+        let before = self.p;
+        let out = filter::update(&mut self.p, &m.z, &m.h, &m.r, gate)
+            .filter(|o| o.dx.iter().all(|x| x.is_finite()) && o.test_ratio.is_finite());
+        if out.is_none() || !covariance_usable(&self.p) {
+            self.p = before;
+        }
+        let Some(out) = out.filter(|_| covariance_usable(&self.p)) else {
             self.control_mut(which).rejected_invalid();
             return AidOutcome {
                 fused: false,
@@ -1097,6 +1209,44 @@ impl Navigator {
     }
 }
 
+/// σ of the re-inflated covariance after a repair: position (m), velocity
+/// (m/s), attitude (rad).
+const REPAIR_SIGMA: (f64, f64, f64) = (1000.0, 10.0, 0.1);
+
+/// A covariance the filter can go on with: every entry finite and every
+/// variance positive (and not beyond 1e30: σ of 1e15 m or rad is no
+/// information at all, and squaring it again would overflow).
+fn covariance_usable(p: &Mat15) -> bool {
+    p.iter().all(|x| x.is_finite())
+        && (0..15).all(|i| p[(i, i)] > 0.0 && p[(i, i)] < 1e30)
+        && positive_definite(p)
+}
+
+/// Cholesky factorization of the correlation matrix D^-½ P D^-½ (so that
+/// states in rad² and m² weigh alike): every pivot must stay above 1e-12.
+/// On the stack, about 600 flops.
+fn positive_definite(p: &Mat15) -> bool {
+    let mut d = [0.0; 15];
+    for (i, x) in d.iter_mut().enumerate() {
+        *x = 1.0 / p[(i, i)].sqrt();
+    }
+    let mut l = [[0.0f64; 15]; 15];
+    for j in 0..15 {
+        let pivot = 1.0 - l[j][..j].iter().map(|x| x * x).sum::<f64>();
+        // NaN fails too.
+        if pivot.partial_cmp(&1e-12) != Some(std::cmp::Ordering::Greater) {
+            return false;
+        }
+        let ljj = pivot.sqrt();
+        l[j][j] = ljj;
+        for i in j + 1..15 {
+            let dot: f64 = l[i][..j].iter().zip(&l[j][..j]).map(|(a, b)| a * b).sum();
+            l[i][j] = (p[(i, j)] * d[i] * d[j] - dot) / ljj;
+        }
+    }
+    true
+}
+
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum AidKind {
     Srs,
@@ -1104,11 +1254,40 @@ enum AidKind {
     Baro,
 }
 
-/// P₀ in the frame the navigator starts in, from the init record's σ and the
-/// configured bias uncertainty.
-fn initial_covariance(nav: &AnyNav, init: &InitState, f: &FilterSettings) -> Mat15 {
+/// Initial 1-σ of the biases in SI units (from `[filter]`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct BiasSigma {
+    gyro_rps: f64,
+    accel_mps2: f64,
+}
+
+impl BiasSigma {
+    fn from_settings(f: &FilterSettings) -> Self {
+        let dph = std::f64::consts::PI / 180.0 / 3600.0;
+        let ug = 1e-6 * earth::G0;
+        Self {
+            gyro_rps: f.gyro_bias_dph * dph,
+            accel_mps2: f.accel_bias_ug * ug,
+        }
+    }
+}
+
+/// P₀ of a state in the frame of `nav`, from the init record's σ and the
+/// configured bias uncertainty. Only the geographic form is used to start:
+/// a start in G converts it with Φ (see [`Navigator::new`]).
+fn initial_covariance(nav: &AnyNav, init: &InitState, b: &BiasSigma) -> Mat15 {
     let mut p = Mat15::zeros();
     let sq = |x: f64| x * x;
+    let f = INIT_SIGMA_FLOOR;
+    let init = &InitState {
+        sigma_pos_h_m: init.sigma_pos_h_m.max(f[0]),
+        sigma_pos_v_m: init.sigma_pos_v_m.max(f[1]),
+        sigma_vel_h_mps: init.sigma_vel_h_mps.max(f[2]),
+        sigma_vel_v_mps: init.sigma_vel_v_mps.max(f[3]),
+        sigma_tilt_rad: init.sigma_tilt_rad.max(f[4]),
+        sigma_heading_rad: init.sigma_heading_rad.max(f[5]),
+        ..*init
+    };
     let mut set_diag = |o: usize, v: [f64; 3]| {
         for (i, x) in v.iter().enumerate() {
             p[(o + i, o + i)] = *x;
@@ -1130,10 +1309,8 @@ fn initial_covariance(nav: &AnyNav, init: &InitState, f: &FilterSettings) -> Mat
             sq(init.sigma_vel_v_mps),
         ],
     );
-    let dph = std::f64::consts::PI / 180.0 / 3600.0;
-    let ug = 1e-6 * earth::G0;
-    set_diag(idx::BG, [sq(f.gyro_bias_dph * dph); 3]);
-    set_diag(idx::BA, [sq(f.accel_bias_ug * ug); 3]);
+    set_diag(idx::BG, [sq(b.gyro_rps); 3]);
+    set_diag(idx::BA, [sq(b.accel_mps2); 3]);
     let (h, v) = (sq(init.sigma_pos_h_m), sq(init.sigma_pos_v_m));
     let geo = nav.geodetic();
     let pos: SMatrix<f64, 3, 3> = match nav {
@@ -1141,7 +1318,10 @@ fn initial_covariance(nav: &AnyNav, init: &InitState, f: &FilterSettings) -> Mat
             let (rm, rn) = earth::radii(geo.lat_rad);
             Matrix3::from_diagonal(&Vector3::new(
                 h / sq(rm + geo.h_m),
-                h / sq((rn + geo.h_m) * geo.lat_rad.cos()),
+                // Within one position σ of the pole the longitude is unknown
+                // by up to a radian, not more (the parallel's radius is held
+                // at least that σ, and 1 m).
+                h / sq(((rn + geo.h_m) * geo.lat_rad.cos()).max(init.sigma_pos_h_m.max(1.0))),
                 v,
             ))
         }

@@ -186,8 +186,9 @@ fn to_line(index: usize, l: &SrsLine) -> Result<Line, SrsError> {
     {
         return Err(bad("wavelengths must be positive"));
     }
-    if !(l.sigma_mps.is_finite() && l.sigma_mps > 0.0) {
-        return Err(bad("sigma_mps must be positive"));
+    let (lo, hi) = super::SIGMA_RANGE_SRS_MPS;
+    if !(l.sigma_mps.is_finite() && (lo..=hi).contains(&l.sigma_mps)) {
+        return Err(bad("sigma_mps outside [1e-4, 1e5] m/s"));
     }
     let z = (l.measured_wavelength_m - l.rest_wavelength_m) / l.rest_wavelength_m;
     // |z| ≤ 1e-3 is ±300 km/s: far beyond any ephemeris body plus aircraft.

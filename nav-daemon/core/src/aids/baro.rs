@@ -27,12 +27,7 @@ pub fn measurement(nav: &AnyNav, b: &BaroSample) -> Result<Measurement<1>, AidEr
             value: b.pressure_pa,
         });
     }
-    if b.sigma_m <= 0.0 {
-        return Err(AidError::OutOfRange {
-            what: "baro.sigma_m",
-            value: b.sigma_m,
-        });
-    }
+    super::check_sigma("baro.sigma_m", b.sigma_m, super::SIGMA_RANGE_BARO_M)?;
     let geo = nav.geodetic();
     let mut h = SMatrix::<f64, 1, 15>::zeros();
     match nav {

@@ -76,6 +76,29 @@ pub struct Row {
     pub sigma_enu_m: [f64; 3],
 }
 
+impl Row {
+    /// The row [`write_row`] writes for `s`, as [`parse`] reads it back
+    /// (the same f64 values: the CSV numbers round-trip exactly), without
+    /// the text in between.
+    pub fn from_solution(s: &Solution) -> Self {
+        Self {
+            t_s: s.t_ns as f64 * 1e-9,
+            frame: WireFrame::from_u8(s.frame).map_or('?', WireFrame::letter),
+            lat_deg: s.lat_rad.to_degrees(),
+            lon_deg: s.lon_rad.to_degrees(),
+            h_m: s.h_m,
+            r_e_m: s.r_e_m,
+            v_e_mps: s.v_e_mps,
+            v_enu_mps: s.v_enu_mps,
+            q_b_e: s.q_b_e,
+            heading_deg: s.heading_rad.to_degrees(),
+            pitch_deg: s.pitch_rad.to_degrees(),
+            roll_deg: s.roll_rad.to_degrees(),
+            sigma_enu_m: s.sigma_pos_enu_m,
+        }
+    }
+}
+
 /// Errors of reading a solution CSV.
 #[derive(Debug, thiserror::Error)]
 pub enum ReadCsvError {

@@ -2,10 +2,10 @@
 //! panic, and a bad value or unknown key is an error that names the file
 //! and the key.
 
-use polarnav::config::Config;
+use polarnav_config::Config;
 use proptest::prelude::*;
 
-const SHIPPED: &str = include_str!("../../config/nav-daemon.toml");
+const SHIPPED: &str = include_str!("../../../config/nav-daemon.toml");
 
 /// `(table, key)` of every `key = value` line of the shipped configuration.
 fn keys() -> Vec<(String, String, usize)> {

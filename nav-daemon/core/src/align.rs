@@ -181,7 +181,7 @@ impl AlignmentAccumulator {
 /// valid at `t_ns`, with the alignment's σ and the bias budget of `filter`.
 pub fn aligned_init(
     init: &msgs::InitState,
-    filter: &crate::config::FilterSettings,
+    filter: &crate::settings::FilterSettings,
     acc: &AlignmentAccumulator,
     t_ns: u64,
 ) -> Result<(msgs::InitState, Alignment), AlignError> {

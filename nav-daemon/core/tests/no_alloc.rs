@@ -1,24 +1,51 @@
 //! The steady-state filter loop performs no heap allocation: a counting
 //! global allocator around IMU steps, every aid update (SRS, CNS, baro),
-//! solution and status assembly, after a warm-up.
+//! solution and status assembly, after a warm-up: first the navigator
+//! alone, then the session that every driver feeds (ordering, the aid
+//! queue, accounting, solution emission). Only allocations of the test's
+//! own thread count (the harness's threads may allocate at any time).
 #![allow(unsafe_code)] // a GlobalAlloc implementation is unsafe by definition
 
 use std::alloc::{GlobalAlloc, Layout, System};
-use std::sync::atomic::{AtomicU64, Ordering};
+use std::cell::Cell;
 
 use msgs::{BaroSample, CnsFix, ImuSample, InitState, SrsLine, SrsSample};
 use nalgebra::{Rotation3, UnitQuaternion, Vector3};
 use polarnav::earth::{self, Geodetic, isa};
 use polarnav::frames;
 use polarnav::navigator::{Navigator, NavigatorConfig};
+use polarnav::session::{Discard, Input, Session, SessionSettings};
 
 struct Counting;
-static ALLOCATIONS: AtomicU64 = AtomicU64::new(0);
+
+thread_local! {
+    /// Allocations of this thread while `COUNTING` is set.
+    static ALLOCATIONS: Cell<u64> = const { Cell::new(0) };
+    static COUNTING: Cell<bool> = const { Cell::new(false) };
+}
+
+fn count_one() {
+    // `try_with`: the thread-locals may be gone while a thread exits.
+    let _ = COUNTING.try_with(|c| {
+        if c.get() {
+            let _ = ALLOCATIONS.try_with(|a| a.set(a.get() + 1));
+        }
+    });
+}
+
+/// Runs `f` and returns its result and the allocations it made on this thread.
+fn counted<T>(f: impl FnOnce() -> T) -> (T, u64) {
+    ALLOCATIONS.with(|a| a.set(0));
+    COUNTING.with(|c| c.set(true));
+    let out = f();
+    COUNTING.with(|c| c.set(false));
+    (out, ALLOCATIONS.with(Cell::get))
+}
 
 // SAFETY: forwards to the system allocator; only counts.
 unsafe impl GlobalAlloc for Counting {
     unsafe fn alloc(&self, layout: Layout) -> *mut u8 {
-        ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
+        count_one();
         // SAFETY: same contract as the caller's.
         unsafe { System.alloc(layout) }
     }
@@ -27,7 +54,7 @@ unsafe impl GlobalAlloc for Counting {
         unsafe { System.dealloc(ptr, layout) }
     }
     unsafe fn realloc(&self, ptr: *mut u8, layout: Layout, new_size: usize) -> *mut u8 {
-        ALLOCATIONS.fetch_add(1, Ordering::Relaxed);
+        count_one();
         // SAFETY: same contract as the caller's.
         unsafe { System.realloc(ptr, layout, new_size) }
     }
@@ -131,11 +158,15 @@ fn steady_state_loop_does_not_allocate() {
         }
         checksum
     };
+    // The counter sees this thread's allocations.
+    let (v, n) = counted(|| Vec::<u8>::with_capacity(16));
+    assert!(
+        n >= 1 && v.capacity() >= 16,
+        "the counting allocator missed an allocation"
+    );
     // Warm-up (lazy statics, first-time paths).
     run(1, 2_000, &mut nav);
-    let before = ALLOCATIONS.load(Ordering::Relaxed);
-    let checksum = run(2_000, 12_000, &mut nav);
-    let after = ALLOCATIONS.load(Ordering::Relaxed);
+    let (checksum, allocations) = counted(|| run(2_000, 12_000, &mut nav));
     assert!(checksum.is_finite());
     assert!(nav.imu_counters().accepted >= 11_999);
     // Every aid path ran and fused inside the counted window.
@@ -148,9 +179,69 @@ fn steady_state_loop_does_not_allocate() {
         st.baro.accepted
     );
     assert_eq!(
-        after - before,
-        0,
-        "{} heap allocations in 10000 filter cycles",
-        after - before
+        allocations, 0,
+        "navigator: {allocations} heap allocations in 10000 filter cycles"
+    );
+
+    // The same loop through the session, as the live driver runs it: the
+    // baro sample of an epoch arrives before its IMU sample (it waits in the
+    // queue), the CNS fix and SRS after it (fused at once); a flush per
+    // cycle, status every second.
+    let mut session = Session::new(SessionSettings::default());
+    session.push(Input::Init(&init), &mut Discard);
+    let session_run = |from: u64, to: u64, session: &mut Session| {
+        let mut checksum = 0.0;
+        for k in from..to {
+            let t_ns = k * 5_000_000;
+            let baro = BaroSample {
+                t_ns,
+                seq: k,
+                pressure_pa: p,
+                temperature_k: 250.0,
+                sigma_m: 10.0,
+            };
+            if k % 20 == 0 {
+                session.push(Input::Baro(&baro), &mut Discard);
+            }
+            let imu = ImuSample {
+                t_ns,
+                seq: k,
+                dt_s: dt,
+                d_theta_rad: (w_b * dt).into(),
+                d_v_mps: (f_b * dt).into(),
+            };
+            session.push(Input::Imu(&imu), &mut Discard);
+            if k % 200 == 0 {
+                let cns = CnsFix {
+                    t_ns,
+                    seq: k,
+                    lat_rad: geo.lat_rad,
+                    lon_rad: geo.lon_rad,
+                    sigma_h_m: 20.0,
+                };
+                session.push(Input::Cns(&cns), &mut Discard);
+                session.push(Input::Srs(&srs_at(t_ns)), &mut Discard);
+                checksum += session.status().cycles as f64;
+            }
+            session.flush(&mut Discard);
+            checksum += session.navigator().map_or(f64::NAN, |n| n.solution().h_m);
+        }
+        checksum
+    };
+    session_run(1, 2_000, &mut session);
+    let (checksum, allocations) = counted(|| session_run(2_000, 12_000, &mut session));
+    assert!(checksum.is_finite());
+    let st = session.status();
+    assert!(st.imu.accepted >= 11_999, "{:?}", st.imu);
+    assert!(
+        st.srs.accepted >= 50 && st.cns.accepted >= 50 && st.baro.accepted >= 500,
+        "srs {} cns {} baro {}",
+        st.srs.accepted,
+        st.cns.accepted,
+        st.baro.accepted
+    );
+    assert_eq!(
+        allocations, 0,
+        "session: {allocations} heap allocations in 10000 cycles"
     );
 }

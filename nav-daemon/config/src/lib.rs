@@ -1,0 +1,380 @@
+//! polarnav settings as files: the nav-daemon configuration
+//! (`config/nav-daemon.toml`), the `[navigator]` table of a navlog header,
+//! and [`effective`], the one function that builds the settings a run uses
+//! from the file, the header and the command line, for the live daemon and
+//! `batch` alike, and says where each value came from. Unknown keys and bad
+//! values are errors that name the file (or header, or option) and the key.
+
+mod effective;
+
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+pub use effective::{CliOverrides, ConfigFile, Effective, Source, effective};
+use polarnav::navigator::NavigatorConfig;
+pub use polarnav::settings::{
+    AidSet, AidSettings, Conversion, FilterSettings, FrameSettings, InitSettings, SettingsError,
+};
+
+/// The whole file.
+#[derive(Debug, Clone, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct Config {
+    /// iceoryx2 service prefix.
+    #[serde(default = "default_prefix")]
+    pub prefix: String,
+    #[serde(default)]
+    pub frame: FrameSettings,
+    #[serde(default)]
+    pub filter: FilterSettings,
+    #[serde(default)]
+    pub aids: AidSettings,
+    /// Initial state when no init record/message is received.
+    pub init: Option<InitSettings>,
+    #[serde(default)]
+    pub live: LiveSettings,
+}
+
+/// `[live]`: the fixed-rate service.
+#[derive(Debug, Clone, Deserialize, Serialize, PartialEq)]
+#[serde(deny_unknown_fields, default)]
+pub struct LiveSettings {
+    /// Nominal IMU rate (Hz): the interval tick that detects a missing IMU and the overrun budget.
+    pub imu_rate_hz: f64,
+    /// The IMU is lost after this many nominal periods without a sample.
+    pub imu_lost_periods: u32,
+    /// Checkpoint file of the navigation state and covariance, written
+    /// atomically (write, fsync, rename) every `checkpoint_period_s` of sensor
+    /// time; empty disables checkpoints. At start the daemon resumes from it
+    /// if the first IMU sample is no more than `checkpoint_max_age_s` after it
+    /// (and no init message arrives), else it starts cold; it logs which.
+    pub checkpoint_path: String,
+    pub checkpoint_period_s: f64,
+    pub checkpoint_max_age_s: f64,
+}
+
+impl Default for LiveSettings {
+    fn default() -> Self {
+        Self {
+            imu_rate_hz: 200.0,
+            imu_lost_periods: 5,
+            checkpoint_path: String::new(),
+            checkpoint_period_s: 1.0,
+            checkpoint_max_age_s: 30.0,
+        }
+    }
+}
+
+fn default_prefix() -> String {
+    msgs::service::DEFAULT_PREFIX.to_owned()
+}
+
+impl Default for Config {
+    fn default() -> Self {
+        Self {
+            prefix: default_prefix(),
+            frame: FrameSettings::default(),
+            filter: FilterSettings::default(),
+            aids: AidSettings::default(),
+            init: None,
+            live: LiveSettings::default(),
+        }
+    }
+}
+
+/// A configuration error: exit status 2.
+#[derive(Debug, thiserror::Error)]
+pub enum ConfigError {
+    #[error("{path}: cannot read: {source}")]
+    Io {
+        path: String,
+        source: std::io::Error,
+    },
+    #[error("{path}: {message}")]
+    Parse { path: String, message: String },
+    #[error("{path}: key `{key}`: {message}")]
+    Invalid {
+        path: String,
+        key: String,
+        message: String,
+    },
+}
+
+impl From<SettingsError> for ConfigError {
+    fn from(e: SettingsError) -> Self {
+        ConfigError::Invalid {
+            path: e.origin,
+            key: e.key,
+            message: e.message,
+        }
+    }
+}
+
+fn check(origin: &str, key: &str, v: f64, ok: bool, expected: &str) -> Result<(), ConfigError> {
+    if v.is_finite() && ok {
+        Ok(())
+    } else {
+        Err(ConfigError::Invalid {
+            path: origin.to_owned(),
+            key: key.to_owned(),
+            message: format!("expected {expected}, got {v}"),
+        })
+    }
+}
+
+impl Config {
+    /// Parses configuration text; `origin` names it in errors.
+    pub fn parse(text: &str, origin: &str) -> Result<Self, ConfigError> {
+        let c: Config = toml::from_str(text).map_err(|e| ConfigError::Parse {
+            path: origin.to_owned(),
+            message: e.to_string(),
+        })?;
+        c.validate(origin)?;
+        Ok(c)
+    }
+
+    /// Every check the daemon makes of a configuration (`--check-config`
+    /// runs exactly this, as does [`effective`] on the merged settings).
+    pub fn validate(&self, origin: &str) -> Result<(), ConfigError> {
+        let c = self;
+        if c.prefix.is_empty() || c.prefix.contains(char::is_whitespace) {
+            return Err(ConfigError::Invalid {
+                path: origin.to_owned(),
+                key: "prefix".into(),
+                message: format!(
+                    "expected a non-empty service prefix without spaces, got {:?}",
+                    c.prefix
+                ),
+            });
+        }
+        c.frame.validate(origin, "frame")?;
+        c.filter.validate(origin)?;
+        c.aids.validate(origin)?;
+        if let Some(i) = &c.init {
+            i.validate(origin)?;
+        }
+        let r = c.live.imu_rate_hz;
+        check(
+            origin,
+            "live.imu_rate_hz",
+            r,
+            (10.0..=1000.0).contains(&r),
+            "an IMU rate in [10, 1000] Hz",
+        )?;
+        for (k, v) in [
+            ("live.checkpoint_period_s", c.live.checkpoint_period_s),
+            ("live.checkpoint_max_age_s", c.live.checkpoint_max_age_s),
+        ] {
+            check(origin, k, v, v > 0.0, "a positive time in seconds")?;
+        }
+        if c.live.imu_lost_periods == 0 {
+            return Err(ConfigError::Invalid {
+                path: origin.to_owned(),
+                key: "live.imu_lost_periods".into(),
+                message: "expected at least 1".into(),
+            });
+        }
+        Ok(())
+    }
+
+    pub fn load(path: &Path) -> Result<Self, ConfigError> {
+        let p = path.display().to_string();
+        let text = std::fs::read_to_string(path).map_err(|source| ConfigError::Io {
+            path: p.clone(),
+            source,
+        })?;
+        Self::parse(&text, &p)
+    }
+
+    /// The navigator settings this configuration describes.
+    pub fn navigator(&self) -> NavigatorConfig {
+        NavigatorConfig {
+            frame_policy: self.frame.policy(),
+            conversion: self.frame.conversion,
+            aids: self.aids.fuse,
+            filter: self.filter.clone(),
+            aid_settings: self.aids.clone(),
+        }
+    }
+}
+
+/// The `[navigator]` table a scenario carries in a navlog header's metadata,
+/// and the flight recorder writes from the daemon's effective settings.
+/// The flat keys are the scenarios' short forms; the tables `frame`,
+/// `filter`, `aids` and `init` take any key of the configuration's tables
+/// of those names, and `align_s` a stationary alignment.
+#[derive(Debug, Clone, Default, Deserialize, PartialEq)]
+#[serde(deny_unknown_fields)]
+pub struct ScenarioOverrides {
+    pub frame: Option<toml::Table>,
+    pub filter: Option<toml::Table>,
+    pub aids: Option<toml::Table>,
+    pub init: Option<toml::Table>,
+    pub align_s: Option<f64>,
+    pub switch_enter_deg: Option<f64>,
+    pub switch_leave_deg: Option<f64>,
+    pub force_switch_s: Option<Vec<f64>>,
+    /// IMU noise model of the scenario's sensor class (replaces `[filter]` values that are set).
+    pub gyro_bias_dph: Option<f64>,
+    pub accel_bias_ug: Option<f64>,
+    pub arw_dpsh: Option<f64>,
+    pub vrw_ug_psqhz: Option<f64>,
+}
+
+impl ScenarioOverrides {
+    /// Extracts `[navigator]` from header metadata (TOML); other tables are ignored.
+    pub fn from_metadata(metadata: &str) -> Result<Option<Self>, ConfigError> {
+        let origin = "navlog header [navigator]";
+        let Ok(table) = metadata.parse::<toml::Table>() else {
+            // Metadata of imported logs is free text, not TOML.
+            return Ok(None);
+        };
+        let Some(nav) = table.get("navigator") else {
+            return Ok(None);
+        };
+        let o: Self = nav
+            .clone()
+            .try_into()
+            .map_err(|e: toml::de::Error| ConfigError::Parse {
+                path: origin.to_owned(),
+                message: e.to_string(),
+            })?;
+        Ok(Some(o))
+    }
+
+    /// The settings this table assigns, as dotted keys of the
+    /// configuration (`frame.switch_enter_deg`, `filter.arw_dpsh`, ...), in
+    /// a fixed order; `align_s` is the session's.
+    pub fn assignments(&self) -> Vec<(String, toml::Value)> {
+        let mut out = Vec::new();
+        let mut put = |k: &str, v: toml::Value| out.push((k.to_owned(), v));
+        let f = toml::Value::Float;
+        if let Some(v) = self.switch_enter_deg {
+            put("frame.switch_enter_deg", f(v));
+            if self.switch_leave_deg.is_none() {
+                // Keep the default hysteresis below a moved threshold.
+                put("frame.switch_leave_deg", f(v - 0.5));
+            }
+        }
+        if let Some(v) = self.switch_leave_deg {
+            put("frame.switch_leave_deg", f(v));
+        }
+        if let Some(v) = &self.force_switch_s {
+            put(
+                "frame.force_switch_s",
+                toml::Value::Array(v.iter().copied().map(f).collect()),
+            );
+        }
+        for (k, v) in [
+            ("filter.gyro_bias_dph", self.gyro_bias_dph),
+            ("filter.accel_bias_ug", self.accel_bias_ug),
+            ("filter.arw_dpsh", self.arw_dpsh),
+            ("filter.vrw_ug_psqhz", self.vrw_ug_psqhz),
+        ] {
+            if let Some(v) = v {
+                put(k, f(v));
+            }
+        }
+        for (table, t) in [
+            ("frame", &self.frame),
+            ("filter", &self.filter),
+            ("aids", &self.aids),
+            ("init", &self.init),
+        ] {
+            for (k, v) in t.iter().flatten() {
+                put(&format!("{table}.{k}"), v.clone());
+            }
+        }
+        if let Some(v) = self.align_s {
+            put("align_s", f(v));
+        }
+        out
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn shipped_config_parses() {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config/nav-daemon.toml");
+        let c = Config::load(&path).expect("shipped config");
+        assert_eq!(c.prefix, "polarnav");
+    }
+
+    #[test]
+    fn init_from_config_builds_the_stated_attitude() {
+        let c = Config::parse(
+            "[init]\nlat_deg = 34.246048\nlon_deg = 108.909664\nh_m = 380.0\nheading_deg = 90.6\npitch_deg = 0.9\nroll_deg = 0.36\nsigma_pos_h_m = 10.0\nsigma_pos_v_m = 10.0\nsigma_vel_mps = 0.1\nsigma_tilt_arcmin = 30.0\nsigma_heading_arcmin = 300.0\n",
+            "x.toml",
+        )
+        .expect("config");
+        let init = c.init.expect("init").to_init(5);
+        let r = nalgebra::Vector3::from(init.r_e_m);
+        let g = polarnav::earth::ecef_to_geodetic(&r);
+        let [w, x, y, z] = init.q_b_e;
+        let c_b_e =
+            nalgebra::UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(w, x, y, z))
+                .to_rotation_matrix()
+                .into_inner();
+        let (h, p, rl) = polarnav::frames::euler_from_c_b_n(
+            &(polarnav::frames::c_e_g(g.lat_rad, g.lon_rad) * c_b_e),
+        );
+        assert!(
+            (h.to_degrees() - 90.6).abs() < 1e-9
+                && (p.to_degrees() - 0.9).abs() < 1e-9
+                && (rl.to_degrees() - 0.36).abs() < 1e-9
+        );
+        let e = Config::parse("[init]\nlat_deg = 95.0\nlon_deg = 0\nh_m = 0\nheading_deg = 0\nsigma_pos_h_m = 1\nsigma_pos_v_m = 1\nsigma_vel_mps = 1\nsigma_tilt_arcmin = 1\nsigma_heading_arcmin = 1\n", "x.toml")
+            .expect_err("bad latitude")
+            .to_string();
+        assert!(e.contains("init.lat_deg"), "{e}");
+    }
+
+    #[test]
+    fn unknown_key_names_file_and_key() {
+        let e = Config::parse("[frame]\nswitch_entr_deg = 70\n", "x.toml")
+            .expect_err("fails")
+            .to_string();
+        assert!(e.contains("x.toml") && e.contains("switch_entr_deg"), "{e}");
+    }
+
+    #[test]
+    fn bad_hysteresis_names_the_key() {
+        let e = Config::parse(
+            "[frame]\nswitch_enter_deg = 70\nswitch_leave_deg = 71\n",
+            "x.toml",
+        )
+        .expect_err("fails")
+        .to_string();
+        assert!(e.contains("frame.switch_leave_deg"), "{e}");
+        let e = Config::parse("[frame]\nforce_switch_s = [900, 300]\n", "x.toml")
+            .expect_err("fails")
+            .to_string();
+        assert!(e.contains("frame.force_switch_s"), "{e}");
+    }
+
+    #[test]
+    fn scenario_overrides_apply_and_keep_hysteresis() {
+        let meta = "name='x'\n[navigator]\nswitch_enter_deg = 88.0\n[generated]\nseed=1\n";
+        let e = effective(
+            &ConfigFile::defaults(),
+            Some(meta),
+            &CliOverrides::default(),
+        )
+        .expect("effective");
+        let f = &e.config.frame;
+        assert!((f.switch_enter_deg - 88.0).abs() < 1e-12);
+        assert!((f.switch_leave_deg - 87.5).abs() < 1e-12);
+        assert_eq!(e.source("frame.switch_enter_deg"), Some(&Source::Header));
+        assert_eq!(e.source("frame.switch_leave_deg"), Some(&Source::Header));
+        assert_eq!(e.source("filter.arw_dpsh"), Some(&Source::Default));
+        assert!(
+            ScenarioOverrides::from_metadata("not toml at all ===")
+                .expect("ok")
+                .is_none()
+        );
+    }
+}

@@ -1,0 +1,1096 @@
+//! The session: everything between a decoded input and a published output.
+//!
+//! The live daemon, `batch`, the fault campaign, the tests and the benches
+//! all feed this one type, so they take every decision the same way:
+//!
+//! - **Initialization and its sources**, in this precedence: a checkpoint
+//!   the IMU continues from (and no init newer than it); an init message or
+//!   record (the newest one whose time the IMU has reached); `[init]` of the
+//!   configuration; each optionally followed by a stationary alignment.
+//!   An init stamped ahead of the IMU is held until the IMU reaches it (a
+//!   future stamp never blocks anything); one stamped at or before the
+//!   newest IMU sample re-initializes at once.
+//! - **Ordering**: an IMU sample at most `[filter] imu_gap_s` after the
+//!   previous one is taken at once. One further ahead (a gap to coast, or a
+//!   jump of the clock) is held as a time-jump candidate until
+//!   [`TIME_JUMP_CONFIRM`] consecutive, mutually consistent candidates
+//!   confirm it: a gap up to `imu_max_coast_s` is then coasted, a longer
+//!   jump (either way) re-synchronizes the navigator's time base. Any
+//!   sample that fits refutes the candidates, which are counted as
+//!   rejected: one absurd stamp costs only itself. A sample behind the
+//!   previous one by at most `imu_max_coast_s` is stale and refused at once
+//!   (the stream catches up within that time).
+//! - **Aids ahead of the IMU** wait in a bounded queue (at most
+//!   [`AID_QUEUE`] samples, at most [`MAX_AID_LEAD_NS`] ahead) and are fused
+//!   in time order right after the IMU sample that reaches them. Aids at or
+//!   behind the newest IMU sample are fused at their own time (the
+//!   navigator's state history).
+//! - **Solutions**: the solution of an IMU sample is emitted when the next
+//!   IMU sample arrives or when the driver calls [`Session::flush`] (the
+//!   live loop does at the end of every cycle), so it includes every aid
+//!   stamped up to its time that has arrived by then.
+//! - **Accounting**: every input is counted once, per stream:
+//!   `received = accepted + rejected_invalid + rejected_time + rejected_gate
+//!   + not_used`, and inits apart ([`InitCounters`]).
+//!
+//! Work per input is bounded: no loop in here or in the navigator depends
+//! on a value of the input (gaps are bridged in at most
+//! [`crate::navigator::MAX_BRIDGE_STEPS`] steps, the queue is fixed).
+//! Nothing is logged here: decisions are reported as [`Event`]s to the
+//! driver's [`Sink`], which logs them as it sees fit.
+
+use msgs::{BaroSample, CnsFix, ImuSample, InitState, Solution, SrsSample, Status, StreamCounters};
+
+use crate::align::{AlignError, Alignment, AlignmentAccumulator, aligned_init};
+use crate::checkpoint::Checkpoint;
+use crate::navigator::{
+    AidOutcome, IMU_DT_RANGE_S, InputRejection, Navigator, NavigatorConfig, SwitchEvent, check_init,
+};
+use crate::settings::InitSettings;
+
+/// Consecutive consistent samples that confirm a time jump of the IMU.
+pub const TIME_JUMP_CONFIRM: usize = 4;
+/// Capacity of the queue of aids waiting for the IMU.
+/// (A genuine aid waits a few IMU periods at most; 16 also bounds the work
+/// of the IMU sample that releases them, SRS solves being the costliest.)
+pub const AID_QUEUE: usize = 16;
+/// An aid further ahead of the newest IMU sample than this (1 s) is refused:
+/// no transport or sensor delay puts a genuine aid there, and by the time
+/// the IMU reached it, it would be refused as late anyway.
+pub const MAX_AID_LEAD_NS: u64 = 1_000_000_000;
+
+/// The sensor streams a session counts.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
+pub enum Stream {
+    Imu,
+    Srs,
+    Cns,
+    Baro,
+}
+
+impl Stream {
+    pub const ALL: [Stream; 4] = [Stream::Imu, Stream::Srs, Stream::Cns, Stream::Baro];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Stream::Imu => "imu",
+            Stream::Srs => "srs",
+            Stream::Cns => "cns",
+            Stream::Baro => "baro",
+        }
+    }
+}
+
+/// One value per stream.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct PerStream<T> {
+    pub imu: T,
+    pub srs: T,
+    pub cns: T,
+    pub baro: T,
+}
+
+impl<T> PerStream<T> {
+    pub fn get(&self, s: Stream) -> &T {
+        match s {
+            Stream::Imu => &self.imu,
+            Stream::Srs => &self.srs,
+            Stream::Cns => &self.cns,
+            Stream::Baro => &self.baro,
+        }
+    }
+    pub fn get_mut(&mut self, s: Stream) -> &mut T {
+        match s {
+            Stream::Imu => &mut self.imu,
+            Stream::Srs => &mut self.srs,
+            Stream::Cns => &mut self.cns,
+            Stream::Baro => &mut self.baro,
+        }
+    }
+}
+
+/// A decoded input.
+#[derive(Debug, Clone, Copy)]
+pub enum Input<'a> {
+    Imu(&'a ImuSample),
+    Srs(&'a SrsSample),
+    Cns(&'a CnsFix),
+    Baro(&'a BaroSample),
+    Init(&'a InitState),
+}
+
+impl<'a> Input<'a> {
+    /// The input a navlog record carries (`None` for header, truth and outputs).
+    pub fn from_record(r: &'a msgs::navlog::Record) -> Option<Self> {
+        use msgs::navlog::Record;
+        match r {
+            Record::Imu(x) => Some(Input::Imu(x)),
+            Record::Srs(x) => Some(Input::Srs(x)),
+            Record::Cns(x) => Some(Input::Cns(x)),
+            Record::Baro(x) => Some(Input::Baro(x)),
+            Record::Init(x) => Some(Input::Init(x)),
+            Record::Header(_) | Record::Truth(_) | Record::Solution(_) | Record::Status(_) => None,
+        }
+    }
+
+    pub fn t_ns(&self) -> u64 {
+        match self {
+            Input::Imu(x) => x.t_ns,
+            Input::Srs(x) => x.t_ns,
+            Input::Cns(x) => x.t_ns,
+            Input::Baro(x) => x.t_ns,
+            Input::Init(x) => x.t_ns,
+        }
+    }
+}
+
+/// An aid held by value (in the wait queue). Not boxed on purpose: boxing
+/// the SRS variant would allocate on the hot path.
+#[allow(clippy::large_enum_variant)]
+#[derive(Debug, Clone, Copy)]
+enum Aid {
+    Srs(SrsSample),
+    Cns(CnsFix),
+    Baro(BaroSample),
+}
+
+impl Aid {
+    fn t_ns(&self) -> u64 {
+        match self {
+            Aid::Srs(x) => x.t_ns,
+            Aid::Cns(x) => x.t_ns,
+            Aid::Baro(x) => x.t_ns,
+        }
+    }
+    fn stream(&self) -> Stream {
+        match self {
+            Aid::Srs(_) => Stream::Srs,
+            Aid::Cns(_) => Stream::Cns,
+            Aid::Baro(_) => Stream::Baro,
+        }
+    }
+    fn seq(&self) -> u64 {
+        match self {
+            Aid::Srs(x) => x.seq,
+            Aid::Cns(x) => x.seq,
+            Aid::Baro(x) => x.seq,
+        }
+    }
+    fn offer(&self, nav: &mut Navigator) -> Result<AidOutcome, InputRejection> {
+        match self {
+            Aid::Srs(x) => nav.on_srs(x),
+            Aid::Cns(x) => nav.on_cns(x),
+            Aid::Baro(x) => nav.on_baro(x),
+        }
+    }
+}
+
+/// Aids ahead of the IMU, ordered by (time, stream), fixed capacity.
+#[derive(Debug, Clone)]
+struct AidQueue {
+    items: [Option<Aid>; AID_QUEUE],
+    len: usize,
+}
+
+impl AidQueue {
+    fn new() -> Self {
+        Self {
+            items: [None; AID_QUEUE],
+            len: 0,
+        }
+    }
+
+    fn key(a: &Aid) -> (u64, Stream) {
+        (a.t_ns(), a.stream())
+    }
+
+    /// Inserts in order (after equal keys); when full, the oldest is
+    /// returned to make room.
+    fn insert(&mut self, a: Aid) -> Option<Aid> {
+        let evicted = if self.len == AID_QUEUE {
+            self.pop_front()
+        } else {
+            None
+        };
+        let k = Self::key(&a);
+        let mut i = self.len;
+        while i > 0 && self.items[i - 1].as_ref().is_some_and(|x| Self::key(x) > k) {
+            self.items[i] = self.items[i - 1];
+            i -= 1;
+        }
+        self.items[i] = Some(a);
+        self.len += 1;
+        evicted
+    }
+
+    fn front_t_ns(&self) -> Option<u64> {
+        self.items[0].filter(|_| self.len > 0).map(|a| a.t_ns())
+    }
+
+    fn pop_front(&mut self) -> Option<Aid> {
+        if self.len == 0 {
+            return None;
+        }
+        let a = self.items[0].take();
+        for i in 1..self.len {
+            self.items[i - 1] = self.items[i];
+        }
+        self.items[self.len - 1] = None;
+        self.len -= 1;
+        a
+    }
+}
+
+/// Where the navigation state came from.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum InitSource {
+    /// An init message or navlog init record.
+    Message,
+    /// `[init]` of the configuration.
+    Config,
+    /// A checkpoint the IMU continued from.
+    Checkpoint,
+}
+
+/// A decision of the session, for the driver to log or report.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Event {
+    /// Navigation started at `t_ns` from `source` (after the alignment, if one ran).
+    Started {
+        source: InitSource,
+        t_ns: u64,
+    },
+    /// A stationary alignment started on this init (its position kept).
+    AlignmentStarted {
+        t_ns: u64,
+        duration_s: f64,
+    },
+    /// The alignment was solved.
+    Aligned(Alignment),
+    /// The alignment could not be solved; the session waits for a new init.
+    AlignmentFailed(AlignError),
+    /// A new init replaced the running state.
+    Reinitialized {
+        t_ns: u64,
+    },
+    /// An init stamped ahead of the IMU is held until the IMU reaches it.
+    InitHeld {
+        t_ns: u64,
+        imu_t_ns: u64,
+    },
+    /// An init refused (content, or too far behind the IMU), or superseded
+    /// by a newer one before it was used.
+    InitRejected {
+        t_ns: u64,
+        seq: u64,
+        reason: InputRejection,
+    },
+    InitSuperseded {
+        t_ns: u64,
+    },
+    /// A checkpoint was offered but the IMU does not continue from it, or a
+    /// newer init wins: the session starts cold.
+    CheckpointNotUsed {
+        checkpoint_t_ns: u64,
+        first_imu_t_ns: u64,
+        newer_init: bool,
+    },
+    /// An input was refused.
+    Rejected {
+        stream: Stream,
+        t_ns: u64,
+        seq: u64,
+        reason: InputRejection,
+    },
+    /// A frame switch.
+    Switch(SwitchEvent),
+    /// Samples of a stream were lost before they reached the session: the
+    /// sequence number `seq` arrived where `expected` was due.
+    SequenceGap {
+        stream: Stream,
+        expected: u64,
+        seq: u64,
+    },
+    /// The IMU time base jumped and was confirmed; the navigator re-synchronized.
+    TimeResync {
+        from_t_ns: u64,
+        to_t_ns: u64,
+    },
+    /// The covariance lost finiteness or positive variances and was re-inflated.
+    CovarianceRepaired {
+        t_ns: u64,
+    },
+}
+
+/// Where an IMU sample falls relative to the navigator's time.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Place {
+    /// The next sample (at most `imu_gap_s` ahead): taken at once.
+    Next,
+    /// Behind, by at most the longest coast: refused.
+    Stale,
+    /// A gap or a jump: held until confirmed.
+    Jump,
+}
+
+/// Where a session's outputs go.
+pub trait Sink {
+    /// A solution, in time order, one per accepted IMU sample.
+    fn solution(&mut self, s: &Solution);
+    /// A decision worth a log line (rate-limit recurring ones).
+    fn event(&mut self, _e: &Event) {}
+}
+
+/// A sink that keeps nothing (for benches and tests that read the session).
+#[derive(Debug, Default, Clone, Copy)]
+pub struct Discard;
+
+impl Sink for Discard {
+    fn solution(&mut self, _s: &Solution) {}
+}
+
+/// A sink that keeps every solution and event (tests and tools; it allocates).
+#[derive(Debug, Default, Clone)]
+pub struct Collect {
+    pub solutions: Vec<Solution>,
+    pub events: Vec<Event>,
+}
+
+impl Sink for Collect {
+    fn solution(&mut self, s: &Solution) {
+        self.solutions.push(*s);
+    }
+    fn event(&mut self, e: &Event) {
+        self.events.push(*e);
+    }
+}
+
+/// Counts of init messages and records.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+pub struct InitCounters {
+    pub received: u64,
+    /// Used to start or re-initialize.
+    pub used: u64,
+    /// Refused: content, or stamped too far behind the IMU.
+    pub rejected: u64,
+    /// Superseded by a newer init before use, or never reached by the IMU.
+    pub not_used: u64,
+}
+
+/// Everything a session needs to know besides its inputs.
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct SessionSettings {
+    pub navigator: NavigatorConfig,
+    /// Initial state when no init message or record arrives (`[init]`).
+    pub init: Option<InitSettings>,
+    /// Stationary coarse alignment over this many seconds of IMU data after
+    /// the init (its position kept, its attitude replaced).
+    pub align_s: Option<f64>,
+    /// A checkpoint is resumed only when the first IMU sample is at most
+    /// this long after it (ns).
+    pub resume_max_age_ns: u64,
+}
+
+/// Counts sequence gaps of one stream (samples lost upstream or overwritten).
+#[derive(Debug, Clone, Copy, Default)]
+struct SeqTracker {
+    next: Option<u64>,
+    gaps: u64,
+}
+
+impl SeqTracker {
+    /// Notes `seq`; returns the sequence number expected instead when some
+    /// were skipped.
+    fn see(&mut self, seq: u64) -> Option<u64> {
+        let skipped = self.next.filter(|n| seq > *n);
+        if let Some(n) = skipped {
+            self.gaps = self.gaps.saturating_add(seq - n);
+        }
+        self.next = Some(seq.wrapping_add(1));
+        skipped
+    }
+}
+
+/// The session. See the module documentation.
+#[derive(Debug, Clone)]
+pub struct Session {
+    settings: SessionSettings,
+    nav: Option<Navigator>,
+    /// Alignment in progress: the init it started from and the accumulator.
+    aligning: Option<(InitState, AlignmentAccumulator)>,
+    /// A checkpoint to resume from if the IMU continues from it.
+    resume: Option<Checkpoint>,
+    /// The newest init not yet applied (ahead of the IMU, or before the start).
+    held_init: Option<InitState>,
+    queue: AidQueue,
+    candidates: [ImuSample; TIME_JUMP_CONFIRM],
+    n_candidates: usize,
+    /// Counts of what never reached the navigator (refused or not used here).
+    outside: PerStream<StreamCounters>,
+    seq: PerStream<SeqTracker>,
+    inits: InitCounters,
+    solution_pending: bool,
+    imu_lost: bool,
+    resumed: bool,
+    reinits: u32,
+    resyncs: u64,
+    repairs_seen: u64,
+    alignment: Option<Alignment>,
+    first_t_ns: Option<u64>,
+    last_imu_t_ns: u64,
+}
+
+impl Session {
+    pub fn new(settings: SessionSettings) -> Self {
+        Self {
+            settings,
+            nav: None,
+            aligning: None,
+            resume: None,
+            held_init: None,
+            queue: AidQueue::new(),
+            candidates: [ImuSample::default(); TIME_JUMP_CONFIRM],
+            n_candidates: 0,
+            outside: PerStream::default(),
+            seq: PerStream::default(),
+            inits: InitCounters::default(),
+            solution_pending: false,
+            imu_lost: false,
+            resumed: false,
+            reinits: 0,
+            resyncs: 0,
+            repairs_seen: 0,
+            alignment: None,
+            first_t_ns: None,
+            last_imu_t_ns: 0,
+        }
+    }
+
+    /// Offers a checkpoint to resume from (before the first IMU sample).
+    /// Its content is checked by the caller ([`Checkpoint::load`]).
+    pub fn offer_checkpoint(&mut self, c: Checkpoint) {
+        if self.nav.is_none() {
+            self.resume = Some(c);
+        }
+    }
+
+    pub fn settings(&self) -> &SessionSettings {
+        &self.settings
+    }
+
+    /// The navigator, once navigation has started.
+    pub fn navigator(&self) -> Option<&Navigator> {
+        self.nav.as_ref()
+    }
+
+    /// The alignment, when one was solved.
+    pub fn alignment(&self) -> Option<&Alignment> {
+        self.alignment.as_ref()
+    }
+
+    pub fn init_counters(&self) -> InitCounters {
+        self.inits
+    }
+
+    /// Re-initializations so far (inits applied while navigating).
+    pub fn reinits(&self) -> u32 {
+        self.reinits
+    }
+
+    /// Confirmed time jumps of the IMU.
+    pub fn time_resyncs(&self) -> u64 {
+        self.resyncs
+    }
+
+    /// Sensor time of the start of navigation and of the newest IMU sample
+    /// handled (ns).
+    pub fn span_ns(&self) -> (u64, u64) {
+        let first = self.first_t_ns.unwrap_or(0);
+        (first, self.last_imu_t_ns.max(first))
+    }
+
+    /// True while the session waits for an alignment to complete.
+    pub fn aligning(&self) -> bool {
+        self.aligning.is_some()
+    }
+
+    /// Handles one input, in arrival order ([`Session::arrived`] then
+    /// [`Session::handle`]).
+    pub fn push(&mut self, input: Input<'_>, sink: &mut impl Sink) {
+        if let Some(e) = self.arrived(&input) {
+            sink.event(&e);
+        }
+        self.handle(input, sink);
+    }
+
+    /// Notes an input's sequence number in arrival order (sequence gaps
+    /// count samples lost before they reached the session). A driver that
+    /// reorders the inputs of a cycle calls this as it receives them and
+    /// [`Session::handle`] in its order.
+    pub fn arrived(&mut self, input: &Input<'_>) -> Option<Event> {
+        let (stream, seq) = match input {
+            Input::Imu(x) => (Stream::Imu, x.seq),
+            Input::Srs(x) => (Stream::Srs, x.seq),
+            Input::Cns(x) => (Stream::Cns, x.seq),
+            Input::Baro(x) => (Stream::Baro, x.seq),
+            Input::Init(_) => return None,
+        };
+        self.seq
+            .get_mut(stream)
+            .see(seq)
+            .map(|expected| Event::SequenceGap {
+                stream,
+                expected,
+                seq,
+            })
+    }
+
+    /// Decides on one input (its arrival already noted).
+    pub fn handle(&mut self, input: Input<'_>, sink: &mut impl Sink) {
+        match input {
+            Input::Imu(s) => self.push_imu(s, sink),
+            Input::Srs(x) => self.push_aid(Aid::Srs(*x), sink),
+            Input::Cns(x) => self.push_aid(Aid::Cns(*x), sink),
+            Input::Baro(x) => self.push_aid(Aid::Baro(*x), sink),
+            Input::Init(i) => self.push_init(i, sink),
+        }
+    }
+
+    /// Emits the pending solution, if any (the live loop calls this at the
+    /// end of every cycle; `batch` at the end of the log).
+    pub fn flush(&mut self, sink: &mut impl Sink) {
+        if self.solution_pending {
+            self.solution_pending = false;
+            if let Some(n) = &self.nav {
+                sink.solution(&n.solution());
+            }
+        }
+    }
+
+    /// The IMU stopped (live: no sample for several periods). Aids waiting
+    /// for it are offered now and counted as ahead of the IMU; status marks
+    /// the IMU lost and no aid fresh until the next IMU sample.
+    pub fn imu_lost(&mut self, sink: &mut impl Sink) {
+        self.imu_lost = true;
+        self.drain_queue(sink);
+    }
+
+    /// The end of the inputs: the pending solution is emitted and every
+    /// held input is accounted for (waiting aids as ahead of the IMU,
+    /// time-jump candidates as rejected, a held init as not used).
+    pub fn finish(&mut self, sink: &mut impl Sink) {
+        self.flush(sink);
+        self.drain_queue(sink);
+        self.refute_candidates(sink);
+        if let Some(i) = self.held_init.take() {
+            self.inits.not_used += 1;
+            sink.event(&Event::InitSuperseded { t_ns: i.t_ns });
+        }
+    }
+
+    /// A checkpoint of the running state.
+    pub fn checkpoint(&self) -> Option<Checkpoint> {
+        self.nav.as_ref().map(Navigator::checkpoint)
+    }
+
+    /// Health record: the navigator's, with what the session held back,
+    /// sequence gaps, resume and re-initialization counts and IMU loss
+    /// (loop timing is the live driver's).
+    pub fn status(&self) -> Status {
+        let mut s = self.nav.as_ref().map(Navigator::status).unwrap_or_default();
+        for (c, k) in [
+            (&mut s.imu, Stream::Imu),
+            (&mut s.srs, Stream::Srs),
+            (&mut s.cns, Stream::Cns),
+            (&mut s.baro, Stream::Baro),
+        ] {
+            let o = self.outside.get(k);
+            c.received += o.received;
+            c.rejected_invalid += o.rejected_invalid;
+            c.rejected_time += o.rejected_time;
+            c.not_used += o.not_used;
+            c.seq_gaps = self.seq.get(k).gaps;
+        }
+        // Candidates held for a time-jump decision and aids waiting for the
+        // IMU are received but not yet decided: counted as not used until
+        // they are.
+        s.imu.received += self.n_candidates as u64;
+        s.imu.not_used += self.n_candidates as u64;
+        for a in self.queue.items[..self.queue.len].iter().flatten() {
+            let c = match a.stream() {
+                Stream::Srs => &mut s.srs,
+                Stream::Cns => &mut s.cns,
+                _ => &mut s.baro,
+            };
+            c.received += 1;
+            c.not_used += 1;
+        }
+        s.resumed = u8::from(self.resumed);
+        s.reinit_count = self.reinits;
+        if self.imu_lost {
+            use msgs::solution_flags as f;
+            s.flags |= f::IMU_LOST;
+            s.flags &= !(f::SRS_FRESH | f::CNS_FRESH | f::BARO_FRESH);
+            for a in [&mut s.srs_aid, &mut s.cns_aid, &mut s.baro_aid] {
+                a.fresh = 0;
+            }
+        }
+        if self.nav.is_none() {
+            s.flags &= !msgs::solution_flags::ALIGNED;
+        }
+        s
+    }
+
+    fn count_outside(&mut self, stream: Stream, f: impl FnOnce(&mut StreamCounters)) {
+        let c = self.outside.get_mut(stream);
+        c.received += 1;
+        f(c);
+    }
+
+    // ---- inits -------------------------------------------------------
+
+    fn push_init(&mut self, i: &InitState, sink: &mut impl Sink) {
+        self.inits.received += 1;
+        if let Err(reason) = check_init(i) {
+            self.reject_init(i, reason, sink);
+            return;
+        }
+        match &self.nav {
+            Some(n) if i.t_ns <= n.t_ns() => {
+                let age_ns = n.t_ns() - i.t_ns;
+                let limit_s = self.settings.navigator.filter.imu_max_coast_s;
+                if age_ns as f64 * 1e-9 > limit_s {
+                    let reason = InputRejection::TooLate {
+                        t_ns: i.t_ns,
+                        age_s: age_ns as f64 * 1e-9,
+                        limit_s,
+                    };
+                    self.reject_init(i, reason, sink);
+                    return;
+                }
+                self.flush(sink);
+                self.apply_init(*i, sink);
+            }
+            _ => {
+                if let Some(old) = self.held_init.replace(*i) {
+                    self.inits.not_used += 1;
+                    sink.event(&Event::InitSuperseded { t_ns: old.t_ns });
+                }
+                if self.nav.is_some() {
+                    sink.event(&Event::InitHeld {
+                        t_ns: i.t_ns,
+                        imu_t_ns: self.last_imu_t_ns,
+                    });
+                }
+            }
+        }
+    }
+
+    fn reject_init(&mut self, i: &InitState, reason: InputRejection, sink: &mut impl Sink) {
+        self.inits.rejected += 1;
+        sink.event(&Event::InitRejected {
+            t_ns: i.t_ns,
+            seq: i.seq,
+            reason,
+        });
+    }
+
+    /// Starts, aligns or re-initializes from `init`.
+    fn apply_init(&mut self, init: InitState, sink: &mut impl Sink) {
+        self.inits.used += 1;
+        self.resume = None;
+        if let Some(align_s) = self.settings.align_s {
+            // The running navigator (if any) stops; its counters carry over
+            // to the navigator the alignment starts.
+            self.aligning = Some((init, AlignmentAccumulator::default()));
+            sink.event(&Event::AlignmentStarted {
+                t_ns: init.t_ns,
+                duration_s: align_s,
+            });
+            return;
+        }
+        self.start_or_reinit(init, InitSource::Message, sink);
+    }
+
+    fn start_or_reinit(&mut self, init: InitState, source: InitSource, sink: &mut impl Sink) {
+        let cfg = &self.settings.navigator;
+        match self.nav.as_mut() {
+            Some(n) => {
+                n.reinitialize(&init, cfg);
+                self.reinits += 1;
+                sink.event(&Event::Reinitialized { t_ns: init.t_ns });
+            }
+            None => {
+                self.nav = Some(Navigator::new(&init, cfg));
+                self.first_t_ns.get_or_insert(init.t_ns);
+                sink.event(&Event::Started {
+                    source,
+                    t_ns: init.t_ns,
+                });
+            }
+        }
+        self.resumed = false;
+        self.after_time_base_change(sink);
+    }
+
+    /// After the navigator's time moved (init, resync): waiting aids and
+    /// time-jump candidates are judged again against it.
+    fn after_time_base_change(&mut self, sink: &mut impl Sink) {
+        let n = self.n_candidates;
+        self.n_candidates = 0;
+        let held = self.candidates;
+        for s in &held[..n] {
+            if self.fits(s) {
+                self.integrate(s, sink);
+            } else {
+                self.reject_imu_outside(s, self.time_reason(s), sink);
+            }
+        }
+    }
+
+    /// The first IMU sample with no navigator: resume, held init or
+    /// configuration, in that precedence.
+    fn start(&mut self, s: &ImuSample, sink: &mut impl Sink) {
+        if let Some(c) = self.resume.take() {
+            let continues = s.t_ns > c.t_ns && s.t_ns - c.t_ns <= self.settings.resume_max_age_ns;
+            let newer_init = self.held_init.is_some_and(|i| i.t_ns > c.t_ns);
+            if continues && !newer_init {
+                self.nav = Some(Navigator::from_checkpoint(&c, &self.settings.navigator));
+                self.resumed = true;
+                self.first_t_ns.get_or_insert(c.t_ns);
+                // An init no newer than the checkpoint describes an older state.
+                if self.held_init.take().is_some() {
+                    self.inits.not_used += 1;
+                }
+                sink.event(&Event::Started {
+                    source: InitSource::Checkpoint,
+                    t_ns: c.t_ns,
+                });
+                return;
+            }
+            sink.event(&Event::CheckpointNotUsed {
+                checkpoint_t_ns: c.t_ns,
+                first_imu_t_ns: s.t_ns,
+                newer_init,
+            });
+        }
+        if let Some(i) = self.held_init.filter(|i| i.t_ns < s.t_ns) {
+            self.held_init = None;
+            self.apply_init(i, sink);
+            return;
+        }
+        // A held init further ahead than the longest coast would leave the
+        // IMU unused for that long: the configuration's init starts instead
+        // (the held init still applies once the IMU reaches it).
+        let limit_ns = self.settings.navigator.filter.imu_max_coast_s * 1e9;
+        let init_usable = self
+            .held_init
+            .is_some_and(|i| ((i.t_ns - s.t_ns.min(i.t_ns)) as f64) <= limit_ns);
+        if !init_usable
+            && self.aligning.is_none()
+            && let Some(ci) = &self.settings.init
+        {
+            // No init at all: start from the configuration, one sample back.
+            let dt_ns = (s.dt_s.clamp(IMU_DT_RANGE_S.0, IMU_DT_RANGE_S.1) * 1e9).round() as u64;
+            let init = ci.to_init(s.t_ns.saturating_sub(dt_ns));
+            if let Some(align_s) = self.settings.align_s {
+                self.aligning = Some((init, AlignmentAccumulator::default()));
+                sink.event(&Event::AlignmentStarted {
+                    t_ns: init.t_ns,
+                    duration_s: align_s,
+                });
+            } else {
+                self.start_or_reinit(init, InitSource::Config, sink);
+            }
+        }
+    }
+
+    // ---- IMU ---------------------------------------------------------
+
+    fn push_imu(&mut self, s: &ImuSample, sink: &mut impl Sink) {
+        self.imu_lost = false;
+        self.flush(sink);
+        // A held init the IMU has now reached applies before this sample.
+        if self.nav.is_some()
+            && let Some(i) = self.held_init.filter(|i| i.t_ns < s.t_ns)
+        {
+            self.held_init = None;
+            self.apply_init(i, sink);
+        }
+        if self.nav.is_none() && self.aligning.is_none() {
+            self.start(s, sink);
+        }
+        if self.aligning.is_some() {
+            self.align(s, sink);
+            return;
+        }
+        if self.nav.is_none() {
+            self.count_outside(Stream::Imu, |c| c.not_used += 1);
+            return;
+        }
+        match self.place(s) {
+            Place::Next => {
+                self.refute_candidates(sink);
+                self.integrate(s, sink);
+            }
+            Place::Stale => {
+                let reason = self.time_reason(s);
+                self.reject_imu_outside(s, reason, sink);
+            }
+            Place::Jump => self.candidate(s, sink),
+        }
+    }
+
+    /// Where a sample falls on the navigator's time line.
+    fn place(&self, s: &ImuSample) -> Place {
+        let Some(n) = &self.nav else {
+            return Place::Jump;
+        };
+        let f = &self.settings.navigator.filter;
+        let now = n.t_ns();
+        if s.t_ns > now {
+            if ((s.t_ns - now) as f64) <= f.imu_gap_s * 1e9 {
+                Place::Next
+            } else {
+                Place::Jump
+            }
+        } else if ((now - s.t_ns) as f64) <= f.imu_max_coast_s * 1e9 {
+            Place::Stale
+        } else {
+            Place::Jump
+        }
+    }
+
+    /// A sample the navigator's time line can take without a resync: after
+    /// its time, by at most the longest coast.
+    fn fits(&self, s: &ImuSample) -> bool {
+        let Some(n) = &self.nav else { return false };
+        let limit_ns = self.settings.navigator.filter.imu_max_coast_s * 1e9;
+        s.t_ns > n.t_ns() && ((s.t_ns - n.t_ns()) as f64) <= limit_ns
+    }
+
+    fn time_reason(&self, s: &ImuSample) -> InputRejection {
+        let prev_ns = self.nav.as_ref().map_or(0, Navigator::t_ns);
+        if s.t_ns <= prev_ns {
+            InputRejection::TimeNotIncreasing {
+                t_ns: s.t_ns,
+                prev_ns,
+            }
+        } else {
+            InputRejection::TimeJump {
+                t_ns: s.t_ns,
+                gap_s: (s.t_ns - prev_ns) as f64 * 1e-9,
+                limit_s: self.settings.navigator.filter.imu_max_coast_s,
+            }
+        }
+    }
+
+    /// Holds a sample that does not fit; confirms a time jump when enough
+    /// consistent ones follow each other.
+    fn candidate(&mut self, s: &ImuSample, sink: &mut impl Sink) {
+        let consistent = self.n_candidates > 0 && {
+            let prev = &self.candidates[self.n_candidates - 1];
+            let spacing_s = s.t_ns.saturating_sub(prev.t_ns) as f64 * 1e-9;
+            let limit_s = self.settings.navigator.filter.imu_gap_s.max(2.0 * s.dt_s);
+            s.t_ns > prev.t_ns && spacing_s <= limit_s
+        };
+        if !consistent {
+            self.refute_candidates(sink);
+        }
+        self.candidates[self.n_candidates] = *s;
+        self.n_candidates += 1;
+        if self.n_candidates < TIME_JUMP_CONFIRM {
+            return;
+        }
+        // Confirmed. A gap the navigator can coast: it does, from the first
+        // candidate on.
+        let first = self.candidates[0];
+        if self.fits(&first) {
+            self.after_time_base_change(sink);
+            return;
+        }
+        // A jump of the clock: the navigator continues on the new time base.
+        let dt_ns = (first.dt_s.clamp(IMU_DT_RANGE_S.0, IMU_DT_RANGE_S.1) * 1e9).round() as u64;
+        let to = first.t_ns.saturating_sub(dt_ns);
+        let Some(n) = self.nav.as_mut() else { return };
+        let from = n.t_ns();
+        n.resync(to);
+        self.resyncs += 1;
+        sink.event(&Event::TimeResync {
+            from_t_ns: from,
+            to_t_ns: to,
+        });
+        // Aids waiting on the old time base can no longer be placed.
+        self.drain_queue(sink);
+        self.after_time_base_change(sink);
+    }
+
+    /// Time-jump candidates refuted by a fitting sample (or the end).
+    fn refute_candidates(&mut self, sink: &mut impl Sink) {
+        let n = self.n_candidates;
+        self.n_candidates = 0;
+        let held = self.candidates;
+        for s in &held[..n] {
+            self.reject_imu_outside(s, self.time_reason(s), sink);
+        }
+    }
+
+    fn reject_imu_outside(&mut self, s: &ImuSample, reason: InputRejection, sink: &mut impl Sink) {
+        self.count_outside(Stream::Imu, |c| c.rejected_time += 1);
+        sink.event(&Event::Rejected {
+            stream: Stream::Imu,
+            t_ns: s.t_ns,
+            seq: s.seq,
+            reason,
+        });
+    }
+
+    /// Feeds one fitting sample to the navigator, then the aids it reached.
+    /// The previous sample's solution goes out first: one per sample, also
+    /// when several are integrated in one push (confirmed candidates).
+    fn integrate(&mut self, s: &ImuSample, sink: &mut impl Sink) {
+        self.flush(sink);
+        let Some(n) = self.nav.as_mut() else { return };
+        match n.on_imu(s) {
+            Ok(out) => {
+                self.solution_pending = true;
+                self.last_imu_t_ns = s.t_ns;
+                if let Some(sw) = out.switch {
+                    sink.event(&Event::Switch(sw));
+                }
+                let now = n.t_ns();
+                while self.queue.front_t_ns().is_some_and(|t| t <= now) {
+                    if let Some(a) = self.queue.pop_front() {
+                        self.offer(&a, sink);
+                    }
+                }
+            }
+            Err(reason) => sink.event(&Event::Rejected {
+                stream: Stream::Imu,
+                t_ns: s.t_ns,
+                seq: s.seq,
+                reason,
+            }),
+        }
+        self.check_repairs(sink);
+    }
+
+    fn check_repairs(&mut self, sink: &mut impl Sink) {
+        if let Some(n) = &self.nav
+            && n.covariance_repairs() > self.repairs_seen
+        {
+            self.repairs_seen = n.covariance_repairs();
+            sink.event(&Event::CovarianceRepaired { t_ns: n.t_ns() });
+        }
+    }
+
+    fn align(&mut self, s: &ImuSample, sink: &mut impl Sink) {
+        let Some((init, acc)) = self.aligning.as_mut() else {
+            return;
+        };
+        let finite = s
+            .d_theta_rad
+            .iter()
+            .chain(&s.d_v_mps)
+            .all(|x| x.is_finite());
+        let ok =
+            s.t_ns > init.t_ns && (IMU_DT_RANGE_S.0..=IMU_DT_RANGE_S.1).contains(&s.dt_s) && finite;
+        if !ok {
+            self.count_outside(Stream::Imu, |c| c.rejected_invalid += 1);
+            return;
+        }
+        acc.add(&s.d_theta_rad.into(), &s.d_v_mps.into(), s.dt_s);
+        self.count_outside(Stream::Imu, |c| c.accepted += 1);
+        let need_s = self.settings.align_s.unwrap_or(0.0);
+        let Some((init, acc)) = self.aligning.as_ref() else {
+            return;
+        };
+        if acc.time_s() < need_s {
+            return;
+        }
+        let result = aligned_init(init, &self.settings.navigator.filter, acc, s.t_ns);
+        self.aligning = None;
+        match result {
+            Ok((aligned, a)) => {
+                self.alignment = Some(a);
+                sink.event(&Event::Aligned(a));
+                self.start_or_reinit(aligned, InitSource::Message, sink);
+            }
+            Err(e) => sink.event(&Event::AlignmentFailed(e)),
+        }
+    }
+
+    /// Alignment still running at the end: how much IMU time it had.
+    pub fn alignment_progress_s(&self) -> Option<f64> {
+        self.aligning.as_ref().map(|(_, acc)| acc.time_s())
+    }
+
+    // ---- aids --------------------------------------------------------
+
+    fn push_aid(&mut self, a: Aid, sink: &mut impl Sink) {
+        let Some(n) = self.nav.as_ref().filter(|_| self.aligning.is_none()) else {
+            self.count_outside(a.stream(), |c| c.not_used += 1);
+            return;
+        };
+        let now = n.t_ns();
+        if a.t_ns() <= now || self.imu_lost {
+            self.offer(&a, sink);
+            return;
+        }
+        if a.t_ns() - now > MAX_AID_LEAD_NS {
+            self.count_outside(a.stream(), |c| c.rejected_time += 1);
+            sink.event(&Event::Rejected {
+                stream: a.stream(),
+                t_ns: a.t_ns(),
+                seq: a.seq(),
+                reason: InputRejection::AheadOfImu {
+                    t_ns: a.t_ns(),
+                    imu_ns: now,
+                },
+            });
+            return;
+        }
+        if let Some(old) = self.queue.insert(a) {
+            // The queue is full: the oldest is offered now (and refused as
+            // ahead of the IMU, which is where it still is).
+            self.offer(&old, sink);
+        }
+    }
+
+    fn offer(&mut self, a: &Aid, sink: &mut impl Sink) {
+        let Some(n) = self.nav.as_mut() else {
+            self.count_outside(a.stream(), |c| c.not_used += 1);
+            return;
+        };
+        if let Err(reason) = a.offer(n) {
+            sink.event(&Event::Rejected {
+                stream: a.stream(),
+                t_ns: a.t_ns(),
+                seq: a.seq(),
+                reason,
+            });
+        }
+        self.check_repairs(sink);
+    }
+
+    fn drain_queue(&mut self, sink: &mut impl Sink) {
+        while let Some(a) = self.queue.pop_front() {
+            self.offer(&a, sink);
+        }
+    }
+}
+
+/// Runs a session over navlog records in memory (header settings are the
+/// caller's: pass the effective settings): every solution and event, and
+/// the final status. For tools and tests; it allocates the result.
+pub fn navigate(records: &[msgs::navlog::Record], settings: SessionSettings) -> (Collect, Status) {
+    let mut session = Session::new(settings);
+    let mut sink = Collect::default();
+    for r in records {
+        if let Some(input) = Input::from_record(r) {
+            session.push(input, &mut sink);
+        }
+    }
+    session.finish(&mut sink);
+    (sink, session.status())
+}

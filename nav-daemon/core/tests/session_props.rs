@@ -1,0 +1,1366 @@
+//! Property tests (proptest) of the session at the input boundary.
+//!
+//! Every case starts from a valid init near 86° N, 18 km (t = 1 s) and a
+//! stretch of plausible 200 Hz IMU samples with aids (stationary, or level
+//! flight due north at 250 m/s: increments from Earth rate, transport rate
+//! and gravity, not exact), then interleaves adversarial inputs of every
+//! stream in adversarial orders: duplicates, reversed runs, a second
+//! publisher on another time base, floods of one stream, far-future and
+//! far-past stamps. Field values are log-uniform over the whole f64 range
+//! plus NaN, ±Inf, subnormals and ±0; stamps log-uniform over the whole u64
+//! range plus 0, 1, u64::MAX and genuine ± small/large offsets.
+//!
+//! After every push: (a) every solution emitted is finite, with finite
+//! positive σ; (b) the accounting is exact per stream and `received` equals
+//! what was pushed; (c) the work of one push is bounded; (d) the navigator
+//! state is finite. At the end: `finish`, the same checks, and a genuine
+//! stream is accepted again (never blinded for more than
+//! `TIME_JUMP_CONFIRM` samples). Named tests pin down specific cases,
+//! including the library deviations the property found.
+//!
+//! Runtime (test profile, opt-level 2): about 6 s for the whole file
+//! (2048 cases; measured with `SESSION_PROPS_TOLERATE_KNOWN=1`, below).
+//! `SESSION_PROPS_CASES=n` changes the number of cases.
+
+use msgs::{BaroSample, CnsFix, ImuSample, InitState, Solution, SrsLine, SrsSample};
+use nalgebra::{UnitQuaternion, Vector3};
+use polarnav::earth::{self, Geodetic, isa};
+use polarnav::frames;
+use polarnav::navigator::MAX_BRIDGE_STEPS;
+use polarnav::session::{
+    AID_QUEUE, Event, Input, MAX_AID_LEAD_NS, Session, SessionSettings, Sink, TIME_JUMP_CONFIRM,
+};
+use proptest::prelude::*;
+
+const T0_NS: u64 = 1_000_000_000;
+const DT_NS: u64 = 5_000_000;
+const DT_S: f64 = 0.005;
+const LAT0_DEG: f64 = 86.0;
+const LON0_DEG: f64 = 10.0;
+const H0_M: f64 = 18_000.0;
+
+/// Most navigator work (mechanization steps + covariance propagations) one
+/// push may cause, from the public constants: a push integrates at most
+/// `TIME_JUMP_CONFIRM` IMU samples (the held time-jump candidates plus the
+/// sample itself, after a resync or a re-initialization), each bridging a gap
+/// in at most `MAX_BRIDGE_STEPS` steps plus its own step, each step with at
+/// most one covariance propagation (hence × 2); the aids of the bounded
+/// queue (`AID_QUEUE`) each at most one propagation; plus a few fixed
+/// propagations (resync, coast, frame switch).
+/// = 4 · 2 · 65 + 64 + 8 = 592.
+const WORK_BOUND: u64 =
+    TIME_JUMP_CONFIRM as u64 * 2 * (MAX_BRIDGE_STEPS + 1) + AID_QUEUE as u64 + 8;
+
+// ---- the genuine vehicle ----------------------------------------------
+
+/// Level flight due north at `speed_mps` (0: stationary), body axes = local
+/// east/north/up.
+#[derive(Debug, Clone, Copy)]
+struct Truth {
+    speed_mps: f64,
+}
+
+impl Truth {
+    fn geo(&self, t_ns: u64) -> Geodetic {
+        let t = (t_ns as f64 - T0_NS as f64) * 1e-9;
+        let lat0 = LAT0_DEG.to_radians();
+        let (rm, _) = earth::radii(lat0);
+        Geodetic::new(
+            lat0 + self.speed_mps * t / (rm + H0_M),
+            LON0_DEG.to_radians(),
+            H0_M,
+        )
+    }
+
+    fn r_e(&self, t_ns: u64) -> Vector3<f64> {
+        earth::geodetic_to_ecef(&self.geo(t_ns))
+    }
+
+    fn v_e(&self, t_ns: u64) -> Vector3<f64> {
+        let g = self.geo(t_ns);
+        frames::c_e_g(g.lat_rad, g.lon_rad).transpose() * Vector3::new(0.0, self.speed_mps, 0.0)
+    }
+
+    fn init(&self, t_ns: u64, seq: u64) -> InitState {
+        let g = self.geo(t_ns);
+        let q = UnitQuaternion::from_matrix(&frames::c_e_g(g.lat_rad, g.lon_rad).transpose());
+        InitState {
+            t_ns,
+            seq,
+            r_e_m: self.r_e(t_ns).into(),
+            v_e_mps: self.v_e(t_ns).into(),
+            q_b_e: [q.w, q.i, q.j, q.k],
+            sigma_pos_h_m: 10.0,
+            sigma_pos_v_m: 10.0,
+            sigma_vel_h_mps: 0.1,
+            sigma_vel_v_mps: 0.1,
+            sigma_tilt_rad: 3e-4,
+            sigma_heading_rad: 1e-3,
+        }
+    }
+
+    /// The increments of the interval ending at `content_t_ns`, stamped `t_ns`.
+    fn imu_at(&self, t_ns: u64, seq: u64, content_t_ns: u64) -> ImuSample {
+        let g = self.geo(content_t_ns);
+        let (rm, _) = earth::radii(g.lat_rad);
+        let w_ie_b = frames::c_e_g(g.lat_rad, g.lon_rad) * earth::omega_ie_e();
+        let w_en_b = Vector3::new(-self.speed_mps / (rm + g.h_m), 0.0, 0.0);
+        let f_b = Vector3::new(0.0, 0.0, earth::normal_gravity(g.lat_rad, g.h_m));
+        ImuSample {
+            t_ns,
+            seq,
+            dt_s: DT_S,
+            d_theta_rad: ((w_ie_b + w_en_b) * DT_S).into(),
+            d_v_mps: (f_b * DT_S).into(),
+        }
+    }
+
+    fn imu(&self, t_ns: u64, seq: u64) -> ImuSample {
+        self.imu_at(t_ns, seq, t_ns)
+    }
+
+    fn cns(&self, t_ns: u64, seq: u64) -> CnsFix {
+        let g = self.geo(t_ns);
+        CnsFix {
+            t_ns,
+            seq,
+            lat_rad: g.lat_rad,
+            lon_rad: g.lon_rad,
+            sigma_h_m: 30.0,
+        }
+    }
+
+    fn baro(&self, t_ns: u64, seq: u64) -> BaroSample {
+        let g = self.geo(t_ns);
+        BaroSample {
+            t_ns,
+            seq,
+            pressure_pa: isa::pressure(isa::geopotential_from_geometric(g.h_m)),
+            temperature_k: 216.65,
+            sigma_m: 10.0,
+        }
+    }
+
+    fn srs(&self, t_ns: u64, seq: u64) -> SrsSample {
+        self.srs_at(t_ns, seq, t_ns)
+    }
+
+    /// The SRS sample stamped `t_ns` of the vehicle as it is at `content_t_ns`.
+    fn srs_at(&self, t_ns: u64, seq: u64, content_t_ns: u64) -> SrsSample {
+        let c_e_i = polarnav::aids::srs::c_e_i(t_ns as f64 * 1e-9);
+        let (r, v) = (self.r_e(content_t_ns), self.v_e(content_t_ns));
+        let v_p = c_e_i * (v + earth::omega_ie_e().cross(&r));
+        let mut s = SrsSample {
+            t_ns,
+            seq,
+            count: 5,
+            ..Default::default()
+        };
+        let dirs = [
+            Vector3::new(1.0, 0.1, 0.5),
+            Vector3::new(-0.3, 1.0, 0.4),
+            Vector3::new(-0.7, -0.6, 0.6),
+            Vector3::new(0.1, 0.2, 1.0),
+            Vector3::new(0.5, -0.5, 0.7),
+        ];
+        let c = polarnav::aids::srs::C_LIGHT;
+        for (k, d) in dirs.iter().enumerate() {
+            let los = d.normalize();
+            let v_k = Vector3::new(-29_780.0, 500.0 * k as f64, 1_000.0);
+            let w = v_p - v_k;
+            let opz = (c + w.dot(&-los)) / (c * c - w.norm_squared()).sqrt();
+            s.lines[k] = SrsLine {
+                los_i: los.into(),
+                body_vel_i_mps: v_k.into(),
+                rest_wavelength_m: 5e-7,
+                measured_wavelength_m: 5e-7 * opz,
+                sigma_mps: 0.5,
+                body_id: k as u32,
+                _pad: 0,
+            };
+        }
+        s
+    }
+}
+
+// ---- inputs held by value ---------------------------------------------
+
+#[derive(Debug, Clone, Copy)]
+#[allow(clippy::large_enum_variant)]
+enum Owned {
+    Imu(ImuSample),
+    Srs(SrsSample),
+    Cns(CnsFix),
+    Baro(BaroSample),
+    Init(InitState),
+}
+
+impl Owned {
+    fn input(&self) -> Input<'_> {
+        match self {
+            Owned::Imu(x) => Input::Imu(x),
+            Owned::Srs(x) => Input::Srs(x),
+            Owned::Cns(x) => Input::Cns(x),
+            Owned::Baro(x) => Input::Baro(x),
+            Owned::Init(x) => Input::Init(x),
+        }
+    }
+    fn t_ns_mut(&mut self) -> &mut u64 {
+        match self {
+            Owned::Imu(x) => &mut x.t_ns,
+            Owned::Srs(x) => &mut x.t_ns,
+            Owned::Cns(x) => &mut x.t_ns,
+            Owned::Baro(x) => &mut x.t_ns,
+            Owned::Init(x) => &mut x.t_ns,
+        }
+    }
+    /// A short description for failure messages (no 8 SRS lines).
+    fn describe(&self) -> String {
+        match self {
+            Owned::Srs(s) => format!(
+                "Srs {{ t_ns: {}, seq: {}, count: {}, line0: {:?} }}",
+                s.t_ns, s.seq, s.count, s.lines[0]
+            ),
+            other => format!("{other:?}"),
+        }
+    }
+}
+
+// ---- checks -----------------------------------------------------------
+
+fn solution_fields(s: &Solution) -> Vec<(&'static str, f64)> {
+    let mut v = vec![
+        ("lat_rad", s.lat_rad),
+        ("lon_rad", s.lon_rad),
+        ("h_m", s.h_m),
+        ("grid_angle_rad", s.grid_angle_rad),
+        ("heading_rad", s.heading_rad),
+        ("grid_heading_rad", s.grid_heading_rad),
+        ("pitch_rad", s.pitch_rad),
+        ("roll_rad", s.roll_rad),
+        ("reset_delta_heading_rad", s.reset_delta_heading_rad),
+    ];
+    for (name, a) in [
+        ("r_e_m", &s.r_e_m[..]),
+        ("v_e_mps", &s.v_e_mps[..]),
+        ("v_enu_mps", &s.v_enu_mps[..]),
+        ("v_nav_mps", &s.v_nav_mps[..]),
+        ("q_b_e", &s.q_b_e[..]),
+        ("sigma_pos_enu_m", &s.sigma_pos_enu_m[..]),
+        ("sigma_vel_mps", &s.sigma_vel_mps[..]),
+        ("sigma_att_rad", &s.sigma_att_rad[..]),
+        ("gyro_bias_rps", &s.gyro_bias_rps[..]),
+        ("accel_bias_mps2", &s.accel_bias_mps2[..]),
+        ("reset_delta_pos_e_m", &s.reset_delta_pos_e_m[..]),
+        ("reset_delta_vel_e_mps", &s.reset_delta_vel_e_mps[..]),
+    ] {
+        v.extend(a.iter().map(|x| (name, *x)));
+    }
+    v
+}
+
+fn check_solution(s: &Solution) -> Result<(), String> {
+    if let Some((name, x)) = solution_fields(s).into_iter().find(|(_, x)| !x.is_finite()) {
+        return Err(format!(
+            "solution at {} ns: {name} = {x} not finite",
+            s.t_ns
+        ));
+    }
+    let mut sigmas = s
+        .sigma_pos_enu_m
+        .iter()
+        .chain(&s.sigma_vel_mps)
+        .chain(&s.sigma_att_rad);
+    // Finite already; not NaN, so `<= 0` is "not positive".
+    if let Some(x) = sigmas.find(|x| **x <= 0.0) {
+        return Err(format!(
+            "solution at {} ns: σ = {x} not positive (pos {:?} vel {:?} att {:?})",
+            s.t_ns, s.sigma_pos_enu_m, s.sigma_vel_mps, s.sigma_att_rad
+        ));
+    }
+    Ok(())
+}
+
+/// A sink that checks every solution as it arrives and keeps the events.
+#[derive(Debug, Default)]
+struct Checker {
+    solutions: u64,
+    first_bad: Option<String>,
+    events: Vec<Event>,
+}
+
+impl Sink for Checker {
+    fn solution(&mut self, s: &Solution) {
+        self.solutions += 1;
+        if self.first_bad.is_none()
+            && let Err(e) = check_solution(s)
+        {
+            self.first_bad = Some(e);
+        }
+    }
+    fn event(&mut self, e: &Event) {
+        self.events.push(*e);
+    }
+}
+
+#[derive(Debug)]
+struct Harness {
+    session: Session,
+    sink: Checker,
+    truth: Truth,
+    /// Inputs pushed per stream: imu, srs, cns, baro.
+    pushed: [u64; 4],
+    inits: u64,
+    /// Newest genuine IMU time and the count of genuine samples.
+    t_gen: u64,
+    /// Genuine stamps are `t_gen + stamp_offset` (nonzero once the genuine
+    /// stream continues on a time base the navigator moved to).
+    stamp_offset: u64,
+    k_gen: u64,
+    last: Option<Owned>,
+    max_work_step: u64,
+    /// Accept aid `received` counts up to `AID_QUEUE` short of what was
+    /// pushed before `finish` (aids waiting in the queue: see
+    /// `queued_aid_is_counted_as_received`).
+    tolerate_queue: bool,
+    pushes: u64,
+}
+
+impl Harness {
+    /// A session started from a genuine init at `T0_NS`.
+    fn new(truth: Truth) -> Self {
+        let mut h = Self {
+            session: Session::new(SessionSettings::default()),
+            sink: Checker::default(),
+            truth,
+            pushed: [0; 4],
+            inits: 0,
+            t_gen: T0_NS,
+            stamp_offset: 0,
+            k_gen: 0,
+            last: None,
+            max_work_step: 0,
+            tolerate_queue: tolerate_known(),
+            pushes: 0,
+        };
+        h.push(Owned::Init(truth.init(T0_NS, 0)))
+            .expect("a genuine init is accepted");
+        h
+    }
+
+    fn push(&mut self, o: Owned) -> Result<(), String> {
+        let before = self.session.navigator().map_or(0, |n| n.work());
+        self.session.push(o.input(), &mut self.sink);
+        self.pushes += 1;
+        match o {
+            Owned::Imu(_) => self.pushed[0] += 1,
+            Owned::Srs(_) => self.pushed[1] += 1,
+            Owned::Cns(_) => self.pushed[2] += 1,
+            Owned::Baro(_) => self.pushed[3] += 1,
+            Owned::Init(_) => self.inits += 1,
+        }
+        self.last = Some(o);
+        let after = self.session.navigator().map_or(0, |n| n.work());
+        self.check(after.saturating_sub(before), false)
+            .map_err(|e| format!("after push #{} {}: {e}", self.pushes, o.describe()))
+    }
+
+    /// (a)-(d); `finished`: every held input is accounted for.
+    fn check(&mut self, work_step: u64, finished: bool) -> Result<(), String> {
+        // (a)
+        if let Some(bad) = &self.sink.first_bad {
+            return Err(format!("(a) {bad}"));
+        }
+        // (b)
+        let st = self.session.status();
+        for ((name, c), n) in [
+            ("imu", st.imu),
+            ("srs", st.srs),
+            ("cns", st.cns),
+            ("baro", st.baro),
+        ]
+        .iter()
+        .zip(self.pushed)
+        {
+            let sum =
+                c.accepted + c.rejected_invalid + c.rejected_time + c.rejected_gate + c.not_used;
+            if c.received != sum {
+                return Err(format!(
+                    "(b) {name}: received {} != accepted + rejected + not_used = {sum} ({c:?})",
+                    c.received
+                ));
+            }
+            let queued_tolerance = if self.tolerate_queue && *name != "imu" && !finished {
+                AID_QUEUE as u64
+            } else {
+                0
+            };
+            if c.received > n || c.received + queued_tolerance < n {
+                return Err(format!(
+                    "(b) {name}: received {} but {n} pushed ({c:?})",
+                    c.received
+                ));
+            }
+        }
+        let ic = self.session.init_counters();
+        let decided = ic.used + ic.rejected + ic.not_used;
+        if ic.received != self.inits
+            || decided > ic.received
+            || (finished && decided != ic.received)
+        {
+            return Err(format!("(b) inits: {ic:?}, {} pushed", self.inits));
+        }
+        // (c)
+        self.max_work_step = self.max_work_step.max(work_step);
+        if work_step > WORK_BOUND {
+            return Err(format!(
+                "(c) one push did {work_step} work units > {WORK_BOUND}"
+            ));
+        }
+        // (d)
+        if let Some(n) = self.session.navigator() {
+            let ff = n.state().frame_free();
+            let finite = ff
+                .r_e
+                .iter()
+                .chain(ff.v_e.iter())
+                .chain(ff.q_b_e.coords.iter())
+                .all(|x| x.is_finite());
+            if !finite {
+                return Err(format!(
+                    "(d) navigator state not finite: r_e {:?} v_e {:?} q {:?}",
+                    ff.r_e, ff.v_e, ff.q_b_e
+                ));
+            }
+        }
+        Ok(())
+    }
+
+    fn finish(&mut self) -> Result<(), String> {
+        let before = self.session.navigator().map_or(0, |n| n.work());
+        self.session.finish(&mut self.sink);
+        let after = self.session.navigator().map_or(0, |n| n.work());
+        self.check(after.saturating_sub(before), true)
+            .map_err(|e| format!("after finish: {e}"))
+    }
+
+    /// `n` genuine IMU samples continuing the genuine time line, with aids
+    /// (baro at 20 Hz, CNS and SRS at 5 Hz, slightly late).
+    fn genuine(&mut self, n: u64) -> Result<(), String> {
+        for _ in 0..n {
+            self.t_gen += DT_NS;
+            self.k_gen += 1;
+            let (t, k, off) = (self.t_gen, self.k_gen, self.stamp_offset);
+            self.push(Owned::Imu(self.truth.imu_at(t + off, k, t)))?;
+            if k % 10 == 0 {
+                let mut b = self.truth.baro(t, k);
+                b.t_ns += off;
+                self.push(Owned::Baro(b))?;
+            }
+            if k % 40 == 0 {
+                let mut c = self.truth.cns(t - 2 * DT_NS, k);
+                c.t_ns += off;
+                self.push(Owned::Cns(c))?;
+            }
+            if k % 40 == 20 {
+                self.push(Owned::Srs(self.truth.srs_at(t - DT_NS + off, k, t - DT_NS)))?;
+            }
+        }
+        Ok(())
+    }
+
+    fn imu_accepted(&self) -> u64 {
+        self.session.status().imu.accepted
+    }
+}
+
+// ---- generators -------------------------------------------------------
+
+/// sign · 10^U(-320, 308), and the special values.
+fn wild_f64() -> impl Strategy<Value = f64> {
+    prop_oneof![
+        8 => (any::<bool>(), -320.0f64..308.0).prop_map(|(neg, e)| {
+            let m = 10f64.powf(e);
+            if neg { -m } else { m }
+        }),
+        1 => Just(f64::NAN),
+        1 => Just(f64::INFINITY),
+        1 => Just(f64::NEG_INFINITY),
+        1 => Just(f64::MIN_POSITIVE / 2.0),
+        1 => Just(5e-324),
+        1 => Just(0.0),
+        1 => Just(-0.0),
+        1 => Just(f64::MAX),
+        1 => Just(-f64::MAX),
+    ]
+}
+
+/// A field: `None` keeps the genuine value.
+fn field() -> impl Strategy<Value = Option<f64>> {
+    prop_oneof![3 => Just(None), 1 => wild_f64().prop_map(Some)]
+}
+
+/// dt: log-uniform 1e-300..1e300 plus the extremes and the edges of the
+/// accepted range.
+fn dt_field() -> impl Strategy<Value = Option<f64>> {
+    prop_oneof![
+        4 => Just(None),
+        2 => (-300.0f64..300.0).prop_map(|e| Some(10f64.powf(e))),
+        1 => wild_f64().prop_map(Some),
+        1 => prop::sample::select(vec![1e-5, 0.99e-5, 1.0, 1.0000001, 1e-10, 0.0025, 0.0101])
+            .prop_map(Some),
+    ]
+}
+
+/// σ: log-uniform 1e-300..1e300, NaN, ±Inf, negative, 0.
+fn sigma_field() -> impl Strategy<Value = Option<f64>> {
+    prop_oneof![
+        3 => Just(None),
+        3 => (-300.0f64..300.0).prop_map(|e| Some(10f64.powf(e))),
+        1 => (-300.0f64..300.0).prop_map(|e| Some(-(10f64.powf(e)))),
+        1 => prop::sample::select(vec![f64::NAN, f64::INFINITY, f64::NEG_INFINITY, 0.0, -0.0, 5e-324, f64::MAX])
+            .prop_map(Some),
+    ]
+}
+
+/// A time stamp: absolute, relative to the genuine line, or relative to
+/// the navigator's time.
+#[derive(Debug, Clone, Copy)]
+enum Stamp {
+    Abs(u64),
+    Gen(i128),
+    Nav(i128),
+}
+
+fn signed_log_ns(lo: f64, hi: f64) -> impl Strategy<Value = i128> {
+    (any::<bool>(), lo..hi).prop_map(|(neg, e)| {
+        let m = 10f64.powf(e) as i128;
+        if neg { -m } else { m }
+    })
+}
+
+fn stamp() -> impl Strategy<Value = Stamp> {
+    prop_oneof![
+        3 => (0.0f64..19.27).prop_map(|e| Stamp::Abs(10f64.powf(e) as u64)),
+        1 => prop::sample::select(vec![0, 1, u64::MAX, u64::MAX - 1, 1_000_000_000_000_000_000])
+            .prop_map(Stamp::Abs),
+        1 => Just(Stamp::Gen(0)),
+        3 => signed_log_ns(0.0, 9.5).prop_map(Stamp::Gen),
+        2 => signed_log_ns(9.5, 19.3).prop_map(Stamp::Gen),
+        2 => (1i128..40).prop_map(|k| Stamp::Gen(k * DT_NS as i128)),
+        2 => signed_log_ns(0.0, 11.0).prop_map(Stamp::Nav),
+    ]
+}
+
+fn seq() -> impl Strategy<Value = Option<u64>> {
+    prop_oneof![3 => Just(None), 1 => any::<u64>().prop_map(Some)]
+}
+
+#[derive(Debug, Clone)]
+enum ImuContent {
+    Genuine,
+    /// Rates and specific forces up to the plausibility limits.
+    Strong([f64; 3], [f64; 3]),
+    Wild([Option<f64>; 6]),
+}
+
+#[derive(Debug, Clone)]
+struct ImuSpec {
+    stamp: Stamp,
+    seq: Option<u64>,
+    dt: Option<f64>,
+    content: ImuContent,
+}
+
+#[derive(Debug, Clone)]
+struct CnsSpec {
+    stamp: Stamp,
+    seq: Option<u64>,
+    lat: Option<f64>,
+    lon: Option<f64>,
+    sigma: Option<f64>,
+}
+
+#[derive(Debug, Clone)]
+struct BaroSpec {
+    stamp: Stamp,
+    seq: Option<u64>,
+    p: Option<f64>,
+    temp: Option<f64>,
+    sigma: Option<f64>,
+}
+
+#[derive(Debug, Clone)]
+struct SrsSpec {
+    stamp: Stamp,
+    seq: Option<u64>,
+    count: Option<u32>,
+    line: usize,
+    sigma: Option<f64>,
+    measured: Option<f64>,
+    los: Option<f64>,
+    body_vel: Option<f64>,
+}
+
+#[derive(Debug, Clone)]
+enum InitContent {
+    Genuine,
+    /// The genuine state with these σ (pos h, pos v, vel h, vel v, tilt, heading).
+    Sigmas([Option<f64>; 6]),
+    /// A plausible state elsewhere: position offset (m), velocity (m/s), attitude.
+    Moved([f64; 3], [f64; 3], [f64; 4]),
+    /// r_e, v_e, q, σ fields.
+    Wild(Vec<Option<f64>>),
+    /// Level, heading north at 250 m/s, this far (m) from 70° N along the
+    /// meridian: the frame switch latitude.
+    NearSwitch(f64),
+}
+
+#[derive(Debug, Clone)]
+struct InitSpec {
+    stamp: Stamp,
+    seq: Option<u64>,
+    content: InitContent,
+}
+
+#[derive(Debug, Clone)]
+enum InputOp {
+    Imu(ImuSpec),
+    Srs(SrsSpec),
+    Cns(CnsSpec),
+    Baro(BaroSpec),
+    Init(InitSpec),
+}
+
+#[derive(Debug, Clone)]
+enum Op {
+    /// Genuine IMU samples (with aids) continuing the genuine line.
+    Genuine(u64),
+    One(InputOp),
+    /// The last input again, this many times.
+    Duplicate(u8),
+    /// The next genuine samples, pushed newest first.
+    Reversed(u8),
+    /// Genuine samples interleaved in blocks with a second publisher whose
+    /// time base is offset by `offset_ns`.
+    SecondPublisher {
+        offset: i128,
+        n: u8,
+        block: u8,
+    },
+    /// `n` inputs of one kind, the stamp advancing by `step_ns`.
+    Flood {
+        input: InputOp,
+        n: u16,
+        step_ns: u64,
+    },
+    Flush,
+    ImuLost,
+}
+
+fn imu_spec() -> impl Strategy<Value = ImuSpec> {
+    let content = prop_oneof![
+        3 => Just(ImuContent::Genuine),
+        1 => (prop::array::uniform3(-20.0f64..20.0), prop::array::uniform3(-170.0f64..170.0))
+            .prop_map(|(w, f)| ImuContent::Strong(w, f)),
+        2 => prop::array::uniform6(field()).prop_map(ImuContent::Wild),
+    ];
+    (stamp(), seq(), dt_field(), content).prop_map(|(stamp, seq, dt, content)| ImuSpec {
+        stamp,
+        seq,
+        dt,
+        content,
+    })
+}
+
+fn cns_spec() -> impl Strategy<Value = CnsSpec> {
+    (stamp(), seq(), field(), field(), sigma_field()).prop_map(|(stamp, seq, lat, lon, sigma)| {
+        CnsSpec {
+            stamp,
+            seq,
+            lat,
+            lon,
+            sigma,
+        }
+    })
+}
+
+fn baro_spec() -> impl Strategy<Value = BaroSpec> {
+    (stamp(), seq(), field(), field(), sigma_field()).prop_map(|(stamp, seq, p, temp, sigma)| {
+        BaroSpec {
+            stamp,
+            seq,
+            p,
+            temp,
+            sigma,
+        }
+    })
+}
+
+fn srs_spec() -> impl Strategy<Value = SrsSpec> {
+    let count = prop_oneof![3 => Just(None), 1 => (0u32..12).prop_map(Some), 1 => any::<u32>().prop_map(Some)];
+    (
+        stamp(),
+        seq(),
+        count,
+        0usize..8,
+        sigma_field(),
+        field(),
+        field(),
+        field(),
+    )
+        .prop_map(
+            |(stamp, seq, count, line, sigma, measured, los, body_vel)| SrsSpec {
+                stamp,
+                seq,
+                count,
+                line,
+                sigma,
+                measured,
+                los,
+                body_vel,
+            },
+        )
+}
+
+fn init_spec() -> impl Strategy<Value = InitSpec> {
+    let content = prop_oneof![
+        1 => Just(InitContent::Genuine),
+        3 => prop::array::uniform6(sigma_field()).prop_map(InitContent::Sigmas),
+        2 => (
+            prop::array::uniform3(-1e5f64..1e5),
+            prop::array::uniform3(-600.0f64..600.0),
+            prop::array::uniform4(-1.0f64..1.0),
+        )
+            .prop_map(|(dr, v, q)| InitContent::Moved(dr, v, q)),
+        1 => (-300.0f64..300.0).prop_map(InitContent::NearSwitch),
+        2 => prop::collection::vec(field(), 16).prop_map(InitContent::Wild),
+    ];
+    (stamp(), seq(), content).prop_map(|(stamp, seq, content)| InitSpec {
+        stamp,
+        seq,
+        content,
+    })
+}
+
+fn input_op() -> impl Strategy<Value = InputOp> {
+    prop_oneof![
+        4 => imu_spec().prop_map(InputOp::Imu),
+        1 => srs_spec().prop_map(InputOp::Srs),
+        1 => cns_spec().prop_map(InputOp::Cns),
+        1 => baro_spec().prop_map(InputOp::Baro),
+        2 => init_spec().prop_map(InputOp::Init),
+    ]
+}
+
+fn op() -> impl Strategy<Value = Op> {
+    let step = prop_oneof![
+        Just(0u64),
+        Just(1),
+        Just(DT_NS),
+        Just(1_000_000_000),
+        (0.0f64..19.0).prop_map(|e| 10f64.powf(e) as u64),
+    ];
+    prop_oneof![
+        4 => (1u64..60).prop_map(Op::Genuine),
+        8 => input_op().prop_map(Op::One),
+        1 => (1u8..6).prop_map(Op::Duplicate),
+        1 => (2u8..20).prop_map(Op::Reversed),
+        1 => (signed_log_ns(6.0, 19.3), 1u8..40, 1u8..6)
+            .prop_map(|(offset, n, block)| Op::SecondPublisher { offset, n, block }),
+        1 => (input_op(), 1u16..200, step)
+            .prop_map(|(input, n, step_ns)| Op::Flood { input, n, step_ns }),
+        1 => Just(Op::Flush),
+        1 => Just(Op::ImuLost),
+    ]
+}
+
+// ---- building and applying ----------------------------------------------
+
+fn offset_u64(base: u64, off: i128) -> u64 {
+    (base as i128 + off).clamp(0, u64::MAX as i128) as u64
+}
+
+impl Harness {
+    fn resolve(&self, s: Stamp) -> u64 {
+        match s {
+            Stamp::Abs(t) => t,
+            Stamp::Gen(off) => offset_u64(self.t_gen, off),
+            Stamp::Nav(off) => {
+                let nav = self.session.navigator().map_or(self.t_gen, |n| n.t_ns());
+                offset_u64(nav, off)
+            }
+        }
+    }
+
+    fn build(&self, op: &InputOp) -> Owned {
+        let tr = self.truth;
+        let tg = self.t_gen;
+        let k = self.k_gen;
+        let or = |f: Option<f64>, v: f64| f.unwrap_or(v);
+        match op {
+            InputOp::Imu(s) => {
+                let mut x = tr.imu_at(self.resolve(s.stamp), s.seq.unwrap_or(k), tg);
+                x.dt_s = or(s.dt, DT_S);
+                match &s.content {
+                    ImuContent::Genuine => {}
+                    ImuContent::Strong(w, f) => {
+                        let dt = if x.dt_s.is_finite() { x.dt_s } else { DT_S };
+                        x.d_theta_rad = w.map(|w| w * dt);
+                        x.d_v_mps = f.map(|f| f * dt);
+                    }
+                    ImuContent::Wild(v) => {
+                        for i in 0..3 {
+                            x.d_theta_rad[i] = or(v[i], x.d_theta_rad[i]);
+                            x.d_v_mps[i] = or(v[i + 3], x.d_v_mps[i]);
+                        }
+                    }
+                }
+                Owned::Imu(x)
+            }
+            InputOp::Cns(s) => {
+                let mut x = tr.cns(tg, s.seq.unwrap_or(k));
+                x.t_ns = self.resolve(s.stamp);
+                x.lat_rad = or(s.lat, x.lat_rad);
+                x.lon_rad = or(s.lon, x.lon_rad);
+                x.sigma_h_m = or(s.sigma, x.sigma_h_m);
+                Owned::Cns(x)
+            }
+            InputOp::Baro(s) => {
+                let mut x = tr.baro(tg, s.seq.unwrap_or(k));
+                x.t_ns = self.resolve(s.stamp);
+                x.pressure_pa = or(s.p, x.pressure_pa);
+                x.temperature_k = or(s.temp, x.temperature_k);
+                x.sigma_m = or(s.sigma, x.sigma_m);
+                Owned::Baro(x)
+            }
+            InputOp::Srs(s) => {
+                let mut x = tr.srs(tg, s.seq.unwrap_or(k));
+                x.t_ns = self.resolve(s.stamp);
+                x.count = s.count.unwrap_or(x.count);
+                if let Some(sig) = s.sigma {
+                    for l in &mut x.lines {
+                        l.sigma_mps = sig;
+                    }
+                }
+                let l = &mut x.lines[s.line];
+                l.measured_wavelength_m = or(s.measured, l.measured_wavelength_m);
+                l.los_i[s.line % 3] = or(s.los, l.los_i[s.line % 3]);
+                l.body_vel_i_mps[s.line % 3] = or(s.body_vel, l.body_vel_i_mps[s.line % 3]);
+                Owned::Srs(x)
+            }
+            InputOp::Init(s) => {
+                let mut x = tr.init(tg, s.seq.unwrap_or(k));
+                x.t_ns = self.resolve(s.stamp);
+                match &s.content {
+                    InitContent::Genuine => {}
+                    InitContent::Sigmas(sg) => {
+                        for (dst, v) in sigmas_mut(&mut x).into_iter().zip(sg) {
+                            *dst = or(*v, *dst);
+                        }
+                    }
+                    InitContent::Moved(dr, v, q) => {
+                        for (r, d) in x.r_e_m.iter_mut().zip(dr) {
+                            *r += d;
+                        }
+                        x.v_e_mps = *v;
+                        let n = q.iter().map(|a| a * a).sum::<f64>().sqrt();
+                        if n > 1e-3 {
+                            x.q_b_e = q.map(|a| a / n);
+                        }
+                    }
+                    InitContent::NearSwitch(d_m) => {
+                        let lat = 70f64.to_radians() + d_m / 6_400_000.0;
+                        let g = Geodetic::new(lat, LON0_DEG.to_radians(), H0_M);
+                        let c = frames::c_e_g(g.lat_rad, g.lon_rad);
+                        let q = UnitQuaternion::from_matrix(&c.transpose());
+                        x.r_e_m = earth::geodetic_to_ecef(&g).into();
+                        x.v_e_mps = (c.transpose() * Vector3::new(0.0, 250.0, 0.0)).into();
+                        x.q_b_e = [q.w, q.i, q.j, q.k];
+                    }
+                    InitContent::Wild(f) => {
+                        for (dst, v) in init_fields_mut(&mut x).into_iter().zip(f) {
+                            *dst = or(*v, *dst);
+                        }
+                    }
+                }
+                if tolerate_known() {
+                    for v in sigmas_mut(&mut x) {
+                        if v.is_finite() && *v >= 0.0 {
+                            *v = v.clamp(0.1, 1e4);
+                        }
+                    }
+                    if x.r_e_m[0].hypot(x.r_e_m[1]) < 1e5 {
+                        let r = tr.r_e(tg);
+                        x.r_e_m[0] = r.x;
+                        x.r_e_m[1] = r.y;
+                    }
+                }
+                Owned::Init(x)
+            }
+        }
+    }
+
+    fn apply(&mut self, op: &Op) -> Result<(), String> {
+        match op {
+            Op::Genuine(n) => self.genuine(*n)?,
+            Op::One(i) => self.push(self.build(i))?,
+            Op::Duplicate(n) => {
+                if let Some(o) = self.last {
+                    for _ in 0..*n {
+                        self.push(o)?;
+                    }
+                }
+            }
+            Op::Reversed(n) => {
+                let n = u64::from(*n);
+                let samples: Vec<ImuSample> = (1..=n)
+                    .map(|j| self.truth.imu(self.t_gen + j * DT_NS, self.k_gen + j))
+                    .collect();
+                self.t_gen += n * DT_NS;
+                self.k_gen += n;
+                for s in samples.iter().rev() {
+                    self.push(Owned::Imu(*s))?;
+                }
+            }
+            Op::SecondPublisher { offset, n, block } => {
+                let mut other = offset_u64(self.t_gen, *offset);
+                for j in 0..u64::from(*n) {
+                    if j % u64::from(*block) == 0 {
+                        self.genuine(u64::from(*block))?;
+                    }
+                    other = other.saturating_add(DT_NS);
+                    let s = self.truth.imu_at(other, 1_000_000 + j, self.t_gen);
+                    self.push(Owned::Imu(s))?;
+                }
+            }
+            Op::Flood { input, n, step_ns } => {
+                let mut o = self.build(input);
+                for _ in 0..*n {
+                    self.push(o)?;
+                    let t = o.t_ns_mut();
+                    *t = t.saturating_add(*step_ns);
+                }
+            }
+            Op::Flush => {
+                self.session.flush(&mut self.sink);
+                self.check(0, false)
+                    .map_err(|e| format!("after flush: {e}"))?;
+            }
+            Op::ImuLost => {
+                let before = self.session.navigator().map_or(0, |n| n.work());
+                self.session.imu_lost(&mut self.sink);
+                let after = self.session.navigator().map_or(0, |n| n.work());
+                self.check(after.saturating_sub(before), false)
+                    .map_err(|e| format!("after imu_lost: {e}"))?;
+            }
+        }
+        Ok(())
+    }
+}
+
+fn sigmas_mut(x: &mut InitState) -> [&mut f64; 6] {
+    [
+        &mut x.sigma_pos_h_m,
+        &mut x.sigma_pos_v_m,
+        &mut x.sigma_vel_h_mps,
+        &mut x.sigma_vel_v_mps,
+        &mut x.sigma_tilt_rad,
+        &mut x.sigma_heading_rad,
+    ]
+}
+
+/// r_e (3), v_e (3), q (4), σ (6).
+fn init_fields_mut(x: &mut InitState) -> Vec<&mut f64> {
+    let InitState {
+        r_e_m,
+        v_e_mps,
+        q_b_e,
+        sigma_pos_h_m,
+        sigma_pos_v_m,
+        sigma_vel_h_mps,
+        sigma_vel_v_mps,
+        sigma_tilt_rad,
+        sigma_heading_rad,
+        ..
+    } = x;
+    let mut v: Vec<&mut f64> = r_e_m
+        .iter_mut()
+        .chain(v_e_mps.iter_mut())
+        .chain(q_b_e.iter_mut())
+        .collect();
+    v.extend([
+        sigma_pos_h_m,
+        sigma_pos_v_m,
+        sigma_vel_h_mps,
+        sigma_vel_v_mps,
+        sigma_tilt_rad,
+        sigma_heading_rad,
+    ]);
+    v
+}
+
+/// The whole property: genuine start, adversarial inputs, finish, genuine
+/// continuation.
+fn run_case(speed_mps: f64, warmup: u64, ops: &[Op]) -> Result<(), String> {
+    let mut h = Harness::new(Truth { speed_mps });
+    h.genuine(warmup)?;
+    for (i, op) in ops.iter().enumerate() {
+        h.apply(op).map_err(|e| format!("op #{i} {op:?}: {e}"))?;
+    }
+    h.finish()?;
+    // The genuine stream goes on. If the adversarial inputs confirmed a
+    // move of the navigator's time base ahead of the genuine line (a jump,
+    // or a coasted gap), the publisher that goes on is the one on that base:
+    // the genuine stream continues from the navigator's time. (Whether the
+    // original line itself is blinded is pinned down by a named test below.)
+    // Otherwise it continues on its own line; either way it must be taken
+    // again within TIME_JUMP_CONFIRM samples.
+    if let Some(nav_t) = h.session.navigator().map(|n| n.t_ns())
+        && nav_t > h.t_gen
+        && nav_t < u64::MAX / 2
+    {
+        h.stamp_offset = nav_t - h.t_gen;
+    }
+    let before = h.imu_accepted();
+    h.genuine(400)?;
+    let grown = h.imu_accepted() - before;
+    let min = 400 - TIME_JUMP_CONFIRM as u64;
+    if grown < min {
+        return Err(format!(
+            "genuine continuation blinded: {grown} of 400 accepted (at least {min} expected), \
+             navigator at {:?} ns, genuine stamps up to {} ns",
+            h.session.navigator().map(|n| n.t_ns()),
+            h.t_gen + h.stamp_offset
+        ));
+    }
+    h.finish()
+}
+
+/// Proptest cases of the main property (about 5 s in the test profile).
+const CASES: u32 = 2048;
+
+/// With `SESSION_PROPS_TOLERATE_KNOWN` set, the property tolerates the two
+/// deviations the named tests below pin down (aids waiting in the queue
+/// missing from `status().received`; init σ so large or small that P
+/// loses positive definiteness; an init on the polar axis), so
+/// that it can look for further ones. Unset, every check is strict.
+fn tolerate_known() -> bool {
+    std::env::var_os("SESSION_PROPS_TOLERATE_KNOWN").is_some()
+}
+
+#[test]
+fn adversarial_inputs_keep_the_session_sound() {
+    // The strategies' value trees and the session are large: a big stack.
+    let worker = std::thread::Builder::new()
+        .stack_size(256 << 20)
+        .spawn(|| {
+            let config = ProptestConfig {
+                cases: std::env::var("SESSION_PROPS_CASES")
+                    .ok()
+                    .and_then(|c| c.parse().ok())
+                    .unwrap_or(CASES),
+                failure_persistence: None,
+                ..ProptestConfig::default()
+            };
+            let mut runner = proptest::test_runner::TestRunner::new(config);
+            let strategy = (
+                prop_oneof![Just(0.0f64), Just(250.0)],
+                20u64..200,
+                prop::collection::vec(op(), 1..40),
+            );
+            runner
+                .run(&strategy, |(speed, warmup, ops)| {
+                    run_case(speed, warmup, &ops).map_err(TestCaseError::fail)
+                })
+                .map_err(|e| e.to_string())
+        })
+        .expect("spawn");
+    if let Err(e) = worker.join().expect("no panic in the property") {
+        panic!("{e}");
+    }
+}
+
+// ---- named regression cases ----------------------------------------------
+
+fn started(speed_mps: f64) -> Harness {
+    let mut h = Harness::new(Truth { speed_mps });
+    h.genuine(400).expect("genuine start");
+    h
+}
+
+fn ok(r: Result<(), String>) {
+    if let Err(e) = r {
+        panic!("{e}");
+    }
+}
+
+#[test]
+fn imu_stamped_1e18_costs_only_itself() {
+    let mut h = started(250.0);
+    let before = h.imu_accepted();
+    let bad = h.truth.imu_at(1_000_000_000_000_000_000, 99, h.t_gen);
+    ok(h.push(Owned::Imu(bad)));
+    ok(h.genuine(400));
+    assert_eq!(
+        h.imu_accepted() - before,
+        400,
+        "every genuine sample accepted"
+    );
+    ok(h.finish());
+    assert_eq!(h.session.status().imu.rejected_time, 1);
+    assert_eq!(h.session.time_resyncs(), 0);
+}
+
+#[test]
+fn imu_60_s_ahead_then_genuine() {
+    for ahead_ns in [59_990_000_000u64, 60_000_000_000, 60_010_000_000] {
+        let mut h = started(250.0);
+        let before = h.imu_accepted();
+        let bad = h.truth.imu_at(h.t_gen + ahead_ns, 99, h.t_gen);
+        ok(h.push(Owned::Imu(bad)));
+        ok(h.genuine(400));
+        let grown = h.imu_accepted() - before;
+        assert!(
+            grown >= 400,
+            "{ahead_ns} ns ahead: {grown} accepted of 400 genuine (+1 bad)"
+        );
+        ok(h.finish());
+    }
+}
+
+#[test]
+fn two_samples_with_dt_1e_10() {
+    let mut h = started(0.0);
+    let before = h.imu_accepted();
+    for _ in 0..2 {
+        h.t_gen += DT_NS;
+        h.k_gen += 1;
+        let mut s = h.truth.imu(h.t_gen, h.k_gen);
+        s.dt_s = 1e-10;
+        ok(h.push(Owned::Imu(s)));
+    }
+    assert_eq!(h.session.status().imu.rejected_invalid, 2);
+    ok(h.genuine(400));
+    assert_eq!(h.imu_accepted() - before, 400);
+    ok(h.finish());
+}
+
+#[test]
+fn time_jump_of_1e6_s_is_followed() {
+    let mut h = started(250.0);
+    let before = h.imu_accepted();
+    let resyncs = h.session.time_resyncs();
+    // The publisher's clock jumps by 1e6 s; its samples stay consistent.
+    h.t_gen += 1_000_000 * 1_000_000_000;
+    // Content continues from before the jump (the truth is parametrized by
+    // the stamp, so keep the vehicle where it was).
+    let content_t = T0_NS + 400 * DT_NS;
+    for j in 1..=400u64 {
+        h.t_gen += DT_NS;
+        h.k_gen += 1;
+        let s = h.truth.imu_at(h.t_gen, h.k_gen, content_t + j * DT_NS);
+        ok(h.push(Owned::Imu(s)));
+    }
+    assert_eq!(h.session.time_resyncs(), resyncs + 1);
+    assert!(
+        h.sink
+            .events
+            .iter()
+            .any(|e| matches!(e, Event::TimeResync { to_t_ns, .. } if *to_t_ns > 1_000_000 * 1_000_000_000)),
+        "a TimeResync event to the new time base"
+    );
+    assert_eq!(
+        h.imu_accepted() - before,
+        400,
+        "the candidates are used after the resync"
+    );
+    assert_eq!(h.session.navigator().map(|n| n.t_ns()), Some(h.t_gen));
+    ok(h.finish());
+}
+
+#[test]
+fn aid_with_sigma_1e160_is_rejected() {
+    let mut h = started(0.0);
+    // A fresh IMU epoch, so that no aid stream has used this stamp yet.
+    ok(h.genuine(1));
+    let t = h.t_gen;
+    let st0 = h.session.status();
+    let mut c = h.truth.cns(t, 1);
+    c.sigma_h_m = 1e160;
+    let mut b = h.truth.baro(t, 1);
+    b.sigma_m = 1e160;
+    let mut s = h.truth.srs(t, 1);
+    for l in &mut s.lines {
+        l.sigma_mps = 1e160;
+    }
+    ok(h.push(Owned::Cns(c)));
+    ok(h.push(Owned::Baro(b)));
+    ok(h.push(Owned::Srs(s)));
+    let st = h.session.status();
+    assert_eq!(st.cns.rejected_invalid, st0.cns.rejected_invalid + 1);
+    assert_eq!(st.baro.rejected_invalid, st0.baro.rejected_invalid + 1);
+    assert_eq!(st.srs.rejected_invalid, st0.srs.rejected_invalid + 1);
+    let n = h.session.navigator().expect("navigating");
+    assert!(n.covariance().iter().all(|x| x.is_finite()));
+    assert!((0..15).all(|i| n.covariance()[(i, i)] > 0.0));
+    ok(h.genuine(40));
+    ok(h.finish());
+}
+
+#[test]
+fn future_aids_do_not_block_genuine_ones() {
+    let mut h = started(0.0);
+    let far = 1_000_000_000_000_000_000;
+    let st0 = h.session.status();
+    ok(h.push(Owned::Srs(h.truth.srs(far, 1))));
+    ok(h.push(Owned::Cns(h.truth.cns(far, 1))));
+    ok(h.push(Owned::Baro(h.truth.baro(far, 1))));
+    ok(h.genuine(400));
+    let st = h.session.status();
+    assert_eq!(st.srs.rejected_time, st0.srs.rejected_time + 1);
+    assert!(
+        st.srs.accepted >= st0.srs.accepted + 9,
+        "srs {st0:?} -> {st:?}"
+    );
+    assert!(st.cns.accepted >= st0.cns.accepted + 9, "cns {:?}", st.cns);
+    assert!(
+        st.baro.accepted >= st0.baro.accepted + 39,
+        "baro {:?}",
+        st.baro
+    );
+    ok(h.finish());
+}
+
+#[test]
+fn init_stamped_1e18_while_navigating_is_held() {
+    let mut h = started(250.0);
+    let before = h.imu_accepted();
+    let i = h.truth.init(1_000_000_000_000_000_000, 7);
+    ok(h.push(Owned::Init(i)));
+    ok(h.genuine(400));
+    assert_eq!(h.imu_accepted() - before, 400);
+    assert_eq!(h.session.reinits(), 0);
+    ok(h.finish());
+    let ic = h.session.init_counters();
+    assert_eq!(
+        (ic.received, ic.used, ic.rejected, ic.not_used),
+        (2, 1, 0, 1)
+    );
+}
+
+#[test]
+fn flood_of_10000_aids_half_a_second_ahead() {
+    let mut h = started(0.0);
+    // Bounded: at most AID_QUEUE waiting (uncounted) at any time; exact
+    // after `finish` (checked by `h.finish()`).
+    h.tolerate_queue = true;
+    let t = h.t_gen + MAX_AID_LEAD_NS / 2;
+    let st0 = h.session.status();
+    for j in 0..10_000u64 {
+        let o = match j % 3 {
+            0 => Owned::Baro(h.truth.baro(t + j, j)),
+            1 => Owned::Cns(h.truth.cns(t + j, j)),
+            _ => Owned::Srs(h.truth.srs(t + j, j)),
+        };
+        ok(h.push(o));
+    }
+    ok(h.genuine(200));
+    ok(h.finish());
+    let st = h.session.status();
+    let grown = |a: u64, b: u64| a - b;
+    assert_eq!(
+        grown(st.srs.received, st0.srs.received)
+            + grown(st.cns.received, st0.cns.received)
+            + grown(st.baro.received, st0.baro.received),
+        10_000 + 20 + 5 + 5
+    );
+    assert!(h.max_work_step <= WORK_BOUND);
+}
+
+/// Aids waiting in the queue for the IMU have been received: `status()`
+/// must count them (as it counts the held time-jump candidates).
+#[test]
+fn queued_aid_is_counted_as_received() {
+    let mut h = started(0.0);
+    let before = h.session.status().baro;
+    // Half a second ahead of the IMU: it waits in the queue.
+    let b = h.truth.baro(h.t_gen + 100 * DT_NS, 1);
+    h.session.push(Input::Baro(&b), &mut h.sink);
+    let after = h.session.status().baro;
+    assert_eq!(
+        after.received,
+        before.received + 1,
+        "a baro sample waiting in the queue is missing from status().baro.received: \
+         {before:?} -> {after:?}"
+    );
+}
+
+/// Init σ that `check_init` accepts (finite, not negative) must give
+/// solutions with finite, positive σ.
+#[test]
+fn init_sigma_extremes_keep_published_sigma_positive_and_finite() {
+    let cases: [(usize, f64); 5] = [
+        (1, 0.0),   // σ_pos_v = 0: an exact init
+        (1, 1e10),  // σ_pos_v
+        (2, 1e12),  // σ_vel_h
+        (0, 1e200), // σ_pos_h
+        (5, 1e200), // σ_heading
+    ];
+    let mut failures = Vec::new();
+    for (field, sigma) in cases {
+        let mut h = started(0.0);
+        let mut i = h.truth.init(h.t_gen, 3);
+        *sigmas_mut(&mut i)[field] = sigma;
+        let r = h
+            .push(Owned::Init(i))
+            .and_then(|_| h.genuine(400))
+            .and_then(|_| h.finish());
+        if let Err(e) = r {
+            failures.push(format!("σ[{field}] = {sigma:e}: {e}"));
+        }
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
+/// An init on the polar axis (x = y = 0) with a plausible attitude (the
+/// vehicle's, 4° from the local level there) must keep σ positive.
+#[test]
+fn init_on_the_polar_axis_keeps_sigma_positive() {
+    let mut h = started(0.0);
+    let mut i = h.truth.init(h.t_gen, 3);
+    i.r_e_m[0] = 0.0;
+    i.r_e_m[1] = 0.0;
+    ok(h.push(Owned::Init(i)));
+    ok(h.genuine(400));
+    ok(h.finish());
+}
+
+/// A known limit, pinned: four consistent samples of a second publisher 3 s
+/// ahead, with no genuine sample between them, confirm a gap, and the
+/// navigator coasts to them. The genuine stream is then stale until its
+/// time passes the coasted time (here 3 s, at most `imu_max_coast_s`), and
+/// from then on it is taken again. (Interleaved with the genuine stream, a
+/// second publisher never confirms anything: see the property test.)
+#[test]
+fn second_publisher_burst_ahead_blinds_the_genuine_stream_only_until_it_catches_up() {
+    let mut h = started(250.0);
+    let other = h.t_gen + 3_000_000_000;
+    for j in 1..=TIME_JUMP_CONFIRM as u64 {
+        let s = h.truth.imu_at(other + j * DT_NS, 1_000_000 + j, h.t_gen);
+        ok(h.push(Owned::Imu(s)));
+    }
+    let coasted_to = h.session.navigator().map_or(0, |n| n.t_ns());
+    assert!(coasted_to >= other, "the burst did not confirm a gap");
+    // 3 s of the genuine stream at 200 Hz are stale, and so are the genuine
+    // samples with the burst's own stamps; then it is taken again.
+    let before = h.imu_accepted();
+    ok(h.genuine(600 + 400));
+    let grown = h.imu_accepted() - before;
+    assert!(
+        grown >= 400 - TIME_JUMP_CONFIRM as u64,
+        "genuine stream still blinded after catching up: {grown} of the last 400 accepted; navigator at {:?} ns, genuine at {} ns",
+        h.session.navigator().map(|n| n.t_ns()),
+        h.t_gen
+    );
+}
