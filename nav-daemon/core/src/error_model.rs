@@ -218,6 +218,36 @@ pub fn f_grid(
     f
 }
 
+impl crate::mech::AnyNav {
+    /// The error dynamics F of this state's frame for the specific force
+    /// `f_b` (body axes): [`f_geo`] in g, [`f_grid`] in G.
+    pub fn error_dynamics(&self, f_b: &Vector3<f64>) -> Mat15 {
+        match self {
+            crate::mech::AnyNav::Geographic(s) => {
+                let c = s.q_b_n.to_rotation_matrix().into_inner();
+                f_geo(&s.pos, &s.v_n, &c, &(c * f_b))
+            }
+            crate::mech::AnyNav::Grid(s) => {
+                let c = s.q_b_n.to_rotation_matrix().into_inner();
+                f_grid(&s.pos, &s.v_n, &c, &(c * f_b))
+            }
+        }
+    }
+
+    /// The map from this frame's position error δp to local east, north,
+    /// up metres: from δL, δλ, δh in g; `c_e_g` on the ECEF δr in G.
+    pub fn position_error_to_enu(&self, c_e_g: &Matrix3<f64>) -> Matrix3<f64> {
+        match self {
+            crate::mech::AnyNav::Geographic(s) => {
+                let (rm, rn) = earth::radii(s.pos.lat_rad);
+                let e = (rn + s.pos.h_m) * s.pos.lat_rad.cos();
+                Matrix3::new(0.0, e, 0.0, rm + s.pos.h_m, 0.0, 0.0, 0.0, 0.0, 1.0)
+            }
+            crate::mech::AnyNav::Grid(_) => *c_e_g,
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

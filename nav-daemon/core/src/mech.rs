@@ -511,3 +511,50 @@ mod tests {
         }
     }
 }
+
+/// The nominal navigation state with its geodetic position cached: every
+/// change goes through a method that refreshes the cache, so it cannot go
+/// stale (the mechanization reads it every step instead of converting
+/// ECEF → geodetic twice).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Nominal {
+    nav: AnyNav,
+    geo: Geodetic,
+}
+
+impl Nominal {
+    pub fn new(nav: AnyNav) -> Self {
+        Self {
+            geo: nav.geodetic(),
+            nav,
+        }
+    }
+
+    pub fn nav(&self) -> &AnyNav {
+        &self.nav
+    }
+
+    pub fn geo(&self) -> Geodetic {
+        self.geo
+    }
+
+    pub fn kind(&self) -> FrameKind {
+        self.nav.kind()
+    }
+
+    /// One strapdown step.
+    pub fn mechanize(&mut self, prev: &Increment, cur: &Increment) {
+        *self = Self::new(self.nav.mechanize_at(&self.geo, prev, cur));
+    }
+
+    /// The same state in frame `to`.
+    pub fn convert(&mut self, to: FrameKind) {
+        *self = Self::new(self.nav.converted(to));
+    }
+
+    /// Closed-loop feedback of an error-state correction.
+    pub fn correct(&mut self, phi: &Vector3<f64>, dv: &Vector3<f64>, dp: &Vector3<f64>) {
+        self.nav.correct(phi, dv, dp);
+        self.geo = self.nav.geodetic();
+    }
+}

@@ -322,6 +322,16 @@ pub enum Event {
     },
 }
 
+/// A sample whose values could be navigated on (the navigator checks the
+/// rates; this is only what decides whether it may start a held init).
+fn plausible(s: &ImuSample) -> bool {
+    s.d_theta_rad
+        .iter()
+        .chain(&s.d_v_mps)
+        .all(|x| x.is_finite())
+        && (IMU_DT_RANGE_S.0..=IMU_DT_RANGE_S.1).contains(&s.dt_s)
+}
+
 /// Where an IMU sample falls relative to the navigator's time.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 enum Place {
@@ -810,9 +820,15 @@ impl Session {
     fn push_imu(&mut self, s: &ImuSample, sink: &mut impl Sink) {
         self.imu_lost = false;
         self.flush(sink);
-        // A held init the IMU has now reached applies before this sample.
+        // A held init applies before the sample that continues right after
+        // it (a plausible sample at most `imu_gap_s` later): a stray
+        // sample far ahead must not let a stray init take over the state.
+        let gap_ns = self.settings.navigator.filter.imu_gap_s * 1e9;
         if self.nav.is_some()
-            && let Some(i) = self.held_init.filter(|i| i.t_ns < s.t_ns)
+            && plausible(s)
+            && let Some(i) = self
+                .held_init
+                .filter(|i| i.t_ns < s.t_ns && ((s.t_ns - i.t_ns) as f64) <= gap_ns)
         {
             self.held_init = None;
             self.apply_init(i, sink);
@@ -902,9 +918,20 @@ impl Session {
         if self.n_candidates < TIME_JUMP_CONFIRM {
             return;
         }
-        // Confirmed. A gap the navigator can coast: it does, from the first
-        // candidate on.
+        // Confirmed. A held init between the navigator's time and the new
+        // samples starts that new stretch (a new flight or pass whose first
+        // samples were lost).
         let first = self.candidates[0];
+        let now = self.nav.as_ref().map_or(0, Navigator::t_ns);
+        if let Some(i) = self
+            .held_init
+            .filter(|i| i.t_ns > now && i.t_ns < first.t_ns)
+        {
+            self.held_init = None;
+            self.apply_init(i, sink);
+            return;
+        }
+        // A gap the navigator can coast: it does, from the first candidate on.
         if self.fits(&first) {
             self.after_time_base_change(sink);
             return;

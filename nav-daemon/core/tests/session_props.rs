@@ -1364,3 +1364,30 @@ fn second_publisher_burst_ahead_blinds_the_genuine_stream_only_until_it_catches_
         h.t_gen
     );
 }
+
+/// A stray init stamped 1e18 ns and a stray IMU sample stamped beyond it
+/// (with a NaN interval) while navigating: the init must not take over the
+/// state (it applies only before a plausible sample that continues right
+/// after it); the genuine stream goes on.
+#[test]
+fn a_stray_init_and_a_stray_imu_sample_do_not_take_over_the_state() {
+    let mut h = started(250.0);
+    let mut i = h.truth.init(h.t_gen, 3);
+    i.t_ns = 1_000_000_000_000_000_000;
+    i.r_e_m = [0.0, 0.0, 6_356_752.3];
+    ok(h.push(Owned::Init(i)));
+    let mut s = h.truth.imu_at(u64::MAX, 99, h.t_gen);
+    s.dt_s = f64::NAN;
+    ok(h.push(Owned::Imu(s)));
+    let before = h.imu_accepted();
+    ok(h.genuine(400));
+    assert_eq!(h.session.reinits(), 0, "the stray init was applied");
+    assert!(h.imu_accepted() - before >= 400 - TIME_JUMP_CONFIRM as u64);
+    let nav = h.session.navigator().expect("navigating");
+    let lat = earth::ecef_to_geodetic(&nav.state().frame_free().r_e).lat_rad;
+    assert!(
+        lat.to_degrees() < 89.0,
+        "the state moved to the pole: {}",
+        lat.to_degrees()
+    );
+}

@@ -1,0 +1,311 @@
+//! Error state and covariance: the 15-state P, the bias estimates fed back
+//! into the IMU compensation, the interval accumulated for the next
+//! propagation, the conversion of P at a frame switch, the covariance of a
+//! coasted gap, and the guard that re-inflates a P that lost finiteness or
+//! positive definiteness.
+
+use msgs::InitState;
+use nalgebra::{Matrix3, Vector3};
+
+use crate::aids::Measurement;
+use crate::earth;
+use crate::error_model::{Mat15, idx};
+use crate::filter::{self, ProcessNoise, UpdateOutcome};
+use crate::frames;
+use crate::mech::{AnyNav, FrameKind, Increment, Nominal};
+use crate::settings::FilterSettings;
+use crate::switch;
+
+use super::INIT_SIGMA_FLOOR;
+
+/// The error covariance, the bias estimates and the propagation interval.
+#[derive(Debug, Clone)]
+pub(super) struct ErrorState {
+    pub(super) p: Mat15,
+    pub(super) gyro_bias: Vector3<f64>,
+    pub(super) accel_bias: Vector3<f64>,
+    /// Time and body Δv accumulated since the last propagation.
+    pub(super) acc_dt: f64,
+    pub(super) acc_dv_b: Vector3<f64>,
+    noise: ProcessNoise,
+    interval_s: f64,
+    bias_sigma: BiasSigma,
+    /// Covariance repairs so far.
+    pub(super) repairs: u64,
+    /// Propagations so far (part of the navigator's work count).
+    pub(super) propagations: u64,
+}
+
+impl ErrorState {
+    /// P₀ for a start at `nav_g` (the state in g) in frame `kind`: stated in
+    /// g from the init's σ and, for a start in G, converted with Φ as a
+    /// switch would (one initialization path in either frame, papers/001
+    /// eqs 26, 32–36).
+    pub(super) fn new(
+        nav_g: &AnyNav,
+        kind: FrameKind,
+        init: &InitState,
+        f: &FilterSettings,
+    ) -> Self {
+        let bias_sigma = BiasSigma::from_settings(f);
+        let mut p = initial_covariance(&nav_g.geodetic(), init, &bias_sigma);
+        if kind == FrameKind::Grid {
+            let phi = phi_to(FrameKind::Grid, nav_g);
+            p = phi * p * phi.transpose();
+            filter::symmetrize(&mut p);
+        }
+        Self {
+            p,
+            gyro_bias: Vector3::zeros(),
+            accel_bias: Vector3::zeros(),
+            acc_dt: 0.0,
+            acc_dv_b: Vector3::zeros(),
+            noise: f.process_noise(),
+            interval_s: f.covariance_interval_s,
+            bias_sigma,
+            repairs: 0,
+            propagations: 0,
+        }
+    }
+
+    /// An increment with the bias estimates removed.
+    pub(super) fn compensate(
+        &self,
+        d_theta: &Vector3<f64>,
+        d_v: &Vector3<f64>,
+        dt_s: f64,
+    ) -> Increment {
+        Increment {
+            d_theta: d_theta - self.gyro_bias * dt_s,
+            d_v: d_v - self.accel_bias * dt_s,
+            dt_s,
+        }
+    }
+
+    /// Adds one increment to the interval; true when a propagation is due.
+    pub(super) fn accumulate(&mut self, inc: &Increment) -> bool {
+        self.acc_dt += inc.dt_s;
+        self.acc_dv_b += inc.d_v;
+        self.acc_dt >= self.interval_s * (1.0 - 1e-9)
+    }
+
+    /// P brought up to the current time with the mean specific force of the
+    /// interval; a P that is no longer usable is repaired (true if so).
+    pub(super) fn propagate(&mut self, nominal: &Nominal) -> bool {
+        if self.acc_dt <= 0.0 {
+            return false;
+        }
+        self.propagations += 1;
+        let f_b = self.acc_dv_b / self.acc_dt;
+        let mut f = nominal.nav().error_dynamics(&f_b);
+        self.noise.add_bias_dynamics(&mut f);
+        filter::propagate(&mut self.p, &f, &self.noise, self.acc_dt);
+        self.acc_dt = 0.0;
+        self.acc_dv_b = Vector3::zeros();
+        if covariance_usable(&self.p) {
+            return false;
+        }
+        self.repair(nominal);
+        true
+    }
+
+    /// Replaces a covariance that lost finiteness or positive definiteness
+    /// by the re-inflated one a cold start would have (P₀ from wide σ, in
+    /// the current frame) and counts it: a published σ is never a NaN in
+    /// disguise.
+    pub(super) fn repair(&mut self, nominal: &Nominal) {
+        let wide = InitState {
+            sigma_pos_h_m: REPAIR_SIGMA.0,
+            sigma_pos_v_m: REPAIR_SIGMA.0,
+            sigma_vel_h_mps: REPAIR_SIGMA.1,
+            sigma_vel_v_mps: REPAIR_SIGMA.1,
+            sigma_tilt_rad: REPAIR_SIGMA.2,
+            sigma_heading_rad: REPAIR_SIGMA.2,
+            ..Default::default()
+        };
+        let geo_nav = nominal.nav().converted(FrameKind::Geographic);
+        let p_g = initial_covariance(&geo_nav.geodetic(), &wide, &self.bias_sigma);
+        self.p = match nominal.kind() {
+            FrameKind::Geographic => p_g,
+            FrameKind::Grid => {
+                let phi = phi_to(FrameKind::Grid, &geo_nav);
+                phi * p_g * phi.transpose()
+            }
+        };
+        filter::symmetrize(&mut self.p);
+        self.repairs += 1;
+    }
+
+    /// P = Φ P Φᵀ for a switch from the state `before` to frame `to`.
+    pub(super) fn convert(&mut self, to: FrameKind, before: &AnyNav) {
+        let phi = phi_to(to, before);
+        self.p = phi * self.p * phi.transpose();
+        filter::symmetrize(&mut self.p);
+    }
+
+    /// The covariance of an unknown manoeuvre over a coasted gap of `t` s:
+    /// acceleration of 1-σ `sa` (δv = a t, δp = a t²/2 per axis) and turn
+    /// rate `sw`.
+    pub(super) fn add_coast(&mut self, nominal: &Nominal, sa: f64, sw: f64, t: f64) {
+        let var_v = (sa * t).powi(2);
+        let var_p = (0.5 * sa * t * t).powi(2);
+        let var_phi = (sw * t).powi(2);
+        let geo = nominal.geo();
+        let m = nominal
+            .nav()
+            .position_error_to_enu(&frames::c_e_g(geo.lat_rad, geo.lon_rad));
+        let m_inv = m.try_inverse().unwrap_or_else(Matrix3::identity);
+        let add_p = m_inv * m_inv.transpose() * var_p;
+        for i in 0..3 {
+            self.p[(idx::DV + i, idx::DV + i)] += var_v;
+            self.p[(idx::PHI + i, idx::PHI + i)] += var_phi;
+            for j in 0..3 {
+                self.p[(idx::DP + i, idx::DP + j)] += add_p[(i, j)];
+            }
+        }
+    }
+
+    /// Gate and Joseph update. An update that would leave P or the
+    /// correction non-finite or P not positive definite is undone (`None`).
+    pub(super) fn update<const M: usize>(
+        &mut self,
+        m: &Measurement<M>,
+        gate: f64,
+    ) -> Option<UpdateOutcome<M>> {
+        let before = self.p;
+        let out = filter::update(&mut self.p, &m.z, &m.h, &m.r, gate)
+            .filter(|o| o.dx.iter().all(|x| x.is_finite()) && o.test_ratio.is_finite())
+            .filter(|_| covariance_usable(&self.p));
+        if out.is_none() {
+            self.p = before;
+        }
+        out
+    }
+}
+
+/// Φ of the parameter conversion from `from` (a state in the other frame)
+/// to `to` (papers/001 eqs 32–38).
+pub(super) fn phi_to(to: FrameKind, from: &AnyNav) -> Mat15 {
+    let geo = from.geodetic();
+    let v_grid = match (from, &from.converted(FrameKind::Grid)) {
+        (AnyNav::Grid(g), _) | (_, AnyNav::Grid(g)) => g.v_n,
+        _ => unreachable!("conversion to grid gives the grid frame"),
+    };
+    match to {
+        FrameKind::Grid => switch::phi_geo_to_grid(&geo, &v_grid),
+        FrameKind::Geographic => switch::phi_grid_to_geo(&geo, &v_grid),
+    }
+}
+
+/// σ of the re-inflated covariance after a repair: position (m), velocity
+/// (m/s), attitude (rad).
+const REPAIR_SIGMA: (f64, f64, f64) = (1000.0, 10.0, 0.1);
+
+/// A covariance the filter can go on with: every entry finite and every
+/// variance positive (and not beyond 1e30: σ of 1e15 m or rad is no
+/// information at all, and squaring it again would overflow).
+fn covariance_usable(p: &Mat15) -> bool {
+    p.iter().all(|x| x.is_finite())
+        && (0..15).all(|i| p[(i, i)] > 0.0 && p[(i, i)] < 1e30)
+        && positive_definite(p)
+}
+
+/// Cholesky factorization of the correlation matrix D^-½ P D^-½ (so that
+/// states in rad² and m² weigh alike): every pivot must stay above 1e-12.
+/// On the stack, about 600 flops.
+fn positive_definite(p: &Mat15) -> bool {
+    let mut d = [0.0; 15];
+    for (i, x) in d.iter_mut().enumerate() {
+        *x = 1.0 / p[(i, i)].sqrt();
+    }
+    let mut l = [[0.0f64; 15]; 15];
+    for j in 0..15 {
+        let pivot = 1.0 - l[j][..j].iter().map(|x| x * x).sum::<f64>();
+        // NaN fails too.
+        if pivot.partial_cmp(&1e-12) != Some(std::cmp::Ordering::Greater) {
+            return false;
+        }
+        let ljj = pivot.sqrt();
+        l[j][j] = ljj;
+        for i in j + 1..15 {
+            let dot: f64 = l[i][..j].iter().zip(&l[j][..j]).map(|(a, b)| a * b).sum();
+            l[i][j] = (p[(i, j)] * d[i] * d[j] - dot) / ljj;
+        }
+    }
+    true
+}
+
+/// Initial 1-σ of the biases in SI units (from `[filter]`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(super) struct BiasSigma {
+    gyro_rps: f64,
+    accel_mps2: f64,
+}
+
+impl BiasSigma {
+    fn from_settings(f: &FilterSettings) -> Self {
+        let dph = std::f64::consts::PI / 180.0 / 3600.0;
+        let ug = 1e-6 * earth::G0;
+        Self {
+            gyro_rps: f.gyro_bias_dph * dph,
+            accel_mps2: f.accel_bias_ug * ug,
+        }
+    }
+}
+
+/// P₀ in the geographic frame at `geo`, from the init record's σ (floored at
+/// [`INIT_SIGMA_FLOOR`]) and the configured bias uncertainty; a start in G
+/// converts it with Φ ([`ErrorState::new`]).
+fn initial_covariance(geo: &earth::Geodetic, init: &InitState, b: &BiasSigma) -> Mat15 {
+    let mut p = Mat15::zeros();
+    let sq = |x: f64| x * x;
+    let f = INIT_SIGMA_FLOOR;
+    let init = &InitState {
+        sigma_pos_h_m: init.sigma_pos_h_m.max(f[0]),
+        sigma_pos_v_m: init.sigma_pos_v_m.max(f[1]),
+        sigma_vel_h_mps: init.sigma_vel_h_mps.max(f[2]),
+        sigma_vel_v_mps: init.sigma_vel_v_mps.max(f[3]),
+        sigma_tilt_rad: init.sigma_tilt_rad.max(f[4]),
+        sigma_heading_rad: init.sigma_heading_rad.max(f[5]),
+        ..*init
+    };
+    let mut set_diag = |o: usize, v: [f64; 3]| {
+        for (i, x) in v.iter().enumerate() {
+            p[(o + i, o + i)] = *x;
+        }
+    };
+    set_diag(
+        idx::PHI,
+        [
+            sq(init.sigma_tilt_rad),
+            sq(init.sigma_tilt_rad),
+            sq(init.sigma_heading_rad),
+        ],
+    );
+    set_diag(
+        idx::DV,
+        [
+            sq(init.sigma_vel_h_mps),
+            sq(init.sigma_vel_h_mps),
+            sq(init.sigma_vel_v_mps),
+        ],
+    );
+    set_diag(idx::BG, [sq(b.gyro_rps); 3]);
+    set_diag(idx::BA, [sq(b.accel_mps2); 3]);
+    let (h, v) = (sq(init.sigma_pos_h_m), sq(init.sigma_pos_v_m));
+    let (rm, rn) = earth::radii(geo.lat_rad);
+    let pos = Matrix3::from_diagonal(&Vector3::new(
+        h / sq(rm + geo.h_m),
+        // Within one position σ of the pole the longitude is unknown by up
+        // to a radian, not more (the parallel's radius is held at least
+        // that σ, and 1 m).
+        h / sq(((rn + geo.h_m) * geo.lat_rad.cos()).max(init.sigma_pos_h_m.max(1.0))),
+        v,
+    ));
+    p.fixed_view_mut::<3, 3>(idx::DP, idx::DP).copy_from(&pos);
+    // Variances of zero (an exact init) would make P singular: floor them.
+    for i in 0..15 {
+        p[(i, i)] = p[(i, i)].max(1e-30);
+    }
+    p
+}

@@ -1,0 +1,171 @@
+//! Report building: the solution and status records, and the covariance
+//! mapped out of the filter's frame into local east/north/up.
+
+use msgs::{AidStatus, Solution, Status, StreamCounters, solution_flags};
+use nalgebra::{Matrix3, Vector3};
+
+use crate::aids::control::AidControl;
+use crate::error_model::idx;
+use crate::frames;
+use crate::mech::AnyNav;
+
+use super::Navigator;
+
+impl Navigator {
+    /// Covariances of position (m²), velocity (m²/s²) and attitude error (rad²),
+    /// all in local east/north/up axes: the filter's P mapped out of its frame.
+    pub fn covariances_enu(&self) -> (Matrix3<f64>, Matrix3<f64>, Matrix3<f64>) {
+        let geo = self.nominal.geo();
+        self.covariances_enu_at(
+            &self.nominal.nav().c_e_n_at(&geo),
+            &frames::c_e_g(geo.lat_rad, geo.lon_rad),
+        )
+    }
+
+    fn block_in(&self, o: usize, m: &Matrix3<f64>) -> Matrix3<f64> {
+        m * self.err.p.fixed_view::<3, 3>(o, o) * m.transpose()
+    }
+
+    fn covariances_enu_at(
+        &self,
+        c_e_n: &Matrix3<f64>,
+        c_e_g: &Matrix3<f64>,
+    ) -> (Matrix3<f64>, Matrix3<f64>, Matrix3<f64>) {
+        let nav_to_enu = match &self.nominal.nav() {
+            AnyNav::Geographic(_) => Matrix3::identity(),
+            AnyNav::Grid(_) => c_e_g * c_e_n.transpose(),
+        };
+        (
+            self.block_in(idx::DP, &self.nominal.nav().position_error_to_enu(c_e_g)),
+            self.block_in(idx::DV, &nav_to_enu),
+            self.block_in(idx::PHI, &nav_to_enu),
+        )
+    }
+
+    /// 1-σ of position in local east/north/up (m).
+    pub fn sigma_pos_enu(&self) -> Vector3<f64> {
+        self.covariances_enu()
+            .0
+            .diagonal()
+            .map(|v| v.max(0.0).sqrt())
+    }
+
+    fn flags(&self) -> u32 {
+        let mut f = solution_flags::ALIGNED;
+        if self.aids.srs.fresh(self.t_ns) {
+            f |= solution_flags::SRS_FRESH;
+        }
+        if self.aids.cns.fresh(self.t_ns) {
+            f |= solution_flags::CNS_FRESH;
+        }
+        if self.aids.baro.fresh(self.t_ns) {
+            f |= solution_flags::BARO_FRESH;
+        }
+        if self.aids.last_rejected {
+            f |= solution_flags::LAST_INNOVATION_REJECTED;
+        }
+        if self.coasting {
+            f |= solution_flags::COASTING;
+        }
+        if self.resumed {
+            f |= solution_flags::RESUMED;
+        }
+        f
+    }
+
+    /// The current solution.
+    pub fn solution(&self) -> Solution {
+        let geo = self.nominal.geo();
+        let c_e_n = self.nominal.nav().c_e_n_at(&geo);
+        let c_e_g = match &self.nominal.nav() {
+            AnyNav::Geographic(_) => c_e_n,
+            AnyNav::Grid(_) => frames::c_e_g(geo.lat_rad, geo.lon_rad),
+        };
+        let ff = self.nominal.nav().frame_free_at(&geo, &c_e_n);
+        let c_b_e = ff.q_b_e.to_rotation_matrix().into_inner();
+        let c_b_g = c_e_g * c_b_e;
+        let (heading, pitch, roll) = frames::euler_from_c_b_n(&c_b_g);
+        // σ from grid north's components on the local east and north axes.
+        let sigma = match &self.nominal.nav() {
+            AnyNav::Grid(_) => {
+                let grid_north = c_e_n.row(1);
+                grid_north
+                    .dot(&c_e_g.row(0))
+                    .atan2(grid_north.dot(&c_e_g.row(1)))
+            }
+            AnyNav::Geographic(_) => frames::grid_angle(geo.lat_rad, geo.lon_rad),
+        };
+        // Only the position block is needed here (this runs every IMU sample).
+        let cov_pos = self.block_in(idx::DP, &self.nominal.nav().position_error_to_enu(&c_e_g));
+        let grid_heading = (heading - sigma).rem_euclid(std::f64::consts::TAU);
+        let q = ff.q_b_e.into_inner();
+        let diag_sqrt = |o: usize| {
+            Vector3::new(
+                self.err.p[(o, o)],
+                self.err.p[(o + 1, o + 1)],
+                self.err.p[(o + 2, o + 2)],
+            )
+            .map(|v| v.max(0.0).sqrt())
+        };
+        Solution {
+            t_ns: self.t_ns,
+            seq: self.seq,
+            lat_rad: geo.lat_rad,
+            lon_rad: geo.lon_rad,
+            h_m: geo.h_m,
+            r_e_m: ff.r_e.into(),
+            v_e_mps: ff.v_e.into(),
+            v_enu_mps: (c_e_g * ff.v_e).into(),
+            v_nav_mps: self.nominal.nav().v_n().into(),
+            grid_angle_rad: sigma,
+            q_b_e: [q.w, q.i, q.j, q.k],
+            heading_rad: heading,
+            grid_heading_rad: grid_heading,
+            pitch_rad: pitch,
+            roll_rad: roll,
+            sigma_pos_enu_m: cov_pos.diagonal().map(|v| v.max(0.0).sqrt()).into(),
+            sigma_vel_mps: diag_sqrt(idx::DV).into(),
+            sigma_att_rad: diag_sqrt(idx::PHI).into(),
+            gyro_bias_rps: self.err.gyro_bias.into(),
+            accel_bias_mps2: self.err.accel_bias.into(),
+            reset_t_ns: self.reset.t_ns,
+            reset_delta_pos_e_m: self.reset.delta_pos_e_m,
+            reset_delta_vel_e_mps: self.reset.delta_vel_e_mps,
+            reset_delta_heading_rad: self.reset.delta_heading_rad,
+            flags: self.flags(),
+            switch_count: self.switch_count,
+            reset_count: self.reset.count,
+            frame: self.nominal.nav().kind().to_wire() as u8,
+            _pad: [0; 3],
+        }
+    }
+
+    /// Health record (loop timing is filled in by the live driver).
+    pub fn status(&self) -> Status {
+        let aid = |c: &AidControl| -> (StreamCounters, AidStatus) {
+            (c.counters, c.status_at(self.t_ns))
+        };
+        let (srs, srs_aid) = aid(&self.aids.srs);
+        let (cns, cns_aid) = aid(&self.aids.cns);
+        let (baro, baro_aid) = aid(&self.aids.baro);
+        Status {
+            t_ns: self.t_ns,
+            imu: self.imu,
+            srs,
+            cns,
+            baro,
+            srs_aid,
+            cns_aid,
+            baro_aid,
+            last_switch_t_ns: self.last_switch_t_ns,
+            switch_count: self.switch_count,
+            imu_gap_count: self.imu_gap_count,
+            coasted_ns: self.coasted_ns,
+            reset_count: self.reset.count,
+            resumed: u8::from(self.resumed),
+            flags: self.flags(),
+            frame: self.nominal.nav().kind().to_wire() as u8,
+            ..Default::default()
+        }
+    }
+}
