@@ -2,7 +2,7 @@
 //!
 //! Every payload that crosses iceoryx2 shared memory is defined here as a
 //! `#[repr(C)]`, `Copy`, fixed-size type with an explicit, versioned
-//! [`ZeroCopySend`] type name (opening a service checks only name, size and
+//! `ZeroCopySend` type name (feature `iceoryx2`) (opening a service checks only name, size and
 //! alignment, so a layout change must bump the `_vN` suffix). Fields are
 //! ordered so that no implicit padding exists; where alignment needs it an
 //! explicit `_pad` field is present and always zero. That keeps the C header

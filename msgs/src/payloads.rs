@@ -3,6 +3,7 @@
 //! mirror in C and Python.
 #![allow(unsafe_code)] // the ZeroCopySend derive emits `unsafe impl`; the layout rules above make it sound
 
+#[cfg(feature = "iceoryx2")]
 use iceoryx2::prelude::ZeroCopySend;
 use serde::{Deserialize, Serialize};
 
@@ -10,9 +11,10 @@ use serde::{Deserialize, Serialize};
 pub const SRS_MAX_LINES: usize = 8;
 
 /// One IMU sample: angle and velocity increments over `dt_s` ending at `t_ns`.
-#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize, ZeroCopySend)]
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[cfg_attr(feature = "iceoryx2", derive(ZeroCopySend))]
 #[repr(C)]
-#[type_name("polarnav::ImuSample_v1")]
+#[cfg_attr(feature = "iceoryx2", type_name("polarnav::ImuSample_v1"))]
 pub struct ImuSample {
     /// End of the integration interval, common sensor time base.
     pub t_ns: u64,
@@ -27,9 +29,10 @@ pub struct ImuSample {
 }
 
 /// One observed spectral line of one celestial body.
-#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize, ZeroCopySend)]
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[cfg_attr(feature = "iceoryx2", derive(ZeroCopySend))]
 #[repr(C)]
-#[type_name("polarnav::SrsLine_v1")]
+#[cfg_attr(feature = "iceoryx2", type_name("polarnav::SrsLine_v1"))]
 pub struct SrsLine {
     /// Unit line of sight from the carrier to the body, inertial frame.
     pub los_i: [f64; 3],
@@ -48,9 +51,10 @@ pub struct SrsLine {
 }
 
 /// Spectral-redshift observations of up to [`SRS_MAX_LINES`] bodies.
-#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize, ZeroCopySend)]
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[cfg_attr(feature = "iceoryx2", derive(ZeroCopySend))]
 #[repr(C)]
-#[type_name("polarnav::SrsSample_v1")]
+#[cfg_attr(feature = "iceoryx2", type_name("polarnav::SrsSample_v1"))]
 pub struct SrsSample {
     pub t_ns: u64,
     pub seq: u64,
@@ -70,9 +74,10 @@ impl SrsSample {
 }
 
 /// Celestial position fix: geodetic latitude and longitude.
-#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize, ZeroCopySend)]
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[cfg_attr(feature = "iceoryx2", derive(ZeroCopySend))]
 #[repr(C)]
-#[type_name("polarnav::CnsFix_v1")]
+#[cfg_attr(feature = "iceoryx2", type_name("polarnav::CnsFix_v1"))]
 pub struct CnsFix {
     pub t_ns: u64,
     pub seq: u64,
@@ -83,9 +88,10 @@ pub struct CnsFix {
 }
 
 /// Barometer: static pressure and temperature.
-#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize, ZeroCopySend)]
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[cfg_attr(feature = "iceoryx2", derive(ZeroCopySend))]
 #[repr(C)]
-#[type_name("polarnav::BaroSample_v1")]
+#[cfg_attr(feature = "iceoryx2", type_name("polarnav::BaroSample_v1"))]
 pub struct BaroSample {
     pub t_ns: u64,
     pub seq: u64,
@@ -97,9 +103,10 @@ pub struct BaroSample {
 
 /// Initial state handed to the navigator (transfer alignment from a host, or
 /// the truth plus a scenario's initial errors). Frame-free: valid at the pole.
-#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize, ZeroCopySend)]
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[cfg_attr(feature = "iceoryx2", derive(ZeroCopySend))]
 #[repr(C)]
-#[type_name("polarnav::InitState_v1")]
+#[cfg_attr(feature = "iceoryx2", type_name("polarnav::InitState_v1"))]
 pub struct InitState {
     /// Time of validity.
     pub t_ns: u64,
@@ -165,9 +172,10 @@ pub mod solution_flags {
 }
 
 /// Full navigation solution, one per filter cycle.
-#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize, ZeroCopySend)]
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[cfg_attr(feature = "iceoryx2", derive(ZeroCopySend))]
 #[repr(C)]
-#[type_name("polarnav::Solution_v2")]
+#[cfg_attr(feature = "iceoryx2", type_name("polarnav::Solution_v2"))]
 pub struct Solution {
     pub t_ns: u64,
     pub seq: u64,
@@ -225,9 +233,10 @@ pub struct Solution {
 /// Counters of one input stream. Every received sample is counted once, as
 /// accepted or under one rejection reason:
 /// `received = accepted + rejected_invalid + rejected_time + rejected_gate + not_used`.
-#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize, ZeroCopySend)]
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[cfg_attr(feature = "iceoryx2", derive(ZeroCopySend))]
 #[repr(C)]
-#[type_name("polarnav::StreamCounters_v2")]
+#[cfg_attr(feature = "iceoryx2", type_name("polarnav::StreamCounters_v2"))]
 pub struct StreamCounters {
     /// Samples received from the transport or log.
     pub received: u64,
@@ -249,9 +258,10 @@ pub struct StreamCounters {
 }
 
 /// The status record every aid reports (same shape for SRS, CNS and baro).
-#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize, ZeroCopySend)]
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[cfg_attr(feature = "iceoryx2", derive(ZeroCopySend))]
 #[repr(C)]
-#[type_name("polarnav::AidStatus_v2")]
+#[cfg_attr(feature = "iceoryx2", type_name("polarnav::AidStatus_v2"))]
 pub struct AidStatus {
     /// Last innovation (measurement − prediction), up to 3 components.
     pub innovation: [f64; 3],
@@ -272,9 +282,10 @@ pub struct AidStatus {
 }
 
 /// Health of the daemon, published at 1 Hz.
-#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize, ZeroCopySend)]
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[cfg_attr(feature = "iceoryx2", derive(ZeroCopySend))]
 #[repr(C)]
-#[type_name("polarnav::Status_v2")]
+#[cfg_attr(feature = "iceoryx2", type_name("polarnav::Status_v2"))]
 pub struct Status {
     pub t_ns: u64,
     pub seq: u64,
@@ -386,6 +397,7 @@ mod tests {
         }
     }
 
+    #[cfg(feature = "iceoryx2")]
     #[test]
     fn type_names_are_versioned() {
         // SAFETY-free: `type_name` is an unsafe fn only to discourage casual use.
@@ -437,9 +449,10 @@ pub const SETTINGS_TEXT_MAX: usize = 8192;
 /// `<prefix>/settings` (history 1, so a flight recorder started at any time
 /// receives it), so that `batch` on a recording uses exactly the settings
 /// the daemon flew with.
-#[derive(Clone, Copy, ZeroCopySend)]
+#[derive(Clone, Copy)]
+#[cfg_attr(feature = "iceoryx2", derive(ZeroCopySend))]
 #[repr(C)]
-#[type_name("polarnav::EffectiveSettings_v1")]
+#[cfg_attr(feature = "iceoryx2", type_name("polarnav::EffectiveSettings_v1"))]
 pub struct EffectiveSettings {
     /// Zero (the settings hold from the daemon's start).
     pub t_ns: u64,

