@@ -309,3 +309,52 @@ fn initial_covariance(geo: &earth::Geodetic, init: &InitState, b: &BiasSigma) ->
     }
     p
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The hand-written check agrees with nalgebra's Cholesky (an
+    /// independent factorization) on matrices that are clearly positive
+    /// definite or clearly not, over variances from 1e-20 to 1e10.
+    #[test]
+    fn positive_definite_agrees_with_nalgebra_cholesky() {
+        let mut seed = 0x2545_f491_4f6c_dd1du64;
+        let mut next = || {
+            seed ^= seed << 13;
+            seed ^= seed >> 7;
+            seed ^= seed << 17;
+            (seed >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+        };
+        let (mut pd, mut not_pd) = (0, 0);
+        for case in 0..400 {
+            // A = B Bᵀ + shift·I in correlation form, then scaled by D.
+            let b = Mat15::from_fn(|_, _| next());
+            let shift = if case % 2 == 0 { 0.5 } else { -3.0 };
+            let a = b * b.transpose() / 15.0 + Mat15::identity() * shift;
+            let d = Mat15::from_diagonal(&nalgebra::SVector::<f64, 15>::from_fn(|i, _| {
+                10f64.powf(-10.0 + 10.0 * (i as f64 / 7.0 + next()).rem_euclid(2.0))
+            }));
+            let p = d * a * d;
+            let reference = p.cholesky().is_some();
+            assert_eq!(positive_definite(&p), reference, "case {case}");
+            if reference {
+                pd += 1;
+            } else {
+                not_pd += 1;
+            }
+        }
+        assert!(
+            pd > 100 && not_pd > 100,
+            "{pd} positive definite, {not_pd} not"
+        );
+        // NaN and a zero variance are refused.
+        let mut p = Mat15::identity();
+        p[(3, 4)] = f64::NAN;
+        p[(4, 3)] = f64::NAN;
+        assert!(!covariance_usable(&p));
+        let mut p = Mat15::identity();
+        p[(7, 7)] = 0.0;
+        assert!(!covariance_usable(&p));
+    }
+}
