@@ -47,7 +47,7 @@ const H0_M: f64 = 18_000.0;
 /// most one covariance propagation (hence × 2); the aids of the bounded
 /// queue (`AID_QUEUE`) each at most one propagation; plus a few fixed
 /// propagations (resync, coast, frame switch).
-/// = 4 · 2 · 65 + 64 + 8 = 592.
+/// = 4 · 2 · 65 + 16 + 8 = 544.
 const WORK_BOUND: u64 =
     TIME_JUMP_CONFIRM as u64 * 2 * (MAX_BRIDGE_STEPS + 1) + AID_QUEUE as u64 + 8;
 
