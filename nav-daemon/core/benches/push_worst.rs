@@ -23,14 +23,15 @@
 use std::collections::HashMap;
 use std::time::Instant;
 
-use msgs::{BaroSample, CnsFix, ImuSample, InitState, SrsLine, SrsSample};
-use nalgebra::{UnitQuaternion, Vector3};
-use polarnav::earth::{self, Geodetic, isa};
-use polarnav::frames;
+use msgs::ImuSample;
 use polarnav::navigator::MAX_BRIDGE_STEPS;
 use polarnav::session::{AID_QUEUE, Discard, Input, Session, SessionSettings, TIME_JUMP_CONFIRM};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
+
+#[path = "../tests/common/vehicle.rs"]
+mod vehicle;
+use vehicle::{DT_NS, DT_S, Owned, T0_NS, Truth};
 
 const SEED: u64 = 0x5eed_2026;
 /// Pushes per run (at least 200 000).
@@ -40,160 +41,9 @@ const TARGET_US: f64 = 1000.0;
 /// Pushes slower than this (in the first run) keep a description.
 const DESCRIBE_ABOVE_NS: u64 = 20_000;
 
-const T0_NS: u64 = 1_000_000_000;
-const DT_NS: u64 = 5_000_000;
-const DT_S: f64 = 0.005;
-const LAT0_DEG: f64 = 86.0;
-const LON0_DEG: f64 = 10.0;
-const H0_M: f64 = 18_000.0;
-
-// ---- the genuine vehicle (as in tests/session_props.rs) ----------------
-
-#[derive(Debug, Clone, Copy)]
-struct Truth {
-    speed_mps: f64,
-}
-
-impl Truth {
-    fn geo(&self, t_ns: u64) -> Geodetic {
-        let t = (t_ns as f64 - T0_NS as f64) * 1e-9;
-        let lat0 = LAT0_DEG.to_radians();
-        let (rm, _) = earth::radii(lat0);
-        Geodetic::new(
-            lat0 + self.speed_mps * t / (rm + H0_M),
-            LON0_DEG.to_radians(),
-            H0_M,
-        )
-    }
-    fn r_e(&self, t_ns: u64) -> Vector3<f64> {
-        earth::geodetic_to_ecef(&self.geo(t_ns))
-    }
-    fn v_e(&self, t_ns: u64) -> Vector3<f64> {
-        let g = self.geo(t_ns);
-        frames::c_e_g(g.lat_rad, g.lon_rad).transpose() * Vector3::new(0.0, self.speed_mps, 0.0)
-    }
-    fn init(&self, t_ns: u64, seq: u64) -> InitState {
-        let g = self.geo(t_ns);
-        let q = UnitQuaternion::from_matrix(&frames::c_e_g(g.lat_rad, g.lon_rad).transpose());
-        InitState {
-            t_ns,
-            seq,
-            r_e_m: self.r_e(t_ns).into(),
-            v_e_mps: self.v_e(t_ns).into(),
-            q_b_e: [q.w, q.i, q.j, q.k],
-            sigma_pos_h_m: 10.0,
-            sigma_pos_v_m: 10.0,
-            sigma_vel_h_mps: 0.1,
-            sigma_vel_v_mps: 0.1,
-            sigma_tilt_rad: 3e-4,
-            sigma_heading_rad: 1e-3,
-        }
-    }
-    fn imu_at(&self, t_ns: u64, seq: u64, content_t_ns: u64) -> ImuSample {
-        let g = self.geo(content_t_ns);
-        let (rm, _) = earth::radii(g.lat_rad);
-        let w_ie_b = frames::c_e_g(g.lat_rad, g.lon_rad) * earth::omega_ie_e();
-        let w_en_b = Vector3::new(-self.speed_mps / (rm + g.h_m), 0.0, 0.0);
-        let f_b = Vector3::new(0.0, 0.0, earth::normal_gravity(g.lat_rad, g.h_m));
-        ImuSample {
-            t_ns,
-            seq,
-            dt_s: DT_S,
-            d_theta_rad: ((w_ie_b + w_en_b) * DT_S).into(),
-            d_v_mps: (f_b * DT_S).into(),
-        }
-    }
-    fn cns(&self, t_ns: u64, seq: u64, content_t_ns: u64) -> CnsFix {
-        let g = self.geo(content_t_ns);
-        CnsFix {
-            t_ns,
-            seq,
-            lat_rad: g.lat_rad,
-            lon_rad: g.lon_rad,
-            sigma_h_m: 30.0,
-        }
-    }
-    fn baro(&self, t_ns: u64, seq: u64, content_t_ns: u64) -> BaroSample {
-        let g = self.geo(content_t_ns);
-        BaroSample {
-            t_ns,
-            seq,
-            pressure_pa: isa::pressure(isa::geopotential_from_geometric(g.h_m)),
-            temperature_k: 216.65,
-            sigma_m: 10.0,
-        }
-    }
-    /// 8 lines; `bad_line` gets a 50 m/s radial error (forces the exclusion search).
-    fn srs(&self, t_ns: u64, seq: u64, content_t_ns: u64, bad_line: Option<usize>) -> SrsSample {
-        let mut errs = [0.0; 8];
-        if let Some(k) = bad_line {
-            errs[k] = 50.0;
-        }
-        self.srs_errs(t_ns, seq, content_t_ns, &errs)
-    }
-    /// 8 lines with these radial errors (m/s).
-    fn srs_errs(&self, t_ns: u64, seq: u64, content_t_ns: u64, errs: &[f64; 8]) -> SrsSample {
-        let c_e_i = polarnav::aids::srs::c_e_i(t_ns as f64 * 1e-9);
-        let (r, v) = (self.r_e(content_t_ns), self.v_e(content_t_ns));
-        let v_p = c_e_i * (v + earth::omega_ie_e().cross(&r));
-        let mut s = SrsSample {
-            t_ns,
-            seq,
-            count: 8,
-            ..Default::default()
-        };
-        let c = polarnav::aids::srs::C_LIGHT;
-        for (k, l) in s.lines.iter_mut().enumerate() {
-            let a = k as f64 * 0.8;
-            let los = Vector3::new(a.cos() * 0.6, a.sin() * 0.6, 0.8 - 0.15 * k as f64).normalize();
-            let v_k = Vector3::new(-29_780.0, 500.0 * k as f64, 1_000.0);
-            let w = v_p - v_k;
-            let opz = (c + w.dot(&-los) + errs[k]) / (c * c - w.norm_squared()).sqrt();
-            *l = SrsLine {
-                los_i: los.into(),
-                body_vel_i_mps: v_k.into(),
-                rest_wavelength_m: 5e-7,
-                measured_wavelength_m: 5e-7 * opz,
-                sigma_mps: 0.5,
-                body_id: k as u32,
-                _pad: 0,
-            };
-        }
-        s
-    }
-}
-
 // ---- inputs --------------------------------------------------------------
 
-#[derive(Debug, Clone, Copy)]
-#[allow(clippy::large_enum_variant)]
-enum Owned {
-    Imu(ImuSample),
-    Srs(SrsSample),
-    Cns(CnsFix),
-    Baro(BaroSample),
-    Init(InitState),
-}
-
 impl Owned {
-    fn input(&self) -> Input<'_> {
-        match self {
-            Owned::Imu(x) => Input::Imu(x),
-            Owned::Srs(x) => Input::Srs(x),
-            Owned::Cns(x) => Input::Cns(x),
-            Owned::Baro(x) => Input::Baro(x),
-            Owned::Init(x) => Input::Init(x),
-        }
-    }
-    fn t_ns_mut(&mut self) -> &mut u64 {
-        match self {
-            Owned::Imu(x) => &mut x.t_ns,
-            Owned::Srs(x) => &mut x.t_ns,
-            Owned::Cns(x) => &mut x.t_ns,
-            Owned::Baro(x) => &mut x.t_ns,
-            Owned::Init(x) => &mut x.t_ns,
-        }
-    }
     fn describe(&self) -> String {
         match self {
             Owned::Imu(s) => format!(
@@ -453,14 +303,14 @@ impl Bench {
                 Kind::ImuGenuine,
             );
             if k % 10 == 0 {
-                self.push(Owned::Baro(self.truth.baro(t + off, k, t)), Kind::Aid);
+                self.push(Owned::Baro(self.truth.baro_at(t + off, k, t)), Kind::Aid);
             }
             if k % 40 == 0 {
-                let c = self.truth.cns(t + off - 2 * DT_NS, k, t);
+                let c = self.truth.cns_at(t + off - 2 * DT_NS, k, t);
                 self.push(Owned::Cns(c), Kind::Aid);
             }
             if k % 40 == 20 {
-                let s = self.truth.srs(t + off - DT_NS, k, t, None);
+                let s = self.truth.srs8(t + off - DT_NS, k, t, None);
                 self.push(Owned::Srs(s), Kind::Aid);
             }
         }
@@ -529,7 +379,7 @@ impl Bench {
         };
         match self.rng.gen_range(0..3) {
             0 => {
-                let mut c = self.truth.cns(t, seq, tg);
+                let mut c = self.truth.cns_at(t, seq, tg);
                 let r = &mut self.rng;
                 c.lat_rad = field(r, c.lat_rad);
                 c.lon_rad = field(r, c.lon_rad);
@@ -537,7 +387,7 @@ impl Bench {
                 Owned::Cns(c)
             }
             1 => {
-                let mut b = self.truth.baro(t, seq, tg);
+                let mut b = self.truth.baro_at(t, seq, tg);
                 let r = &mut self.rng;
                 b.pressure_pa = field(r, b.pressure_pa);
                 b.temperature_k = field(r, b.temperature_k);
@@ -546,7 +396,7 @@ impl Bench {
             }
             _ => {
                 let bad = self.rng.gen_bool(0.3).then(|| self.rng.gen_range(0..8));
-                let mut s = self.truth.srs(t, seq, tg, bad);
+                let mut s = self.truth.srs8(t, seq, tg, bad);
                 let r = &mut self.rng;
                 if r.gen_bool(0.25) {
                     s.count = if r.gen_bool(0.5) {

@@ -22,9 +22,9 @@
 //! (2048 cases; measured with `SESSION_PROPS_TOLERATE_KNOWN=1`, below).
 //! `SESSION_PROPS_CASES=n` changes the number of cases.
 
-use msgs::{BaroSample, CnsFix, ImuSample, InitState, Solution, SrsLine, SrsSample};
+use msgs::{ImuSample, InitState, Solution};
 use nalgebra::{UnitQuaternion, Vector3};
-use polarnav::earth::{self, Geodetic, isa};
+use polarnav::earth::{self, Geodetic};
 use polarnav::frames;
 use polarnav::navigator::MAX_BRIDGE_STEPS;
 use polarnav::session::{
@@ -32,12 +32,9 @@ use polarnav::session::{
 };
 use proptest::prelude::*;
 
-const T0_NS: u64 = 1_000_000_000;
-const DT_NS: u64 = 5_000_000;
-const DT_S: f64 = 0.005;
-const LAT0_DEG: f64 = 86.0;
-const LON0_DEG: f64 = 10.0;
-const H0_M: f64 = 18_000.0;
+#[path = "common/vehicle.rs"]
+mod vehicle;
+use vehicle::{DT_NS, DT_S, H0_M, LON0_DEG, Owned, T0_NS, Truth};
 
 /// Most navigator work (mechanization steps + covariance propagations) one
 /// push may cause, from the public constants: a push integrates at most
@@ -51,169 +48,9 @@ const H0_M: f64 = 18_000.0;
 const WORK_BOUND: u64 =
     TIME_JUMP_CONFIRM as u64 * 2 * (MAX_BRIDGE_STEPS + 1) + AID_QUEUE as u64 + 8;
 
-// ---- the genuine vehicle ----------------------------------------------
-
-/// Level flight due north at `speed_mps` (0: stationary), body axes = local
-/// east/north/up.
-#[derive(Debug, Clone, Copy)]
-struct Truth {
-    speed_mps: f64,
-}
-
-impl Truth {
-    fn geo(&self, t_ns: u64) -> Geodetic {
-        let t = (t_ns as f64 - T0_NS as f64) * 1e-9;
-        let lat0 = LAT0_DEG.to_radians();
-        let (rm, _) = earth::radii(lat0);
-        Geodetic::new(
-            lat0 + self.speed_mps * t / (rm + H0_M),
-            LON0_DEG.to_radians(),
-            H0_M,
-        )
-    }
-
-    fn r_e(&self, t_ns: u64) -> Vector3<f64> {
-        earth::geodetic_to_ecef(&self.geo(t_ns))
-    }
-
-    fn v_e(&self, t_ns: u64) -> Vector3<f64> {
-        let g = self.geo(t_ns);
-        frames::c_e_g(g.lat_rad, g.lon_rad).transpose() * Vector3::new(0.0, self.speed_mps, 0.0)
-    }
-
-    fn init(&self, t_ns: u64, seq: u64) -> InitState {
-        let g = self.geo(t_ns);
-        let q = UnitQuaternion::from_matrix(&frames::c_e_g(g.lat_rad, g.lon_rad).transpose());
-        InitState {
-            t_ns,
-            seq,
-            r_e_m: self.r_e(t_ns).into(),
-            v_e_mps: self.v_e(t_ns).into(),
-            q_b_e: [q.w, q.i, q.j, q.k],
-            sigma_pos_h_m: 10.0,
-            sigma_pos_v_m: 10.0,
-            sigma_vel_h_mps: 0.1,
-            sigma_vel_v_mps: 0.1,
-            sigma_tilt_rad: 3e-4,
-            sigma_heading_rad: 1e-3,
-        }
-    }
-
-    /// The increments of the interval ending at `content_t_ns`, stamped `t_ns`.
-    fn imu_at(&self, t_ns: u64, seq: u64, content_t_ns: u64) -> ImuSample {
-        let g = self.geo(content_t_ns);
-        let (rm, _) = earth::radii(g.lat_rad);
-        let w_ie_b = frames::c_e_g(g.lat_rad, g.lon_rad) * earth::omega_ie_e();
-        let w_en_b = Vector3::new(-self.speed_mps / (rm + g.h_m), 0.0, 0.0);
-        let f_b = Vector3::new(0.0, 0.0, earth::normal_gravity(g.lat_rad, g.h_m));
-        ImuSample {
-            t_ns,
-            seq,
-            dt_s: DT_S,
-            d_theta_rad: ((w_ie_b + w_en_b) * DT_S).into(),
-            d_v_mps: (f_b * DT_S).into(),
-        }
-    }
-
-    fn imu(&self, t_ns: u64, seq: u64) -> ImuSample {
-        self.imu_at(t_ns, seq, t_ns)
-    }
-
-    fn cns(&self, t_ns: u64, seq: u64) -> CnsFix {
-        let g = self.geo(t_ns);
-        CnsFix {
-            t_ns,
-            seq,
-            lat_rad: g.lat_rad,
-            lon_rad: g.lon_rad,
-            sigma_h_m: 30.0,
-        }
-    }
-
-    fn baro(&self, t_ns: u64, seq: u64) -> BaroSample {
-        let g = self.geo(t_ns);
-        BaroSample {
-            t_ns,
-            seq,
-            pressure_pa: isa::pressure(isa::geopotential_from_geometric(g.h_m)),
-            temperature_k: 216.65,
-            sigma_m: 10.0,
-        }
-    }
-
-    fn srs(&self, t_ns: u64, seq: u64) -> SrsSample {
-        self.srs_at(t_ns, seq, t_ns)
-    }
-
-    /// The SRS sample stamped `t_ns` of the vehicle as it is at `content_t_ns`.
-    fn srs_at(&self, t_ns: u64, seq: u64, content_t_ns: u64) -> SrsSample {
-        let c_e_i = polarnav::aids::srs::c_e_i(t_ns as f64 * 1e-9);
-        let (r, v) = (self.r_e(content_t_ns), self.v_e(content_t_ns));
-        let v_p = c_e_i * (v + earth::omega_ie_e().cross(&r));
-        let mut s = SrsSample {
-            t_ns,
-            seq,
-            count: 5,
-            ..Default::default()
-        };
-        let dirs = [
-            Vector3::new(1.0, 0.1, 0.5),
-            Vector3::new(-0.3, 1.0, 0.4),
-            Vector3::new(-0.7, -0.6, 0.6),
-            Vector3::new(0.1, 0.2, 1.0),
-            Vector3::new(0.5, -0.5, 0.7),
-        ];
-        let c = polarnav::aids::srs::C_LIGHT;
-        for (k, d) in dirs.iter().enumerate() {
-            let los = d.normalize();
-            let v_k = Vector3::new(-29_780.0, 500.0 * k as f64, 1_000.0);
-            let w = v_p - v_k;
-            let opz = (c + w.dot(&-los)) / (c * c - w.norm_squared()).sqrt();
-            s.lines[k] = SrsLine {
-                los_i: los.into(),
-                body_vel_i_mps: v_k.into(),
-                rest_wavelength_m: 5e-7,
-                measured_wavelength_m: 5e-7 * opz,
-                sigma_mps: 0.5,
-                body_id: k as u32,
-                _pad: 0,
-            };
-        }
-        s
-    }
-}
-
 // ---- inputs held by value ---------------------------------------------
 
-#[derive(Debug, Clone, Copy)]
-#[allow(clippy::large_enum_variant)]
-enum Owned {
-    Imu(ImuSample),
-    Srs(SrsSample),
-    Cns(CnsFix),
-    Baro(BaroSample),
-    Init(InitState),
-}
-
 impl Owned {
-    fn input(&self) -> Input<'_> {
-        match self {
-            Owned::Imu(x) => Input::Imu(x),
-            Owned::Srs(x) => Input::Srs(x),
-            Owned::Cns(x) => Input::Cns(x),
-            Owned::Baro(x) => Input::Baro(x),
-            Owned::Init(x) => Input::Init(x),
-        }
-    }
-    fn t_ns_mut(&mut self) -> &mut u64 {
-        match self {
-            Owned::Imu(x) => &mut x.t_ns,
-            Owned::Srs(x) => &mut x.t_ns,
-            Owned::Cns(x) => &mut x.t_ns,
-            Owned::Baro(x) => &mut x.t_ns,
-            Owned::Init(x) => &mut x.t_ns,
-        }
-    }
     /// A short description for failure messages (no 8 SRS lines).
     fn describe(&self) -> String {
         match self {
