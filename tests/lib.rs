@@ -124,6 +124,8 @@ pub fn run(records: &[Record], cfg: &NavigatorConfig, init: Option<InitState>) -
         match rec {
             Record::Init(_) if init.is_some() => {}
             Record::Truth(t) => {
+                // The aids stamped up to now are fused (as before a solution).
+                session.flush(&mut sink);
                 if let Some(nav) = session.navigator().filter(|n| n.t_ns() == t.t_ns)
                     && session.span_ns().0 < t.t_ns
                 {

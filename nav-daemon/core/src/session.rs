@@ -20,11 +20,13 @@
 //!   rejected: one absurd stamp costs only itself. A sample behind the
 //!   previous one by at most `imu_max_coast_s` is stale and refused at once
 //!   (the stream catches up within that time).
-//! - **Aids ahead of the IMU** wait in a bounded queue (at most
-//!   [`AID_QUEUE`] samples, at most [`MAX_AID_LEAD_NS`] ahead) and are fused
-//!   in time order right after the IMU sample that reaches them. Aids at or
-//!   behind the newest IMU sample are fused at their own time (the
-//!   navigator's state history).
+//! - **Aids** wait in a bounded queue (at most [`AID_QUEUE`] samples, at
+//!   most [`MAX_AID_LEAD_NS`] ahead of the IMU) and are fused in (time,
+//!   stream) order, each at its own time (the navigator's state history),
+//!   before the next IMU sample is integrated or at a flush: the aids
+//!   between two IMU samples are fused in the same order whatever order
+//!   they arrived in, so a live cycle (which drains its topics one after
+//!   the other) and a navlog give the same result.
 //! - **Solutions**: the solution of an IMU sample is emitted when the next
 //!   IMU sample arrives or when the driver calls [`Session::flush`] (the
 //!   live loop does at the end of every cycle), so it includes every aid
@@ -569,6 +571,7 @@ impl Session {
     /// Emits the pending solution, if any (the live loop calls this at the
     /// end of every cycle; `batch` at the end of the log).
     pub fn flush(&mut self, sink: &mut impl Sink) {
+        self.fuse_due(sink);
         if self.solution_pending {
             self.solution_pending = false;
             if let Some(n) = &self.nav {
@@ -985,12 +988,6 @@ impl Session {
                 if let Some(sw) = out.switch {
                     sink.event(&Event::Switch(sw));
                 }
-                let now = n.t_ns();
-                while self.queue.front_t_ns().is_some_and(|t| t <= now) {
-                    if let Some(a) = self.queue.pop_front() {
-                        self.offer(&a, sink);
-                    }
-                }
             }
             Err(reason) => sink.event(&Event::Rejected {
                 stream: Stream::Imu,
@@ -1060,11 +1057,11 @@ impl Session {
             return;
         };
         let now = n.t_ns();
-        if a.t_ns() <= now || self.imu_lost {
+        if self.imu_lost {
             self.offer(&a, sink);
             return;
         }
-        if a.t_ns() - now > MAX_AID_LEAD_NS {
+        if a.t_ns().saturating_sub(now) > MAX_AID_LEAD_NS {
             self.count_outside(a.stream(), |c| c.rejected_time += 1);
             sink.event(&Event::Rejected {
                 stream: a.stream(),
@@ -1078,8 +1075,8 @@ impl Session {
             return;
         }
         if let Some(old) = self.queue.insert(a) {
-            // The queue is full: the oldest is offered now (and refused as
-            // ahead of the IMU, which is where it still is).
+            // The queue is full: the oldest is offered now (fused if the
+            // IMU has reached it, else refused as ahead of the IMU).
             self.offer(&old, sink);
         }
     }
@@ -1098,6 +1095,21 @@ impl Session {
             });
         }
         self.check_repairs(sink);
+    }
+
+    /// Fuses the waiting aids the IMU has reached, in (time, stream) order:
+    /// whatever order they arrived in, the aids between two IMU samples are
+    /// fused in the same order (a live cycle drains its topics one after
+    /// the other, so arrival order across streams is not the publishers').
+    fn fuse_due(&mut self, sink: &mut impl Sink) {
+        let Some(now) = self.nav.as_ref().map(Navigator::t_ns) else {
+            return;
+        };
+        while self.queue.front_t_ns().is_some_and(|t| t <= now) {
+            if let Some(a) = self.queue.pop_front() {
+                self.offer(&a, sink);
+            }
+        }
     }
 
     fn drain_queue(&mut self, sink: &mut impl Sink) {

@@ -1034,6 +1034,8 @@ fn aid_with_sigma_1e160_is_rejected() {
     ok(h.push(Owned::Cns(c)));
     ok(h.push(Owned::Baro(b)));
     ok(h.push(Owned::Srs(s)));
+    // Aids are fused (or refused) before the next IMU sample or at a flush.
+    h.session.flush(&mut h.sink);
     let st = h.session.status();
     assert_eq!(st.cns.rejected_invalid, st0.cns.rejected_invalid + 1);
     assert_eq!(st.baro.rejected_invalid, st0.baro.rejected_invalid + 1);
@@ -1227,4 +1229,59 @@ fn a_stray_init_and_a_stray_imu_sample_do_not_take_over_the_state() {
         "the state moved to the pole: {}",
         lat.to_degrees()
     );
+}
+
+/// The aids between two IMU samples are fused in (time, stream) order
+/// whatever order they arrive in, and whether they arrive before or after
+/// their IMU sample: a live cycle drains its topics one after the other, so
+/// an SRS sample published before a CNS fix can reach the session after it.
+/// Every arrangement gives the same solutions, bit for bit.
+#[test]
+fn aid_arrival_order_within_an_epoch_does_not_change_the_solution() {
+    use polarnav::session::Collect;
+    let truth = Truth { speed_mps: 250.0 };
+    let arrangements: [&[usize]; 4] = [
+        // 0 = IMU, 1 = SRS, 2 = CNS, 3 = baro (all stamped at the IMU time)
+        &[0, 1, 2, 3],
+        &[2, 0, 3, 1],
+        &[3, 2, 1, 0],
+        &[1, 3, 0, 2],
+    ];
+    let mut runs = Vec::new();
+    for arrangement in arrangements {
+        let mut session = Session::new(SessionSettings::default());
+        let mut sink = Collect::default();
+        session.push(Input::Init(&truth.init(T0_NS, 0)), &mut sink);
+        for k in 1..=2_000u64 {
+            let t = T0_NS + k * DT_NS;
+            let imu = Owned::Imu(truth.imu_at(t, k, t));
+            let epoch = [
+                Some(imu),
+                (k % 200 == 0).then(|| Owned::Srs(truth.srs(t, k))),
+                (k % 200 == 0).then(|| Owned::Cns(truth.cns(t, k))),
+                (k % 20 == 0).then(|| Owned::Baro(truth.baro(t, k))),
+            ];
+            for &i in arrangement {
+                if let Some(x) = &epoch[i] {
+                    session.push(x.input(), &mut sink);
+                }
+            }
+            // A live cycle ends now and then in the middle of an epoch.
+            if k % 7 == 0 {
+                session.flush(&mut sink);
+            }
+        }
+        session.finish(&mut sink);
+        let st = session.status();
+        assert!(st.srs.accepted >= 9 && st.cns.accepted >= 9 && st.baro.accepted >= 90);
+        runs.push(sink.solutions);
+    }
+    for (k, r) in runs.iter().enumerate().skip(1) {
+        assert_eq!(r.len(), runs[0].len(), "arrangement {k}");
+        let differing = r.iter().zip(&runs[0]).filter(|(a, b)| a != b).count();
+        assert_eq!(
+            differing, 0,
+            "arrangement {k}: {differing} solutions differ"
+        );
+    }
 }
