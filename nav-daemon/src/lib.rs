@@ -2,4 +2,5 @@
 //! iceoryx2 service and `batch` over a navlog.
 
 pub mod batch;
+pub mod events;
 pub mod live;

@@ -276,7 +276,9 @@ pub fn run(
         match Checkpoint::load(&c.path) {
             Ok(Some(ck)) => {
                 tracing::info!(path = %c.path.display(), t_ns = ck.t_ns, "checkpoint found: resuming if the IMU continues from it");
-                state.session.offer_checkpoint(ck);
+                if let Err(e) = state.session.offer_checkpoint(ck) {
+                    tracing::warn!("checkpoint unusable, cold start: {e}");
+                }
             }
             Ok(None) => {
                 tracing::info!(path = %c.path.display(), "no checkpoint: cold start");
@@ -450,7 +452,7 @@ impl Sink for PublishSink<'_> {
             }
             return;
         }
-        crate::batch::log_event("live", e);
+        crate::events::log_event("live", e);
     }
 }
 

@@ -447,7 +447,7 @@ fn simulate_bytes(s: &Scenario, text: &str, faults: bool) -> Result<(Vec<u8>, Ve
 /// Navigates navlog bytes as `batch` does with the default configuration
 /// (the same session, the header's settings applied): the rows and the
 /// final status.
-pub fn batch_rows(log: &[u8], name: &str) -> Result<(Vec<Row>, Status), String> {
+pub fn navigate_rows(log: &[u8], name: &str) -> Result<(Vec<Row>, Status), String> {
     let (records, report) = msgs::navlog::read_all(log);
     if !report.is_clean() {
         return Err(format!("{name}: damaged log: {report}"));
@@ -485,8 +485,8 @@ pub fn run_scenario(path: &Path) -> Result<ScenarioResult, String> {
             }
         })
         .collect();
-    let (rows_ff, _) = batch_rows(&clean, &s.name)?;
-    let (rows, status) = batch_rows(&faulted, &s.name)?;
+    let (rows_ff, _) = navigate_rows(&clean, &s.name)?;
+    let (rows, status) = navigate_rows(&faulted, &s.name)?;
     let published = published(&records);
     Ok(ScenarioResult {
         name: s.name.clone(),

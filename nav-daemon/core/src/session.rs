@@ -44,7 +44,7 @@
 use msgs::{BaroSample, CnsFix, ImuSample, InitState, Solution, SrsSample, Status, StreamCounters};
 
 use crate::align::{AlignError, Alignment, AlignmentAccumulator, aligned_init};
-use crate::checkpoint::Checkpoint;
+use crate::checkpoint::{Checkpoint, CheckpointError};
 use crate::navigator::{
     AidOutcome, IMU_DT_RANGE_S, InputRejection, Navigator, NavigatorConfig, SwitchEvent, check_init,
 };
@@ -479,15 +479,14 @@ impl Session {
     }
 
     /// Offers a checkpoint to resume from (before the first IMU sample).
-    /// Its content is checked by the caller ([`Checkpoint::load`]).
-    pub fn offer_checkpoint(&mut self, c: Checkpoint) {
+    /// Its content is checked here ([`Checkpoint::validate`]): one that is
+    /// intact but absurd (a zero quaternion, negative variances) is refused.
+    pub fn offer_checkpoint(&mut self, c: Checkpoint) -> Result<(), CheckpointError> {
+        c.validate()?;
         if self.nav.is_none() {
             self.resume = Some(c);
         }
-    }
-
-    pub fn settings(&self) -> &SessionSettings {
-        &self.settings
+        Ok(())
     }
 
     /// The navigator, once navigation has started.
@@ -1132,4 +1131,46 @@ pub fn navigate(records: &[msgs::navlog::Record], settings: SessionSettings) -> 
     }
     session.finish(&mut sink);
     (sink, session.status())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn init() -> InitState {
+        let geo = crate::earth::Geodetic::from_deg(80.0, 30.0, 18_000.0);
+        let c_e_g = crate::frames::c_e_g(geo.lat_rad, geo.lon_rad);
+        let q = crate::frames::quat_from_dcm(&c_e_g.transpose()).into_inner();
+        InitState {
+            t_ns: 1_000_000_000,
+            r_e_m: crate::earth::geodetic_to_ecef(&geo).into(),
+            q_b_e: [q.w, q.i, q.j, q.k],
+            sigma_pos_h_m: 10.0,
+            sigma_pos_v_m: 10.0,
+            sigma_vel_h_mps: 0.1,
+            sigma_vel_v_mps: 0.1,
+            sigma_tilt_rad: 3e-4,
+            sigma_heading_rad: 1e-3,
+            ..Default::default()
+        }
+    }
+
+    #[test]
+    fn an_absurd_checkpoint_is_refused_whoever_offers_it() {
+        let good = Navigator::new(&init(), &NavigatorConfig::default()).checkpoint();
+        let mut s = Session::new(SessionSettings::default());
+        s.offer_checkpoint(good)
+            .expect("a navigator's own checkpoint");
+        let mut zero_q = good;
+        zero_q.q_b_e = [0.0; 4];
+        let mut negative = good;
+        negative.p[0] = -1.0;
+        let mut nan = good;
+        nan.r_e_m[2] = f64::NAN;
+        for (what, bad) in [("quaternion", zero_q), ("variance", negative), ("NaN", nan)] {
+            let mut s = Session::new(SessionSettings::default());
+            assert!(s.offer_checkpoint(bad).is_err(), "{what} accepted");
+            assert!(s.resume.is_none(), "{what} kept");
+        }
+    }
 }

@@ -1,0 +1,101 @@
+//! The session's decisions as log lines, for both drivers (`batch` and the
+//! live loop), so that the same event reads the same in either log.
+
+use polarnav::session::{Event, InitSource};
+
+/// One log line for a session event (recurring ones are rate-limited by the caller).
+pub fn log_event(log: &str, e: &Event) {
+    match e {
+        Event::Started {
+            source: InitSource::Config,
+            t_ns,
+        } => tracing::info!(
+            t_ns,
+            "{log}: no init message or record: initializing from the configuration"
+        ),
+        Event::Started {
+            source: InitSource::Checkpoint,
+            t_ns,
+        } => tracing::info!(
+            checkpoint_t_ns = t_ns,
+            "{log}: resumed from checkpoint (no re-alignment); the gap to the first IMU sample is coasted"
+        ),
+        Event::Started {
+            source: InitSource::Message,
+            t_ns,
+        } => tracing::info!(t_ns, "{log}: navigation started from the init"),
+        Event::AlignmentStarted { t_ns, duration_s } => {
+            tracing::info!(t_ns, duration_s, "{log}: stationary alignment started")
+        }
+        Event::Aligned(a) => tracing::info!(
+            heading_deg = a.heading_rad.to_degrees(),
+            pitch_deg = a.pitch_rad.to_degrees(),
+            roll_deg = a.roll_rad.to_degrees(),
+            sigma_tilt_arcmin = a.sigma_tilt_rad.to_degrees() * 60.0,
+            sigma_heading_arcmin = a.sigma_heading_rad.to_degrees() * 60.0,
+            time_s = a.time_s,
+            "{log}: stationary alignment"
+        ),
+        Event::AlignmentFailed(err) => tracing::error!("{log}: alignment failed: {err}"),
+        Event::Reinitialized { t_ns } => {
+            tracing::info!(t_ns, "{log}: new init: re-initialized")
+        }
+        Event::InitHeld { t_ns, imu_t_ns } => tracing::info!(
+            t_ns,
+            imu_t_ns,
+            "{log}: init stamped ahead of the IMU: held until the IMU reaches it"
+        ),
+        Event::InitRejected { t_ns, seq, reason } => {
+            tracing::error!(t_ns, seq, "{log}: init rejected: {reason}")
+        }
+        Event::InitSuperseded { t_ns } => {
+            tracing::warn!(
+                t_ns,
+                "{log}: init not used (a newer one arrived, or the IMU never reached it)"
+            )
+        }
+        Event::CheckpointNotUsed {
+            checkpoint_t_ns,
+            first_imu_t_ns,
+            newer_init,
+        } => tracing::warn!(
+            checkpoint_t_ns,
+            first_imu_t_ns,
+            newer_init,
+            "{log}: checkpoint not used (the IMU does not continue from it, or a newer init wins): cold start"
+        ),
+        Event::Rejected {
+            stream,
+            t_ns,
+            seq,
+            reason,
+        } => tracing::warn!(
+            t_ns,
+            seq,
+            "{log}: {} sample rejected: {reason}",
+            stream.name()
+        ),
+        Event::Switch(sw) => {
+            tracing::info!(t_s = sw.t_ns as f64 * 1e-9, from = ?sw.from, to = ?sw.to, lat_deg = sw.lat_rad.to_degrees(), count = sw.count, "{log}: frame switch")
+        }
+        Event::TimeResync { from_t_ns, to_t_ns } => tracing::warn!(
+            from_t_ns,
+            to_t_ns,
+            "{log}: IMU time jump confirmed: re-synchronized (covariance grown as for the longest coast)"
+        ),
+        Event::SequenceGap {
+            stream,
+            expected,
+            seq,
+        } => tracing::warn!(
+            expected,
+            seq,
+            "{log}: {} samples lost before they arrived",
+            stream.name()
+        ),
+        Event::CovarianceRepaired { t_ns } => tracing::error!(
+            t_ns,
+            "{log}: covariance lost finiteness or positive variances: re-inflated"
+        ),
+    }
+}
