@@ -5,6 +5,41 @@
 /// Prefix used when none is configured.
 pub const DEFAULT_PREFIX: &str = "polarnav";
 
+/// Longest service prefix accepted: every service and node name built from
+/// it stays inside iceoryx2's limits (service names 255 bytes, node names 128).
+pub const PREFIX_MAX_LEN: usize = 64;
+
+/// The one check of a service prefix, for the configuration file and every
+/// command line (`--prefix`) alike: 1 to [`PREFIX_MAX_LEN`] characters of
+/// `A-Z a-z 0-9 _ - .` in `/`-separated parts, none empty. iceoryx2 itself
+/// takes any ASCII but NUL; this is narrower so that a prefix is also a
+/// safe node name, file-name part and journal field.
+pub fn validate_prefix(prefix: &str) -> Result<(), String> {
+    if prefix.is_empty() {
+        return Err("expected a service prefix, got an empty one".into());
+    }
+    if prefix.len() > PREFIX_MAX_LEN {
+        return Err(format!(
+            "expected at most {PREFIX_MAX_LEN} characters, got {}",
+            prefix.len()
+        ));
+    }
+    if let Some(c) = prefix
+        .chars()
+        .find(|c| !(c.is_ascii_alphanumeric() || matches!(c, '_' | '-' | '.' | '/')))
+    {
+        return Err(format!(
+            "expected only A-Z a-z 0-9 _ - . and /, got {c:?} in {prefix:?}"
+        ));
+    }
+    if prefix.split('/').any(str::is_empty) {
+        return Err(format!(
+            "expected /-separated parts that are not empty, got {prefix:?}"
+        ));
+    }
+    Ok(())
+}
+
 /// The services of DESIGN "Messages".
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum Topic {
@@ -60,6 +95,33 @@ impl Topic {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn prefixes_outside_the_rule_are_refused_with_the_reason() {
+        for ok in ["polarnav", "pntest_ab_12_0", "fleet/uav-7", "a.b"] {
+            assert_eq!(validate_prefix(ok), Ok(()), "{ok}");
+        }
+        let long = "x".repeat(PREFIX_MAX_LEN + 1);
+        for (bad, why) in [
+            ("", "empty"),
+            (long.as_str(), "at most 64"),
+            ("a b", "' '"),
+            ("a\0b", "'\\0'"),
+            ("nav\u{e9}", "'\u{e9}'"),
+            ("iox2://x", "':'"),
+            ("/abs", "not empty"),
+            ("a//b", "not empty"),
+            ("trailing/", "not empty"),
+        ] {
+            let e = validate_prefix(bad).expect_err(bad);
+            assert!(e.contains(why), "{bad:?}: {e}");
+        }
+        // The longest accepted prefix still makes valid iceoryx2 names.
+        let max = "p".repeat(PREFIX_MAX_LEN);
+        for t in Topic::ALL {
+            assert!(t.event_name(&max).len() <= 255);
+        }
+    }
 
     #[test]
     fn service_names_share_the_prefix() {

@@ -3,6 +3,11 @@
 
 use polarnav::session::{Event, InitSource};
 
+/// A sensor time stamp in seconds, as the logs show times.
+pub fn secs(t_ns: u64) -> f64 {
+    t_ns as f64 * 1e-9
+}
+
 /// One log line for a session event (recurring ones are rate-limited by the caller).
 pub fn log_event(log: &str, e: &Event) {
     match e {
@@ -10,22 +15,26 @@ pub fn log_event(log: &str, e: &Event) {
             source: InitSource::Config,
             t_ns,
         } => tracing::info!(
-            t_ns,
+            t_s = secs(*t_ns),
             "{log}: no init message or record: initializing from the configuration"
         ),
         Event::Started {
             source: InitSource::Checkpoint,
             t_ns,
         } => tracing::info!(
-            checkpoint_t_ns = t_ns,
+            checkpoint_t_s = secs(*t_ns),
             "{log}: resumed from checkpoint (no re-alignment); the gap to the first IMU sample is coasted"
         ),
         Event::Started {
             source: InitSource::Message,
             t_ns,
-        } => tracing::info!(t_ns, "{log}: navigation started from the init"),
+        } => tracing::info!(t_s = secs(*t_ns), "{log}: navigation started from the init"),
         Event::AlignmentStarted { t_ns, duration_s } => {
-            tracing::info!(t_ns, duration_s, "{log}: stationary alignment started")
+            tracing::info!(
+                t_s = secs(*t_ns),
+                duration_s,
+                "{log}: stationary alignment started"
+            )
         }
         Event::Aligned(a) => tracing::info!(
             heading_deg = a.heading_rad.to_degrees(),
@@ -38,19 +47,19 @@ pub fn log_event(log: &str, e: &Event) {
         ),
         Event::AlignmentFailed(err) => tracing::error!("{log}: alignment failed: {err}"),
         Event::Reinitialized { t_ns } => {
-            tracing::info!(t_ns, "{log}: new init: re-initialized")
+            tracing::info!(t_s = secs(*t_ns), "{log}: new init: re-initialized")
         }
         Event::InitHeld { t_ns, imu_t_ns } => tracing::info!(
-            t_ns,
-            imu_t_ns,
+            t_s = secs(*t_ns),
+            imu_t_s = secs(*imu_t_ns),
             "{log}: init stamped ahead of the IMU: held until the IMU reaches it"
         ),
         Event::InitRejected { t_ns, seq, reason } => {
-            tracing::error!(t_ns, seq, "{log}: init rejected: {reason}")
+            tracing::error!(t_s = secs(*t_ns), seq, "{log}: init rejected: {reason}")
         }
         Event::InitSuperseded { t_ns } => {
             tracing::warn!(
-                t_ns,
+                t_s = secs(*t_ns),
                 "{log}: init not used (a newer one arrived, or the IMU never reached it)"
             )
         }
@@ -59,8 +68,8 @@ pub fn log_event(log: &str, e: &Event) {
             first_imu_t_ns,
             newer_init,
         } => tracing::warn!(
-            checkpoint_t_ns,
-            first_imu_t_ns,
+            checkpoint_t_s = secs(*checkpoint_t_ns),
+            first_imu_t_s = secs(*first_imu_t_ns),
             newer_init,
             "{log}: checkpoint not used (the IMU does not continue from it, or a newer init wins): cold start"
         ),
@@ -70,17 +79,17 @@ pub fn log_event(log: &str, e: &Event) {
             seq,
             reason,
         } => tracing::warn!(
-            t_ns,
+            t_s = secs(*t_ns),
             seq,
             "{log}: {} sample rejected: {reason}",
             stream.name()
         ),
         Event::Switch(sw) => {
-            tracing::info!(t_s = sw.t_ns as f64 * 1e-9, from = ?sw.from, to = ?sw.to, lat_deg = sw.lat_rad.to_degrees(), count = sw.count, "{log}: frame switch")
+            tracing::info!(t_s = secs(sw.t_ns), from = ?sw.from, to = ?sw.to, lat_deg = sw.lat_rad.to_degrees(), count = sw.count, "{log}: frame switch")
         }
         Event::TimeResync { from_t_ns, to_t_ns } => tracing::warn!(
-            from_t_ns,
-            to_t_ns,
+            from_t_s = secs(*from_t_ns),
+            to_t_s = secs(*to_t_ns),
             "{log}: IMU time jump confirmed: re-synchronized (covariance grown as for the longest coast)"
         ),
         Event::SequenceGap {
@@ -94,7 +103,7 @@ pub fn log_event(log: &str, e: &Event) {
             stream.name()
         ),
         Event::CovarianceRepaired { t_ns } => tracing::error!(
-            t_ns,
+            t_s = secs(*t_ns),
             "{log}: covariance lost finiteness or positive variances: re-inflated"
         ),
     }

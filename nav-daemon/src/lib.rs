@@ -4,3 +4,4 @@
 pub mod batch;
 pub mod events;
 pub mod live;
+pub mod notify;

@@ -7,8 +7,10 @@
 //! inputs by time stamp (then stream), pushes them into the same
 //! [`Session`] as `batch` and flushes it, publishing one solution per
 //! accepted IMU sample; status goes out at 1 Hz. Every decision between an
-//! input and a solution is the session's. systemd: READY=1 after the first
-//! solution, WATCHDOG=1 from this loop only, STATUS= once a second.
+//! input and a solution is the session's. systemd: READY=1 as soon as the
+//! services are open and the settings loaded (the daemon can take inputs;
+//! STATUS= says which it waits for), WATCHDOG=1 from this loop only (idle
+//! or navigating), STATUS= with the one-line health once a second.
 
 use std::path::PathBuf;
 use std::sync::Arc;
@@ -272,10 +274,11 @@ pub fn run(
     tracing::info!(prefix = %transport_cfg.prefix, imu_rate_hz = opts.imu_rate_hz, "nav-daemon live: services open, waiting for init and IMU");
 
     let mut state = LoopState::new(settings, opts);
+    let mut notify = crate::notify::Notifier::from_env();
     if let Some(c) = &opts.checkpoint {
         match Checkpoint::load(&c.path) {
             Ok(Some(ck)) => {
-                tracing::info!(path = %c.path.display(), t_ns = ck.t_ns, "checkpoint found: resuming if the IMU continues from it");
+                tracing::info!(path = %c.path.display(), t_s = crate::events::secs(ck.t_ns), "checkpoint found: resuming if the IMU continues from it");
                 if let Err(e) = state.session.offer_checkpoint(ck) {
                     tracing::warn!("checkpoint unusable, cold start: {e}");
                 }
@@ -286,6 +289,16 @@ pub fn run(
             Err(e) => tracing::warn!("checkpoint unusable, cold start: {e}"),
         }
     }
+    // Inputs can be taken from here on: systemd may start the producers
+    // ordered after this unit (replay, recorder) now, not at the first
+    // solution, which needs their data.
+    notify.ready(&waiting_line(&state.session, &transport_cfg.prefix));
+    tracing::info!(
+        watchdog_interval_ms = notify.watchdog_interval().as_millis() as u64,
+        notify = notify.active(),
+        "ready: {}",
+        waiting_line(&state.session, &transport_cfg.prefix)
+    );
     loop {
         let mut imu_event = false;
         let result = waitset.wait_and_process_once(|id| {
@@ -305,16 +318,17 @@ pub fn run(
         state.cycle(&ports)?;
         let cpu = cpu0.and_then(|c| c.try_elapsed().ok()).unwrap_or_default();
         let status_due = state.account(t0.elapsed(), cpu, period, &ports)?;
+        notify.watchdog();
         if status_due {
             let st = state.status();
             ports.status.publish(&st)?;
             // A recorder that subscribed since gets the settings now.
             ports.settings.update_connections()?;
-            let lat = state
-                .session
-                .navigator()
-                .map(|n| n.state().geodetic().lat_rad.to_degrees());
-            let _ = sd_notify::notify(&[sd_notify::NotifyState::Status(&status_line(&st, lat))]);
+            let line = match state.session.navigator() {
+                Some(n) => status_line(&st, Some(n.state().geodetic().lat_rad.to_degrees())),
+                None => waiting_line(&state.session, &transport_cfg.prefix),
+            };
+            notify.status(&line);
             state.reset_window();
         }
         if stop.load(Ordering::Relaxed) {
@@ -327,13 +341,38 @@ pub fn run(
         sink.done()?;
     }
     ports.status.publish(&state.status())?;
-    let _ = sd_notify::notify(&[sd_notify::NotifyState::Stopping]);
+    notify.stopping(&format!(
+        "stopping after {} solutions",
+        state.report.solutions
+    ));
     tracing::info!(
         cycles = state.report.cycles,
         solutions = state.report.solutions,
         "nav-daemon live: stopped, final status published"
     );
     Ok(state.report.clone())
+}
+
+/// STATUS= before navigation starts: what the daemon waits for.
+pub fn waiting_line(session: &Session, prefix: &str) -> String {
+    let imu = Topic::Imu.service_name(prefix);
+    let init = Topic::Init.service_name(prefix);
+    if let Some(done) = session.alignment_progress_s() {
+        return format!("aligning: {done:.1} s of IMU data so far");
+    }
+    let imu_seen = session.status().imu.received > 0;
+    match (session.has_config_init(), imu_seen) {
+        (true, false) => {
+            format!(
+                "waiting for IMU on {imu} (init from the configuration at the first sample, or {init})"
+            )
+        }
+        (false, false) => format!("waiting for init on {init} and IMU on {imu}"),
+        (false, true) => {
+            format!("waiting for init on {init} (IMU arriving on {imu} is not used until then)")
+        }
+        (true, true) => format!("waiting for a usable IMU sample on {imu}"),
+    }
 }
 
 /// The one-line systemd STATUS=: frame, latitude, aid freshness.
@@ -392,7 +431,7 @@ struct PublishSink<'a> {
 /// What the publishing sink keeps from cycle to cycle.
 #[derive(Debug, Default)]
 struct OutputState {
-    ready_sent: bool,
+    first_sent: bool,
     rejections: [RateLimit; 4],
     gaps: RateLimit,
 }
@@ -425,10 +464,12 @@ impl Sink for PublishSink<'_> {
             return;
         }
         self.published += 1;
-        if !self.out.ready_sent {
-            let _ = sd_notify::notify(&[sd_notify::NotifyState::Ready]);
-            self.out.ready_sent = true;
-            tracing::info!(t_ns = s.t_ns, "first solution published: ready");
+        if !self.out.first_sent {
+            self.out.first_sent = true;
+            tracing::info!(
+                t_s = crate::events::secs(s.t_ns),
+                "first solution published"
+            );
         }
     }
 
@@ -443,7 +484,7 @@ impl Sink for PublishSink<'_> {
             let k = Stream::ALL.iter().position(|s| s == stream).unwrap_or(0);
             if let Some(suppressed) = self.out.rejections[k].due() {
                 tracing::warn!(
-                    t_ns,
+                    t_s = crate::events::secs(*t_ns),
                     seq,
                     suppressed,
                     "{} sample rejected: {reason}",
@@ -467,7 +508,6 @@ struct LoopState {
     last_imu_wall: Option<Instant>,
     imu_lost: bool,
     last_status: Instant,
-    last_watchdog: Instant,
     cycle_time_sum: Duration,
     cycle_time_max: Duration,
     cycle_count_window: u64,
@@ -487,7 +527,6 @@ impl LoopState {
             last_imu_wall: None,
             imu_lost: false,
             last_status: Instant::now(),
-            last_watchdog: Instant::now(),
             cycle_time_sum: Duration::ZERO,
             cycle_time_max: Duration::ZERO,
             cycle_count_window: 0,
@@ -577,10 +616,6 @@ impl LoopState {
             let mut sink = PublishSink::new(&ports.solution, &mut self.out);
             self.session.imu_lost(&mut sink);
             sink.done()?;
-        }
-        if self.last_watchdog.elapsed() >= Duration::from_millis(100) {
-            let _ = sd_notify::notify(&[sd_notify::NotifyState::Watchdog]);
-            self.last_watchdog = Instant::now();
         }
         Ok(self.last_status.elapsed() >= self.opts.status_period)
     }

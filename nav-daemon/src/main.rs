@@ -78,21 +78,27 @@ fn find_config(explicit: Option<&PathBuf>) -> Result<ConfigFile, (String, i32)> 
             return ConfigFile::load(p).map_err(|e| (e.to_string(), 2));
         }
     }
+    tracing::warn!(
+        "no configuration file ({}): running the built-in defaults",
+        candidates
+            .iter()
+            .map(|p| format!("{} not found", p.display()))
+            .collect::<Vec<_>>()
+            .join(", ")
+    );
     Ok(ConfigFile::defaults())
 }
 
 fn main() -> ExitCode {
-    tracing_subscriber::fmt()
-        .with_env_filter(
-            tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| "info".into()),
-        )
-        .with_writer(std::io::stderr)
-        .init();
+    polarnav_ipc::logging::init("nav-daemon");
     let cli = Cli::parse();
     if let Some(path) = &cli.check_config {
         // Exactly the validation the daemon runs at start.
-        let checked =
-            ConfigFile::load(path).and_then(|f| effective(&f, None, &CliOverrides::default()));
+        let cli_overrides = CliOverrides {
+            prefix: cli.prefix.clone(),
+            ..Default::default()
+        };
+        let checked = ConfigFile::load(path).and_then(|f| effective(&f, None, &cli_overrides));
         return match checked {
             Ok(_) => {
                 println!("{}: valid", path.display());
@@ -104,16 +110,13 @@ fn main() -> ExitCode {
             }
         };
     }
-    let mut config = match find_config(cli.config.as_ref()) {
+    let config = match find_config(cli.config.as_ref()) {
         Ok(c) => c,
         Err((msg, code)) => {
             eprintln!("error: {msg}");
             return ExitCode::from(code as u8);
         }
     };
-    if let Some(p) = cli.prefix {
-        config.config.prefix = p;
-    }
     match cli.cmd {
         Some(Cmd::Batch {
             log,
@@ -153,6 +156,7 @@ fn main() -> ExitCode {
                         force_switch
                     },
                     align_s: align,
+                    prefix: None,
                 },
                 progress_every_s: progress,
             };
@@ -213,13 +217,25 @@ fn main() -> ExitCode {
                 eprintln!("error: cannot install the SIGINT/SIGTERM handler: {e}");
                 return ExitCode::from(1);
             }
-            let settings = match effective(&config, None, &CliOverrides::default()) {
+            let cli_overrides = CliOverrides {
+                prefix: cli.prefix,
+                ..Default::default()
+            };
+            let settings = match effective(&config, None, &cli_overrides) {
                 Ok(s) => s,
                 Err(e) => {
                     eprintln!("error: {e}");
                     return ExitCode::from(2);
                 }
             };
+            tracing::info!(
+                version = env!("CARGO_PKG_VERSION"),
+                config = %config.origin,
+                prefix = %settings.config.prefix,
+                "nav-daemon {} starting with {}",
+                env!("CARGO_PKG_VERSION"),
+                config.origin
+            );
             tracing::info!("effective settings:\n{}", settings.describe());
             let config = &settings.config;
             let transport = polarnav_ipc::TransportConfig::new(&config.prefix);

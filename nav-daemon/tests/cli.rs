@@ -204,3 +204,65 @@ fn check_config_accepts_the_shipped_file_and_names_a_bad_key() {
     assert_eq!(o.status.code(), Some(2));
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// One prefix rule for the file, `--check-config` and the command line: each
+/// refusal is exit 2 and names the file or flag and the key, before any
+/// iceoryx2 resource is touched.
+#[test]
+fn a_bad_prefix_is_refused_alike_from_the_file_and_the_command_line() {
+    let dir = temp_dir("prefix");
+    let long = "p".repeat(250);
+    for (prefix, why) in [
+        (long.as_str(), "at most 64"),
+        ("a\\u0000b", "'\\0'"),
+        ("a b", "' '"),
+        ("", "empty"),
+    ] {
+        let file = dir.join("nav.toml");
+        std::fs::write(&file, format!("prefix = \"{prefix}\"\n")).expect("write");
+        for args in [vec!["--check-config"], vec!["--config"]] {
+            let o = bin()
+                .args(&args)
+                .arg(&file)
+                .env("POLARNAV_IOX_ROOT", dir.join("iox"))
+                .output()
+                .expect("run");
+            let err = String::from_utf8_lossy(&o.stderr);
+            assert_eq!(o.status.code(), Some(2), "{args:?} {prefix:?}: {err}");
+            assert!(
+                err.contains("nav.toml") && err.contains("`prefix`") && err.contains(why),
+                "{args:?} {prefix:?}: {err}"
+            );
+        }
+    }
+    let good = dir.join("good.toml");
+    std::fs::write(&good, "prefix = \"polarnav\"\n").expect("write");
+    for bad in ["a b", "x/", long.as_str()] {
+        for args in [
+            vec!["--config", good.to_str().expect("utf-8"), "--prefix", bad],
+            vec![
+                "--check-config",
+                good.to_str().expect("utf-8"),
+                "--prefix",
+                bad,
+            ],
+        ] {
+            let o = bin()
+                .args(&args)
+                .env("POLARNAV_IOX_ROOT", dir.join("iox"))
+                .output()
+                .expect("run");
+            let err = String::from_utf8_lossy(&o.stderr);
+            assert_eq!(o.status.code(), Some(2), "{args:?}: {err}");
+            assert!(
+                err.contains("command line --prefix") && err.contains("`prefix`"),
+                "{args:?}: {err}"
+            );
+        }
+    }
+    assert!(
+        !dir.join("iox").exists(),
+        "an iceoryx2 root was created before the prefix was checked"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -52,7 +52,8 @@ enum Cmd {
         /// Number of passes with --loop (0 = until stopped).
         #[arg(long, default_value_t = 0)]
         passes: u64,
-        #[arg(long, default_value = msgs::service::DEFAULT_PREFIX)]
+        /// iceoryx2 service prefix (the daemon's `prefix`; same rule).
+        #[arg(long, default_value = msgs::service::DEFAULT_PREFIX, value_parser = prefix_arg)]
         prefix: String,
     },
     /// Fault campaign: every scenario in DIR simulated with and without its
@@ -65,7 +66,8 @@ enum Cmd {
     Record {
         #[arg(long)]
         out: PathBuf,
-        #[arg(long, default_value = msgs::service::DEFAULT_PREFIX)]
+        /// iceoryx2 service prefix (the daemon's `prefix`; same rule).
+        #[arg(long, default_value = msgs::service::DEFAULT_PREFIX, value_parser = prefix_arg)]
         prefix: String,
         /// Stop after this many seconds.
         #[arg(long)]
@@ -73,7 +75,8 @@ enum Cmd {
     },
     /// Live monitor: solution and status in place, a few times per second.
     Listen {
-        #[arg(long, default_value = msgs::service::DEFAULT_PREFIX)]
+        /// iceoryx2 service prefix (the daemon's `prefix`; same rule).
+        #[arg(long, default_value = msgs::service::DEFAULT_PREFIX, value_parser = prefix_arg)]
         prefix: String,
         /// Stop after this many seconds.
         #[arg(long)]
@@ -504,13 +507,13 @@ fn import_fail(e: ImportError) -> Fail {
     }
 }
 
+/// `--prefix`: the one prefix rule of the project ([`msgs::service::validate_prefix`]).
+fn prefix_arg(s: &str) -> Result<String, String> {
+    msgs::service::validate_prefix(s).map(|()| s.to_owned())
+}
+
 fn main() -> ExitCode {
-    tracing_subscriber::fmt()
-        .with_env_filter(
-            tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| "info".into()),
-        )
-        .with_writer(std::io::stderr)
-        .init();
+    polarnav_ipc::logging::init("sensor-replay");
     match run(Cli::parse()) {
         Ok(()) => ExitCode::SUCCESS,
         Err(Fail(code, msg)) => {

@@ -8,6 +8,8 @@
 //! subscribers) wake on data. Nodes never install iceoryx2's own signal
 //! handler (`SignalHandlingMode::Disabled`): the processes use ctrlc.
 
+pub mod logging;
+
 use std::fmt::Debug;
 use std::path::PathBuf;
 

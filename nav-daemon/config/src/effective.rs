@@ -95,6 +95,20 @@ pub struct CliOverrides {
     pub force_switch_s: Option<Vec<f64>>,
     /// `--align SECONDS`.
     pub align_s: Option<f64>,
+    /// `--prefix` (the live daemon).
+    pub prefix: Option<String>,
+}
+
+/// The command-line option that sets a key, for error messages.
+fn flag(key: &str) -> &'static str {
+    match key {
+        "prefix" => "--prefix",
+        "frame.conversion" => "--conversion",
+        "aids.fuse" => "--aids",
+        "frame.force_switch_s" | "frame.never_switch" => "--force-switch/--no-switch",
+        "align_s" => "--align",
+        _ => "an option",
+    }
 }
 
 /// The settings a run uses, and the source of each.
@@ -280,6 +294,14 @@ pub fn effective(
         let never = toml::Value::Boolean(times.is_empty());
         assign(&mut table, "frame.never_switch", never, Source::CommandLine);
     }
+    if let Some(p) = &cli.prefix {
+        assign(
+            &mut table,
+            "prefix",
+            toml::Value::String(p.clone()),
+            Source::CommandLine,
+        );
+    }
     if let Some(a) = cli.align_s {
         assign(
             &mut table,
@@ -294,7 +316,7 @@ pub fn effective(
     };
     let place = |key: &str| match sources.get(key) {
         Some(Source::Header) => origins.header.clone(),
-        Some(Source::CommandLine) => "command line".to_owned(),
+        Some(Source::CommandLine) => format!("command line {}", flag(key)),
         _ => origins.file.clone(),
     };
     let config: Config = toml::Value::Table(table)

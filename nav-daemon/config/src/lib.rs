@@ -138,14 +138,11 @@ impl Config {
     /// runs exactly this, as does [`effective`] on the merged settings).
     pub fn validate(&self, origin: &str) -> Result<(), ConfigError> {
         let c = self;
-        if c.prefix.is_empty() || c.prefix.contains(char::is_whitespace) {
+        if let Err(message) = msgs::service::validate_prefix(&c.prefix) {
             return Err(ConfigError::Invalid {
                 path: origin.to_owned(),
                 key: "prefix".into(),
-                message: format!(
-                    "expected a non-empty service prefix without spaces, got {:?}",
-                    c.prefix
-                ),
+                message,
             });
         }
         c.frame.validate(origin, "frame")?;

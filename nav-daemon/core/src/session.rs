@@ -1043,6 +1043,12 @@ impl Session {
         }
     }
 
+    /// Whether the settings give an initial state (`[init]`), so that the
+    /// first IMU sample starts navigation without an init message.
+    pub fn has_config_init(&self) -> bool {
+        self.settings.init.is_some()
+    }
+
     /// Alignment still running at the end: how much IMU time it had.
     pub fn alignment_progress_s(&self) -> Option<f64> {
         self.aligning.as_ref().map(|(_, acc)| acc.time_s())

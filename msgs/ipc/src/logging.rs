@@ -1,0 +1,65 @@
+//! Log output of the polarnav processes, the same for the daemon and
+//! sensor-replay: journald's native protocol with structured fields when
+//! stderr is connected to the journal (a systemd service), plain text on
+//! stderr otherwise, coloured only when stderr is a terminal. `RUST_LOG`
+//! selects the level (default `info`).
+
+use std::io::IsTerminal;
+
+use tracing_subscriber::layer::SubscriberExt;
+use tracing_subscriber::util::SubscriberInitExt;
+
+/// Where the log lines go.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum LogOutput {
+    Journal,
+    Terminal,
+    Plain,
+}
+
+/// Whether stderr is the journal stream systemd connected (`JOURNAL_STREAM`
+/// names its device and inode, as `sd_journal_stream_fd(3)` describes).
+pub fn stderr_is_journal() -> bool {
+    use std::os::unix::fs::MetadataExt;
+    let Some(v) = std::env::var_os("JOURNAL_STREAM") else {
+        return false;
+    };
+    let v = v.to_string_lossy();
+    let Some((dev, ino)) = v.split_once(':') else {
+        return false;
+    };
+    let (Ok(dev), Ok(ino)) = (dev.parse::<u64>(), ino.parse::<u64>()) else {
+        return false;
+    };
+    std::fs::metadata("/proc/self/fd/2").is_ok_and(|m| m.dev() == dev && m.ino() == ino)
+}
+
+/// Installs the process's log subscriber; `identifier` is the journal's
+/// `SYSLOG_IDENTIFIER`. Returns where the lines go.
+pub fn init(identifier: &str) -> LogOutput {
+    let filter =
+        || tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| "info".into());
+    if stderr_is_journal() {
+        match tracing_journald::layer() {
+            Ok(layer) => {
+                tracing_subscriber::registry()
+                    .with(filter())
+                    .with(layer.with_syslog_identifier(identifier.to_owned()))
+                    .init();
+                return LogOutput::Journal;
+            }
+            Err(e) => eprintln!("journald unreachable ({e}): logging plain text to stderr"),
+        }
+    }
+    let terminal = std::io::stderr().is_terminal();
+    tracing_subscriber::fmt()
+        .with_env_filter(filter())
+        .with_ansi(terminal)
+        .with_writer(std::io::stderr)
+        .init();
+    if terminal {
+        LogOutput::Terminal
+    } else {
+        LogOutput::Plain
+    }
+}
