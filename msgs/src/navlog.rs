@@ -142,6 +142,14 @@ impl<W: Write> NavlogWriter<W> {
         self.records
     }
 
+    /// Hands every record written so far to the underlying writer and
+    /// flushes it (to the kernel for a file: a killed process loses nothing
+    /// written before; no fsync).
+    pub fn flush(&mut self) -> Result<(), WriteError> {
+        self.out.flush()?;
+        Ok(())
+    }
+
     /// Flushes and returns the underlying writer.
     pub fn finish(mut self) -> Result<W, WriteError> {
         self.out.flush()?;

@@ -244,6 +244,11 @@ pub struct Recorded {
 /// Records held while the recorder waits for the daemon's settings.
 const HOLD_RECORDS: usize = 100_000;
 
+/// The recorder hands what it wrote to the kernel at least this often, so
+/// that a recorder killed with SIGKILL loses at most this much (plus one
+/// wake-up) of what it received.
+pub const RECORD_FLUSH_PERIOD: Duration = Duration::from_millis(50);
+
 pub fn record<W: Write>(
     cfg: &TransportConfig,
     out: W,
@@ -292,6 +297,7 @@ pub fn record<W: Write>(
     let started = Instant::now();
     let mut n = Recorded::default();
     let mut buf: Vec<Record> = Vec::with_capacity(4096);
+    let mut last_flush = Instant::now();
     loop {
         let r = waitset
             .wait_and_process_once(|_| CallbackProgression::Continue)
@@ -319,7 +325,15 @@ pub fn record<W: Write>(
             if let Some(t) = text {
                 eprintln!("record: the daemon's effective settings go into the header");
                 w = Some(open(&mut out, Some(&t))?);
-            } else if buf.len() >= HOLD_RECORDS || done {
+            } else if buf.len() >= HOLD_RECORDS
+                || done
+                || buf
+                    .iter()
+                    .any(|r| matches!(r, Record::Solution(_) | Record::Status(_)))
+            {
+                // A daemon publishes its settings before its first output:
+                // none by now means a daemon without them. Outputs are not
+                // held back, so a kill loses at most a flush period of them.
                 w = Some(open(&mut out, None)?);
             }
         }
@@ -342,6 +356,10 @@ pub fn record<W: Write>(
         for r in buf.drain(..) {
             writer.write(&r)?;
             n.records += 1;
+        }
+        if last_flush.elapsed() >= RECORD_FLUSH_PERIOD {
+            writer.flush()?;
+            last_flush = Instant::now();
         }
         if done {
             break;

@@ -315,9 +315,11 @@ fn run(cli: Cli) -> Result<(), Fail> {
                 "record: {prefix}/... -> {} (stop with Ctrl-C)",
                 out.display()
             );
+            // A large buffer for few write calls; the recorder flushes it
+            // every RECORD_FLUSH_PERIOD, which bounds the loss to a kill.
             let n = sensor_replay::live::record(
                 &cfg,
-                BufWriter::new(f),
+                BufWriter::with_capacity(1 << 20, f),
                 &stop,
                 duration.map(std::time::Duration::from_secs_f64),
             )

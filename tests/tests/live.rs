@@ -1419,3 +1419,79 @@ fn absurd_inputs_keep_watchdog_status_and_navigation_going() {
         st.imu
     );
 }
+
+/// A recorder killed with SIGKILL during a replay keeps in its file every
+/// solution it had received up to at most 100 ms before the kill (it flushes
+/// every 50 ms; a torn last frame is skipped by the reader).
+#[test]
+fn recorder_killed_with_sigkill_loses_at_most_100_ms_of_solutions() {
+    let env = Env::new("reckill");
+    let log = short_log(&env.dir, 30.0);
+    let mut daemon = env.start_daemon("daemon", None);
+    let rec_path = env.dir.join("killed.navlog");
+    let mut recorder = env.start_recorder(&rec_path);
+    // A reference subscriber beside the recorder: what was published when.
+    let node = polarnav_ipc::node(&env.cfg, "test_reference").expect("node");
+    let sols = polarnav_ipc::TopicSubscriber::<Solution>::new(
+        &node,
+        &env.cfg,
+        msgs::service::Topic::Solution,
+    )
+    .expect("solution");
+    let mut play = env.start_play("play", &log, "1");
+    let mut seen: Vec<(Instant, u64)> = Vec::new();
+    let t0 = Instant::now();
+    while t0.elapsed() < Duration::from_secs(30) {
+        std::thread::sleep(Duration::from_millis(2));
+        sols.drain(|s| seen.push((Instant::now(), s.t_ns)))
+            .expect("drain");
+        // Kill in the middle of the flight, a few seconds after solutions flow.
+        if seen
+            .first()
+            .is_some_and(|(t, _)| t.elapsed() > Duration::from_secs(4))
+        {
+            break;
+        }
+    }
+    assert!(!seen.is_empty(), "no solutions published");
+    let t_kill = Instant::now();
+    recorder.kill().expect("SIGKILL");
+    let _ = recorder.wait();
+    sols.drain(|s| seen.push((Instant::now(), s.t_ns)))
+        .expect("drain");
+    let _ = play.kill();
+    let _ = play.wait();
+    assert_eq!(terminate(&mut daemon, Duration::from_secs(20)), Some(0));
+    let (records, report) = msgs::navlog::read_all(&std::fs::read(&rec_path).expect("rec"));
+    let last_recorded = records
+        .iter()
+        .filter_map(|r| match r {
+            Record::Solution(s) => Some(s.t_ns),
+            _ => None,
+        })
+        .max()
+        .expect("no solution in the killed recorder's file");
+    // The newest solution published before the kill, and how long before the
+    // kill the first one missing from the file was received.
+    let published_before: Vec<&(Instant, u64)> =
+        seen.iter().filter(|(t, _)| *t <= t_kill).collect();
+    let newest = published_before.last().map(|(_, t)| *t).expect("seen");
+    let first_missing = published_before
+        .iter()
+        .find(|(_, t_ns)| *t_ns > last_recorded)
+        .map(|(t, _)| t_kill - *t);
+    let lost_sensor_s = newest.saturating_sub(last_recorded) as f64 * 1e-9;
+    eprintln!(
+        "recorder SIGKILL: {} solutions before the kill, file ends at {:.3} s, newest published {:.3} s: {:.0} ms of sensor time lost; first missing received {:?} before the kill; reader: {report:?}",
+        published_before.len(),
+        last_recorded as f64 * 1e-9,
+        newest as f64 * 1e-9,
+        lost_sensor_s * 1e3,
+        first_missing
+    );
+    // At 1x, sensor time runs with wall time.
+    assert!(lost_sensor_s <= 0.100, "{:.0} ms lost", lost_sensor_s * 1e3);
+    if let Some(d) = first_missing {
+        assert!(d <= Duration::from_millis(100), "{d:?}");
+    }
+}
