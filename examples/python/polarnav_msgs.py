@@ -20,6 +20,7 @@ FLAG_LAST_INNOVATION_REJECTED = 1 << 4
 FLAG_IMU_LOST = 1 << 5
 FLAG_COASTING = 1 << 6
 FLAG_RESUMED = 1 << 7
+FLAG_SECOND_PUBLISHER = 1 << 10
 
 # WireFrame
 FRAME_GEOGRAPHIC = 0
@@ -78,11 +79,12 @@ class StreamCounters(ctypes.Structure):
         ("not_used", ctypes.c_uint64),
         ("seq_gaps", ctypes.c_uint64),
         ("last_t_ns", ctypes.c_uint64),
+        ("refused_publisher", ctypes.c_uint64),
     ]
 
     @staticmethod
     def type_name() -> str:
-        return "polarnav::StreamCounters_v2"
+        return "polarnav::StreamCounters_v3"
 
 
 class AidStatus(ctypes.Structure):
@@ -137,7 +139,7 @@ class Status(ctypes.Structure):
 
     @staticmethod
     def type_name() -> str:
-        return "polarnav::Status_v2"
+        return "polarnav::Status_v3"
 
 
 def layout() -> dict:

@@ -169,6 +169,9 @@ pub mod solution_flags {
     pub const COASTING: u32 = 1 << 6;
     /// The navigator was resumed from a checkpoint (cleared by the next fused aid).
     pub const RESUMED: u32 = 1 << 7;
+    /// A second publisher sent on an input service in the last status period:
+    /// its samples were refused (`StreamCounters::refused_publisher`).
+    pub const SECOND_PUBLISHER: u32 = 1 << 10;
 }
 
 /// Full navigation solution, one per filter cycle.
@@ -236,7 +239,7 @@ pub struct Solution {
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
 #[cfg_attr(feature = "iceoryx2", derive(ZeroCopySend))]
 #[repr(C)]
-#[cfg_attr(feature = "iceoryx2", type_name("polarnav::StreamCounters_v2"))]
+#[cfg_attr(feature = "iceoryx2", type_name("polarnav::StreamCounters_v3"))]
 pub struct StreamCounters {
     /// Samples received from the transport or log.
     pub received: u64,
@@ -255,6 +258,10 @@ pub struct StreamCounters {
     pub seq_gaps: u64,
     /// Time stamp of the last accepted sample (0 = none yet).
     pub last_t_ns: u64,
+    /// Samples refused before they were received because another publisher
+    /// owns the input service (live only; not part of `received`). The
+    /// first publisher to send owns it until it disconnects or its process dies.
+    pub refused_publisher: u64,
 }
 
 /// The status record every aid reports (same shape for SRS, CNS and baro).
@@ -285,7 +292,7 @@ pub struct AidStatus {
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
 #[cfg_attr(feature = "iceoryx2", derive(ZeroCopySend))]
 #[repr(C)]
-#[cfg_attr(feature = "iceoryx2", type_name("polarnav::Status_v2"))]
+#[cfg_attr(feature = "iceoryx2", type_name("polarnav::Status_v3"))]
 pub struct Status {
     pub t_ns: u64,
     pub seq: u64,
@@ -382,7 +389,7 @@ mod tests {
                 + 1
                 + 3
         );
-        assert_eq!(size_of::<StreamCounters>(), 8 * 8);
+        assert_eq!(size_of::<StreamCounters>(), 9 * 8);
         assert_eq!(size_of::<AidStatus>(), 48 + 8 + 8 + 8 + 8);
         assert_eq!(
             size_of::<Status>(),

@@ -156,6 +156,108 @@ pub enum LiveError {
     Transport(#[from] TransportError),
     #[error("iceoryx2 waitset: {0}")]
     WaitSet(String),
+    #[error(
+        "another nav-daemon already serves prefix {prefix:?}: node {name:?}, pid {pid} ({executable}); stop it or choose another prefix"
+    )]
+    AlreadyRunning {
+        prefix: String,
+        name: String,
+        pid: i32,
+        executable: String,
+    },
+}
+
+impl LiveError {
+    /// Exit status: 2 for a start refused by configuration or another
+    /// daemon, 1 for a failure while running.
+    pub fn exit_code(&self) -> u8 {
+        match self {
+            LiveError::AlreadyRunning { .. } => 2,
+            _ => 1,
+        }
+    }
+}
+
+/// The node role of the daemon (`nav-daemon:<prefix>` in `iox2 node list`).
+pub const NODE_ROLE: &str = "nav-daemon";
+
+/// Refuses to serve a prefix another live daemon serves. `me`: this
+/// process, once its own node exists (two daemons started at once both see
+/// each other then; the one with the higher pid gives way).
+fn refuse_if_served(cfg: &TransportConfig, me: Option<i32>) -> Result<(), LiveError> {
+    let others = polarnav_ipc::running(cfg, NODE_ROLE)?;
+    if let Some(o) = others
+        .into_iter()
+        .find(|o| me.is_none_or(|me| o.pid != me && o.pid < me))
+    {
+        return Err(LiveError::AlreadyRunning {
+            prefix: cfg.prefix.clone(),
+            name: o.name,
+            pid: o.pid,
+            executable: o.executable,
+        });
+    }
+    Ok(())
+}
+
+/// Who may publish on one input service: the first publisher to send owns
+/// it until it disconnects or its process dies (a driver restarted after a
+/// crash takes over); samples of any other publisher meanwhile are refused
+/// and counted, never received.
+#[derive(Debug, Default)]
+struct Owner {
+    id: Option<u128>,
+    refused: u64,
+    refused_at_status: u64,
+    /// When the owner was last found still connected (a flood of refused
+    /// samples checks at most every OWNER_CHECK_PERIOD).
+    confirmed: Option<Instant>,
+    log: RateLimit,
+}
+
+const OWNER_CHECK_PERIOD: Duration = Duration::from_millis(20);
+
+/// How often the settings publisher connects new subscribers (and hands
+/// them its history): well inside the recorder's `SETTINGS_WAIT` of 100 ms.
+const SETTINGS_UPDATE_PERIOD: Duration = Duration::from_millis(25);
+
+impl Owner {
+    /// Whether a sample of `origin` is taken; `connected(id)` says whether
+    /// publisher `id` is still there.
+    fn admit(&mut self, stream: &str, origin: u128, connected: impl FnOnce(u128) -> bool) -> bool {
+        let Some(owner) = self.id else {
+            self.id = Some(origin);
+            return true;
+        };
+        if owner == origin {
+            return true;
+        }
+        let recent = self
+            .confirmed
+            .is_some_and(|t| t.elapsed() < OWNER_CHECK_PERIOD);
+        if !recent {
+            if connected(owner) {
+                self.confirmed = Some(Instant::now());
+            } else {
+                tracing::info!(
+                    stream,
+                    "{stream} publisher {owner:032x} gone: publisher {origin:032x} takes over"
+                );
+                self.id = Some(origin);
+                self.confirmed = None;
+                return true;
+            }
+        }
+        self.refused += 1;
+        if let Some(suppressed) = self.log.due() {
+            tracing::warn!(
+                stream,
+                suppressed,
+                "{stream}: sample of a second publisher {origin:032x} refused (publisher {owner:032x} owns the service)"
+            );
+        }
+        false
+    }
 }
 
 /// What a run did (for logs and tests).
@@ -212,6 +314,7 @@ impl Drained {
 }
 
 struct Ports {
+    cfg: TransportConfig,
     imu: TopicSubscriber<ImuSample>,
     srs: TopicSubscriber<SrsSample>,
     cns: TopicSubscriber<CnsFix>,
@@ -222,6 +325,22 @@ struct Ports {
     settings: TopicPublisher<EffectiveSettings>,
 }
 
+impl Ports {
+    /// Whether publisher `id` still serves `sub`'s service: dead processes'
+    /// publishers are removed first (a driver killed with SIGKILL and
+    /// restarted takes over its service).
+    fn connected<T: std::fmt::Debug + ZeroCopySend + Copy + 'static>(
+        &self,
+        sub: &TopicSubscriber<T>,
+        id: u128,
+    ) -> bool {
+        if let Err(e) = polarnav_ipc::remove_dead_nodes(&self.cfg) {
+            tracing::warn!("dead nodes not removed: {e}");
+        }
+        sub.has_publisher(id)
+    }
+}
+
 /// Runs the service until `stop` is set. Publishes a final status before returning.
 pub fn run(
     settings: &Effective,
@@ -229,18 +348,16 @@ pub fn run(
     opts: &LiveOptions,
     stop: &AtomicBool,
 ) -> Result<LiveReport, LiveError> {
-    let node = polarnav_ipc::node(transport_cfg, "nav_daemon")?;
-    // Stale resources of dead nodes (e.g. a previous daemon killed with SIGKILL).
-    let _ = Node::<ipc::Service>::list(node.config(), |state| {
-        if let NodeState::Dead(view) = state {
-            let _ = view.try_remove_stale_resources();
-        }
-        CallbackProgression::Continue
-    });
+    // One daemon per prefix (this also removes what dead nodes left, e.g.
+    // a previous daemon killed with SIGKILL).
+    refuse_if_served(transport_cfg, None)?;
+    let node = polarnav_ipc::node(transport_cfg, NODE_ROLE)?;
+    refuse_if_served(transport_cfg, Some(std::process::id() as i32))?;
     // The init subscriber first: a publisher hands it the init topic's
     // history (the init sent before this daemon started) at its next send.
     let init = TopicSubscriber::new(&node, transport_cfg, Topic::Init)?;
     let ports = Ports {
+        cfg: transport_cfg.clone(),
         init,
         imu: TopicSubscriber::new(&node, transport_cfg, Topic::Imu)?,
         srs: TopicSubscriber::new(&node, transport_cfg, Topic::Srs)?,
@@ -306,7 +423,10 @@ pub fn run(
             CallbackProgression::Continue
         });
         match result {
-            Ok(WaitSetRunResult::Interrupt | WaitSetRunResult::TerminationRequest) => break,
+            // An interrupted wait is not a stop request: epoll returns EINTR
+            // after SIGSTOP/SIGCONT (a debugger, a frozen cgroup) and any
+            // signal with a handler; SIGINT/SIGTERM set `stop` (checked below).
+            Ok(WaitSetRunResult::TerminationRequest) => break,
             Ok(_) => {}
             Err(e) => return Err(LiveError::WaitSet(format!("{e:?}"))),
         }
@@ -322,14 +442,18 @@ pub fn run(
         if status_due {
             let st = state.status();
             ports.status.publish(&st)?;
-            // A recorder that subscribed since gets the settings now.
-            ports.settings.update_connections()?;
             let line = match state.session.navigator() {
                 Some(n) => status_line(&st, Some(n.state().geodetic().lat_rad.to_degrees())),
                 None => waiting_line(&state.session, &transport_cfg.prefix),
             };
             notify.status(&line);
             state.reset_window();
+        }
+        // A recorder that subscribed since gets the settings (history 1)
+        // within this period, before it has to start its file.
+        if state.last_settings_update.elapsed() >= SETTINGS_UPDATE_PERIOD {
+            ports.settings.update_connections()?;
+            state.last_settings_update = Instant::now();
         }
         if stop.load(Ordering::Relaxed) {
             break;
@@ -432,6 +556,9 @@ struct PublishSink<'a> {
 #[derive(Debug, Default)]
 struct OutputState {
     first_sent: bool,
+    /// A second publisher was refused in the last status period: flagged
+    /// in every solution until a period passes without one.
+    second_publisher: bool,
     rejections: [RateLimit; 4],
     gaps: RateLimit,
 }
@@ -459,6 +586,16 @@ impl Sink for PublishSink<'_> {
         if self.error.is_some() {
             return;
         }
+        let flagged;
+        let s = if self.out.second_publisher {
+            flagged = Solution {
+                flags: s.flags | solution_flags::SECOND_PUBLISHER,
+                ..*s
+            };
+            &flagged
+        } else {
+            s
+        };
         if let Err(e) = self.solution.publish(s) {
             self.error = Some(e);
             return;
@@ -503,11 +640,14 @@ struct LoopState {
     buf: Vec<Drained>,
     checkpoint: Option<CheckpointWriter>,
     out: OutputState,
+    /// Owners of the init, IMU, SRS, CNS and baro services.
+    owners: [Owner; 5],
     /// Freshness of SRS, CNS, baro in the last status (for transition events).
     aid_fresh: [bool; 3],
     last_imu_wall: Option<Instant>,
     imu_lost: bool,
     last_status: Instant,
+    last_settings_update: Instant,
     cycle_time_sum: Duration,
     cycle_time_max: Duration,
     cycle_count_window: u64,
@@ -523,10 +663,12 @@ impl LoopState {
             buf: Vec::with_capacity(CAPACITY),
             checkpoint: opts.checkpoint.as_ref().map(CheckpointWriter::start),
             out: OutputState::default(),
+            owners: Default::default(),
             aid_fresh: [false; 3],
             last_imu_wall: None,
             imu_lost: false,
             last_status: Instant::now(),
+            last_settings_update: Instant::now(),
             cycle_time_sum: Duration::ZERO,
             cycle_time_max: Duration::ZERO,
             cycle_count_window: 0,
@@ -541,14 +683,33 @@ impl LoopState {
         let buf = &mut self.buf;
         buf.clear();
         let mut imu_seen = false;
-        ports.init.drain(|x| buf.push(Drained::Init(x)))?;
-        ports.imu.drain(|x| {
-            imu_seen = true;
-            buf.push(Drained::Imu(x));
+        let [o_init, o_imu, o_srs, o_cns, o_baro] = &mut self.owners;
+        ports.init.drain_with_origin(|p, x| {
+            if o_init.admit("init", p, |o| ports.connected(&ports.init, o)) {
+                buf.push(Drained::Init(x));
+            }
         })?;
-        ports.srs.drain(|x| buf.push(Drained::Srs(x)))?;
-        ports.cns.drain(|x| buf.push(Drained::Cns(x)))?;
-        ports.baro.drain(|x| buf.push(Drained::Baro(x)))?;
+        ports.imu.drain_with_origin(|p, x| {
+            if o_imu.admit("IMU", p, |o| ports.connected(&ports.imu, o)) {
+                imu_seen = true;
+                buf.push(Drained::Imu(x));
+            }
+        })?;
+        ports.srs.drain_with_origin(|p, x| {
+            if o_srs.admit("SRS", p, |o| ports.connected(&ports.srs, o)) {
+                buf.push(Drained::Srs(x));
+            }
+        })?;
+        ports.cns.drain_with_origin(|p, x| {
+            if o_cns.admit("CNS", p, |o| ports.connected(&ports.cns, o)) {
+                buf.push(Drained::Cns(x));
+            }
+        })?;
+        ports.baro.drain_with_origin(|p, x| {
+            if o_baro.admit("baro", p, |o| ports.connected(&ports.baro, o)) {
+                buf.push(Drained::Baro(x));
+            }
+        })?;
         ports.srs.clear_events();
         ports.cns.clear_events();
         ports.baro.clear_events();
@@ -636,6 +797,24 @@ impl LoopState {
             .as_ref()
             .map_or(0, CheckpointWriter::written);
         s.cycles = self.report.cycles;
+        let [_, o_imu, o_srs, o_cns, o_baro] = &mut self.owners;
+        let mut second = false;
+        for (c, o) in [
+            (&mut s.imu, o_imu),
+            (&mut s.srs, o_srs),
+            (&mut s.cns, o_cns),
+            (&mut s.baro, o_baro),
+        ] {
+            c.refused_publisher = o.refused;
+            second |= o.refused > o.refused_at_status;
+            o.refused_at_status = o.refused;
+        }
+        second |= self.owners[0].refused > self.owners[0].refused_at_status;
+        self.owners[0].refused_at_status = self.owners[0].refused;
+        if second {
+            s.flags |= solution_flags::SECOND_PUBLISHER;
+        }
+        self.out.second_publisher = second;
         s.overruns = self.report.overruns;
         s.overruns_cpu = self.report.overruns_cpu;
         let n = self.cycle_count_window.max(1) as u32;

@@ -22,15 +22,32 @@ pub struct Pacing {
     pub p50_us: f64,
     pub p99_us: f64,
     pub max_us: f64,
+    /// Sends that found a subscriber's input buffer full and waited for
+    /// room, and the longest wait (µs).
+    pub waits: u64,
+    pub max_wait_us: f64,
+    /// Deliveries dropped after waiting [`REPLAY_MAX_WAIT`] (one per
+    /// subscriber and sample): 0 unless a reader stopped reading.
+    pub lost: u64,
 }
+
+/// How long a replay waits for room in a subscriber's full input buffer
+/// before it drops that sample for that subscriber (and counts it).
+pub const REPLAY_MAX_WAIT: Duration = Duration::from_secs(2);
 
 impl Pacing {
     /// The one-line summary `play` prints when it ends.
     pub fn summary(&self) -> String {
         let [imu, srs, cns, baro] = self.per_stream;
         format!(
-            "play: {} samples published (imu {imu}, srs {srs}, cns {cns}, baro {baro}); pacing lateness p50 {:.1} µs, p99 {:.1} µs, max {:.1} µs",
-            self.published, self.p50_us, self.p99_us, self.max_us
+            "play: {} samples published (imu {imu}, srs {srs}, cns {cns}, baro {baro}); pacing lateness p50 {:.1} µs, p99 {:.1} µs, max {:.1} µs; full input buffers: {} waits (longest {:.1} ms), {} samples lost",
+            self.published,
+            self.p50_us,
+            self.p99_us,
+            self.max_us,
+            self.waits,
+            self.max_wait_us * 1e-3,
+            self.lost
         )
     }
 
@@ -125,11 +142,14 @@ pub fn play(
     loops: u64,
     stop: &AtomicBool,
 ) -> Result<Pacing, TransportError> {
-    let node = polarnav_ipc::node(cfg, "sensor_replay_play")?;
-    let imu = TopicPublisher::<ImuSample>::new(&node, cfg, Topic::Imu)?;
-    let srs = TopicPublisher::<SrsSample>::new(&node, cfg, Topic::Srs)?;
-    let cns = TopicPublisher::<CnsFix>::new(&node, cfg, Topic::Cns)?;
-    let baro = TopicPublisher::<BaroSample>::new(&node, cfg, Topic::Baro)?;
+    let node = polarnav_ipc::node(cfg, "sensor-replay-play")?;
+    // A replay waits for a slow reader rather than lose its inputs (a
+    // sensor driver in flight would use Delivery::Discard and count).
+    let wait = polarnav_ipc::Delivery::Wait(REPLAY_MAX_WAIT);
+    let imu = TopicPublisher::<ImuSample>::with_delivery(&node, cfg, Topic::Imu, wait)?;
+    let srs = TopicPublisher::<SrsSample>::with_delivery(&node, cfg, Topic::Srs, wait)?;
+    let cns = TopicPublisher::<CnsFix>::with_delivery(&node, cfg, Topic::Cns, wait)?;
+    let baro = TopicPublisher::<BaroSample>::with_delivery(&node, cfg, Topic::Baro, wait)?;
     let init_pub = TopicPublisher::<InitState>::new(&node, cfg, Topic::Init)?;
 
     let sensors = in_log_order(log);
@@ -223,12 +243,26 @@ pub fn play(
             .get(((lateness.len() as f64 - 1.0) * f).round() as usize)
             .map_or(0.0, |v| *v as f64 * 1e-3)
     };
+    let (mut waits, mut max_wait, mut lost) = (0, Duration::ZERO, 0);
+    for (w, m, l) in [
+        (imu.waits().0, imu.waits().1, imu.lost()),
+        (srs.waits().0, srs.waits().1, srs.lost()),
+        (cns.waits().0, cns.waits().1, cns.lost()),
+        (baro.waits().0, baro.waits().1, baro.lost()),
+    ] {
+        waits += w;
+        max_wait = max_wait.max(m);
+        lost += l;
+    }
     Ok(Pacing {
         published: lateness.len() as u64,
         per_stream,
         p50_us: q(0.5),
         p99_us: q(0.99),
         max_us: q(1.0),
+        waits,
+        max_wait_us: max_wait.as_secs_f64() * 1e6,
+        lost,
     })
 }
 
@@ -249,6 +283,10 @@ const HOLD_RECORDS: usize = 100_000;
 /// wake-up) of what it received.
 pub const RECORD_FLUSH_PERIOD: Duration = Duration::from_millis(50);
 
+/// How long the recorder holds the daemon's outputs waiting for its
+/// settings (for the header) before it starts the file without them.
+pub const SETTINGS_WAIT: Duration = Duration::from_millis(100);
+
 pub fn record<W: Write>(
     cfg: &TransportConfig,
     out: W,
@@ -256,7 +294,7 @@ pub fn record<W: Write>(
     max_duration: Option<Duration>,
 ) -> Result<Recorded, RecordError> {
     use iceoryx2::prelude::*;
-    let node = polarnav_ipc::node(cfg, "sensor_replay_record")?;
+    let node = polarnav_ipc::node(cfg, "sensor-replay-record")?;
     let imu = TopicSubscriber::<ImuSample>::new(&node, cfg, Topic::Imu)?;
     let srs = TopicSubscriber::<SrsSample>::new(&node, cfg, Topic::Srs)?;
     let cns = TopicSubscriber::<CnsFix>::new(&node, cfg, Topic::Cns)?;
@@ -298,16 +336,15 @@ pub fn record<W: Write>(
     let mut n = Recorded::default();
     let mut buf: Vec<Record> = Vec::with_capacity(4096);
     let mut last_flush = Instant::now();
+    let mut first_output: Option<Instant> = None;
     loop {
         let r = waitset
             .wait_and_process_once(|_| CallbackProgression::Continue)
             .map_err(|e| RecordError::WaitSet(format!("{e:?}")))?;
+        // An interrupted wait (EINTR after SIGSTOP/SIGCONT or any handled
+        // signal) is not a stop request: SIGINT/SIGTERM set `stop`.
         let done = stop.load(Ordering::Relaxed)
-            || matches!(
-                r,
-                iceoryx2::waitset::WaitSetRunResult::Interrupt
-                    | iceoryx2::waitset::WaitSetRunResult::TerminationRequest
-            )
+            || matches!(r, iceoryx2::waitset::WaitSetRunResult::TerminationRequest)
             || max_duration.is_some_and(|d| started.elapsed() >= d);
         init.drain(|x| buf.push(Record::Init(x)))?;
         imu.drain(|x| buf.push(Record::Imu(x)))?;
@@ -319,6 +356,13 @@ pub fn record<W: Write>(
             buf.push(Record::Solution(Box::new(x)));
         })?;
         status.drain(|x| buf.push(Record::Status(Box::new(x))))?;
+        if first_output.is_none()
+            && buf
+                .iter()
+                .any(|r| matches!(r, Record::Solution(_) | Record::Status(_)))
+        {
+            first_output = Some(Instant::now());
+        }
         if w.is_none() {
             let mut text: Option<String> = None;
             settings.drain(|m| text = m.text().map(str::to_owned))?;
@@ -327,13 +371,12 @@ pub fn record<W: Write>(
                 w = Some(open(&mut out, Some(&t))?);
             } else if buf.len() >= HOLD_RECORDS
                 || done
-                || buf
-                    .iter()
-                    .any(|r| matches!(r, Record::Solution(_) | Record::Status(_)))
+                || first_output.is_some_and(|t: Instant| t.elapsed() >= SETTINGS_WAIT)
             {
-                // A daemon publishes its settings before its first output:
-                // none by now means a daemon without them. Outputs are not
-                // held back, so a kill loses at most a flush period of them.
+                // A daemon hands its settings to a new subscriber within
+                // 25 ms: none by SETTINGS_WAIT after its first output means
+                // a daemon without them. Outputs are held no longer, so a
+                // kill loses at most that much of them at the start.
                 w = Some(open(&mut out, None)?);
             }
         }
@@ -394,6 +437,9 @@ mod tests {
             p50_us: 3.25,
             p99_us: 41.0,
             max_us: 1200.5,
+            waits: 3,
+            max_wait_us: 12_500.0,
+            lost: 0,
         };
         let out = format!("progress line (not it)\n{}\n", p.summary());
         assert_eq!(Pacing::published_in(&out), Some(p.per_stream));

@@ -117,7 +117,7 @@ pub fn listen(
     stop: &AtomicBool,
     duration: Option<Duration>,
 ) -> Result<(), TransportError> {
-    let node = polarnav_ipc::node(cfg, "sensor_replay_listen")?;
+    let node = polarnav_ipc::node(cfg, "sensor-replay-listen")?;
     let sol = TopicSubscriber::<Solution>::new(&node, cfg, Topic::Solution)?;
     let st = TopicSubscriber::<Status>::new(&node, cfg, Topic::Status)?;
     let start = Instant::now();

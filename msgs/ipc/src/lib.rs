@@ -12,8 +12,12 @@ pub mod logging;
 
 use std::fmt::Debug;
 use std::path::PathBuf;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicU64, Ordering};
+use std::time::Duration;
 
 use iceoryx2::config::Config;
+use iceoryx2::node::NodeView;
 use iceoryx2::port::listener::Listener;
 use iceoryx2::port::notifier::Notifier;
 use iceoryx2::port::publisher::Publisher;
@@ -101,19 +105,80 @@ fn iox(what: &'static str, service: &str, e: impl Debug) -> TransportError {
     }
 }
 
-/// Creates a node that leaves signal handling to the process.
-pub fn node(cfg: &TransportConfig, name: &str) -> Result<Node<ipc::Service>, TransportError> {
-    let name_ = NodeName::new(name).map_err(|_| TransportError::Name(name.to_owned()))?;
+/// The node name of a process role on a prefix, `<role>:<prefix>`, as
+/// `iox2 node list` shows it.
+pub fn node_name(role: &str, cfg: &TransportConfig) -> String {
+    format!("{role}:{}", cfg.prefix)
+}
+
+/// Creates the node of `role` (named [`node_name`]) that leaves signal
+/// handling to the process.
+pub fn node(cfg: &TransportConfig, role: &str) -> Result<Node<ipc::Service>, TransportError> {
+    let name = node_name(role, cfg);
+    let name_ = NodeName::new(&name).map_err(|_| TransportError::Name(name.clone()))?;
     NodeBuilder::new()
         .name(&name_)
         .config(&cfg.iceoryx_config()?)
         .signal_handling_mode(SignalHandlingMode::Disabled)
         .create::<ipc::Service>()
-        .map_err(|e| iox("node creation", name, e))
+        .map_err(|e| iox("node creation", &name, e))
 }
 
-/// Quality of service of a topic: buffer (sized for scheduler stalls of tens of
-/// ms at 1 kHz), history for late joiners, and overflow behaviour.
+/// A live process with a node of `role` on this configuration's prefix.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct RunningNode {
+    pub name: String,
+    pub pid: i32,
+    pub executable: String,
+}
+
+/// Removes the resources of dead nodes (processes killed without cleanup:
+/// their publishers stay listed on the services until then).
+pub fn remove_dead_nodes(cfg: &TransportConfig) -> Result<(), TransportError> {
+    let config = cfg.iceoryx_config()?;
+    Node::<ipc::Service>::list(&config, |state| {
+        if let NodeState::Dead(view) = state {
+            let _ = view.try_remove_stale_resources();
+        }
+        CallbackProgression::Continue
+    })
+    .map_err(|e| iox("node list", &cfg.prefix, e))
+}
+
+/// Removes the resources of dead nodes (processes killed without cleanup),
+/// then lists the live nodes of `role` on this prefix.
+pub fn running(cfg: &TransportConfig, role: &str) -> Result<Vec<RunningNode>, TransportError> {
+    let config = cfg.iceoryx_config()?;
+    let wanted = node_name(role, cfg);
+    let mut found = Vec::new();
+    Node::<ipc::Service>::list(&config, |state| {
+        match state {
+            NodeState::Dead(view) => {
+                let _ = view.try_remove_stale_resources();
+            }
+            NodeState::Alive(view) => {
+                if let Some(d) = view.details()
+                    && d.name().as_str() == wanted
+                {
+                    found.push(RunningNode {
+                        name: wanted.clone(),
+                        pid: d.process_id().value(),
+                        executable: d.executable().to_string(),
+                    });
+                }
+            }
+            _ => {}
+        }
+        CallbackProgression::Continue
+    })
+    .map_err(|e| iox("node list", &wanted, e))?;
+    Ok(found)
+}
+
+/// Quality of service of a topic: buffer, history for late joiners, and
+/// overflow behaviour. Without safe overflow a full subscriber buffer is
+/// never overwritten: the publisher's [`Delivery`] decides (wait or discard,
+/// counted either way).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Qos {
     pub buffer: usize,
@@ -121,17 +186,42 @@ pub struct Qos {
     pub safe_overflow: bool,
 }
 
+/// Time an input subscriber's buffer holds at the highest rate a stream may
+/// have (the daemon's `[live] imu_rate_hz` is at most 1 kHz; aids at most
+/// 50 Hz): scheduler stalls of 4-45 ms are seen (DESIGN), so half a second
+/// leaves a margin of ten. Every process creates a service with the same
+/// QoS, so it cannot depend on one process's configuration.
+pub const INPUT_BUFFER_S: f64 = 0.5;
+/// Highest IMU and aid rates the input buffers are sized for (Hz).
+pub const MAX_IMU_RATE_HZ: f64 = 1000.0;
+pub const MAX_AID_RATE_HZ: f64 = 50.0;
+
+/// Samples a buffer needs to hold `seconds` at `rate_hz`.
+pub fn samples_for(seconds: f64, rate_hz: f64) -> usize {
+    (seconds * rate_hz).ceil() as usize
+}
+
 /// The one QoS table of the project.
 pub fn qos(topic: Topic) -> Qos {
     match topic {
-        // ≥ 64 at 1 kHz (DESIGN: stalls of 4-45 ms seen); the oldest are overwritten and counted as gaps.
-        Topic::Imu | Topic::Solution => Qos {
-            buffer: 256,
+        // Inputs are never overwritten: a replay waits, a sensor driver
+        // discards and counts (see `Delivery`).
+        Topic::Imu => Qos {
+            buffer: samples_for(INPUT_BUFFER_S, MAX_IMU_RATE_HZ),
             history: 0,
-            safe_overflow: true,
+            safe_overflow: false,
         },
         Topic::Srs | Topic::Cns | Topic::Baro => Qos {
-            buffer: 32,
+            buffer: samples_for(INPUT_BUFFER_S, MAX_AID_RATE_HZ),
+            history: 0,
+            safe_overflow: false,
+        },
+        // The daemon's output: a stalled consumer loses its oldest
+        // solutions (seen as sequence gaps), it never holds up the daemon.
+        // Twice the input buffer: a daemon that catches up on a full input
+        // buffer publishes that many solutions at once.
+        Topic::Solution => Qos {
+            buffer: samples_for(2.0 * INPUT_BUFFER_S, MAX_IMU_RATE_HZ),
             history: 0,
             safe_overflow: true,
         },
@@ -204,23 +294,89 @@ pub fn event_service(
     .map_err(|e| iox("event service", &name, e))
 }
 
+/// What a publisher does when a subscriber's buffer of an input service is
+/// full (services with safe overflow overwrite the oldest instead).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Delivery {
+    /// Drop the sample for that subscriber and count it: a sensor driver in
+    /// flight, which must never block.
+    Discard,
+    /// Wait until the subscriber has room, at most this long, then drop and
+    /// count: a replay, which must not lose what a slow daemon reads late.
+    Wait(Duration),
+}
+
+/// What a publisher could not deliver, and how long it waited.
+#[derive(Debug, Default)]
+struct DeliveryCounters {
+    /// Deliveries dropped (one per subscriber that missed a sample).
+    lost: AtomicU64,
+    /// Sends that found a full buffer and waited.
+    waits: AtomicU64,
+    /// Longest wait (ns).
+    max_wait_ns: AtomicU64,
+}
+
 /// A publisher that notifies its topic's event after each send.
 #[derive(Debug)]
 pub struct TopicPublisher<T: Debug + ZeroCopySend + 'static> {
     publisher: Publisher<ipc::Service, T, ()>,
     notifier: Notifier<ipc::Service>,
     name: String,
+    counters: Arc<DeliveryCounters>,
 }
 
 impl<T: Debug + ZeroCopySend + Copy + 'static> TopicPublisher<T> {
+    /// A publisher that never blocks ([`Delivery::Discard`]).
     pub fn new(
         node: &Node<ipc::Service>,
         cfg: &TransportConfig,
         topic: Topic,
     ) -> Result<Self, TransportError> {
+        Self::with_delivery(node, cfg, topic, Delivery::Discard)
+    }
+
+    /// A publisher with the given behaviour on a full subscriber buffer.
+    pub fn with_delivery(
+        node: &Node<ipc::Service>,
+        cfg: &TransportConfig,
+        topic: Topic,
+        delivery: Delivery,
+    ) -> Result<Self, TransportError> {
+        use iceoryx2::port::{BackpressureAction, BackpressureInfo};
+        use iceoryx2::prelude::BackpressureStrategy;
         let name = topic.service_name(&cfg.prefix);
+        let counters = Arc::new(DeliveryCounters::default());
+        let c = Arc::clone(&counters);
+        let handler = move |info: &BackpressureInfo| -> BackpressureAction {
+            let waited = info.elapsed_time;
+            match delivery {
+                Delivery::Wait(max) if waited < max => {
+                    if info.retries == 0 {
+                        c.waits.fetch_add(1, Ordering::Relaxed);
+                    }
+                    c.max_wait_ns
+                        .fetch_max(waited.as_nanos() as u64, Ordering::Relaxed);
+                    // Yield the CPU to the reader rather than spin.
+                    if info.retries > 16 {
+                        std::thread::sleep(Duration::from_micros(50));
+                    }
+                    BackpressureAction::Retry
+                }
+                _ => {
+                    c.lost.fetch_add(1, Ordering::Relaxed);
+                    BackpressureAction::DiscardData
+                }
+            }
+        };
+        let strategy = match delivery {
+            Delivery::Discard => BackpressureStrategy::DiscardData,
+            Delivery::Wait(_) => BackpressureStrategy::RetryUntilDelivered,
+        };
         let publisher = pubsub_service::<T>(node, cfg, topic)?
             .publisher_builder()
+            .backpressure_strategy(strategy)
+            .set_backpressure_handler(handler)
             .create()
             .map_err(|e| iox("publisher", &name, e))?;
         let notifier = event_service(node, cfg, topic)?
@@ -231,7 +387,22 @@ impl<T: Debug + ZeroCopySend + Copy + 'static> TopicPublisher<T> {
             publisher,
             notifier,
             name,
+            counters,
         })
+    }
+
+    /// Deliveries dropped because a subscriber's buffer was full (one per
+    /// subscriber and sample).
+    pub fn lost(&self) -> u64 {
+        self.counters.lost.load(Ordering::Relaxed)
+    }
+
+    /// Sends that waited for room, and the longest wait.
+    pub fn waits(&self) -> (u64, Duration) {
+        (
+            self.counters.waits.load(Ordering::Relaxed),
+            Duration::from_nanos(self.counters.max_wait_ns.load(Ordering::Relaxed)),
+        )
     }
 
     /// Writes `value` into a loaned shared-memory sample, sends it and notifies.
@@ -265,6 +436,7 @@ impl<T: Debug + ZeroCopySend + Copy + 'static> TopicPublisher<T> {
 /// A subscriber with the listener of its topic's event (for WaitSets).
 #[derive(Debug)]
 pub struct TopicSubscriber<T: Debug + ZeroCopySend + 'static> {
+    service: iceoryx2::service::port_factory::publish_subscribe::PortFactory<ipc::Service, T, ()>,
     subscriber: Subscriber<ipc::Service, T, ()>,
     listener: Listener<ipc::Service>,
     name: String,
@@ -277,7 +449,8 @@ impl<T: Debug + ZeroCopySend + Copy + 'static> TopicSubscriber<T> {
         topic: Topic,
     ) -> Result<Self, TransportError> {
         let name = topic.service_name(&cfg.prefix);
-        let subscriber = pubsub_service::<T>(node, cfg, topic)?
+        let service = pubsub_service::<T>(node, cfg, topic)?;
+        let subscriber = service
             .subscriber_builder()
             .create()
             .map_err(|e| iox("subscriber", &name, e))?;
@@ -286,6 +459,7 @@ impl<T: Debug + ZeroCopySend + Copy + 'static> TopicSubscriber<T> {
             .create()
             .map_err(|e| iox("listener", &name, e))?;
         Ok(Self {
+            service,
             subscriber,
             listener,
             name,
@@ -300,6 +474,38 @@ impl<T: Debug + ZeroCopySend + Copy + 'static> TopicSubscriber<T> {
     /// Consumes pending event notifications (after a WaitSet wake-up).
     pub fn clear_events(&self) {
         let _ = self.listener.try_wait(|_| {});
+    }
+
+    /// Takes every received sample, oldest first, into `f` with the id of
+    /// the publisher that sent it (copied out of shared memory).
+    pub fn drain_with_origin(&self, mut f: impl FnMut(u128, T)) -> Result<usize, TransportError> {
+        let mut n = 0;
+        while let Some(sample) = self
+            .subscriber
+            .receive()
+            .map_err(|e| iox("receive", &self.name, e))?
+        {
+            f(sample.origin().value(), *sample.payload());
+            n += 1;
+        }
+        Ok(n)
+    }
+
+    /// Whether the publisher `id` is still connected to this service (a
+    /// publisher of a process killed without cleanup stays listed until its
+    /// dead node's resources are removed: see [`running`]).
+    pub fn has_publisher(&self, id: u128) -> bool {
+        use iceoryx2::service::port_factory::PortFactory as _;
+        let mut found = false;
+        self.service.dynamic_config().list_publishers(|p| {
+            found = p.publisher_id.value() == id;
+            if found {
+                CallbackProgression::Stop
+            } else {
+                CallbackProgression::Continue
+            }
+        });
+        found
     }
 
     /// Takes every received sample, oldest first, into `f` (copied out of shared memory).
