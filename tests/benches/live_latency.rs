@@ -2,6 +2,12 @@
 //! solution-receive latency at 1 kHz, cycle overruns over a soak, pacing of
 //! the publisher against absolute deadlines, and the daemon's RSS.
 //!
+//! In the same run, first, the transport's floor: the same measurement
+//! against a bare echo process (this binary with `--echo`) that waits on a
+//! WaitSet for the same IMU service and publishes a `Solution` on the same
+//! kind of service for each sample, with the same scheduling. The daemon's
+//! latency is printed as a ratio to it.
+//!
 //! `cargo build --release --bins && cargo bench -p polarnav-tests --bench live_latency [-- SECONDS]`
 //! (default 60 s; the soak is 600).
 
@@ -21,7 +27,126 @@ fn percentile(v: &mut [u64], q: f64) -> f64 {
         .map_or(f64::NAN, |x| *x as f64 * 1e-3)
 }
 
+/// The echo process of the floor measurement: per IMU sample, one solution
+/// with its time stamp, woken like the daemon (listener + interval tick).
+fn echo() {
+    use iceoryx2::prelude::*;
+    let cfg = TransportConfig::new(&std::env::var("POLARNAV_ECHO_PREFIX").expect("prefix"));
+    let node = polarnav_ipc::node(&cfg, "bench-echo").expect("node");
+    let sub = TopicSubscriber::<ImuSample>::new(&node, &cfg, Topic::Imu).expect("imu");
+    let publ = TopicPublisher::<Solution>::new(&node, &cfg, Topic::Solution).expect("solution");
+    let ws = WaitSetBuilder::new()
+        .signal_handling_mode(SignalHandlingMode::Disabled)
+        .create::<ipc::Service>()
+        .expect("waitset");
+    let _guard = ws.attach_notification(sub.listener()).expect("attach");
+    let _tick = ws.attach_interval(Duration::from_millis(1)).expect("tick");
+    let mut done = false;
+    while !done {
+        if ws
+            .wait_and_process_once(|_| CallbackProgression::Continue)
+            .is_err()
+        {
+            break;
+        }
+        sub.clear_events();
+        sub.drain(|x| {
+            done |= x.seq == u64::MAX;
+            publ.publish(&Solution {
+                t_ns: x.t_ns,
+                seq: x.seq,
+                ..Default::default()
+            })
+            .expect("publish");
+        })
+        .expect("drain");
+    }
+}
+
+/// IMU-publish → echo-receive latencies (ns) over `seconds` at 1 kHz.
+fn floor(seconds: f64) -> Vec<u64> {
+    let cfg = TransportConfig::isolated("floor");
+    let exe = std::env::current_exe().expect("exe");
+    let (mut cmd, _) = polarnav_tests::daemon_command(&exe);
+    let mut child = cmd
+        .arg("--echo")
+        .env("POLARNAV_ECHO_PREFIX", &cfg.prefix)
+        .env(
+            "POLARNAV_IOX_PREFIX",
+            cfg.iox_prefix.as_deref().expect("isolated"),
+        )
+        .env(
+            "POLARNAV_IOX_ROOT",
+            cfg.iox_root.as_ref().expect("isolated"),
+        )
+        .stdin(Stdio::null())
+        .spawn()
+        .expect("echo");
+    let node = polarnav_ipc::node(&cfg, "bench-floor").expect("node");
+    let imu = TopicPublisher::<ImuSample>::new(&node, &cfg, Topic::Imu).expect("imu");
+    let sol = TopicSubscriber::<Solution>::new(&node, &cfg, Topic::Solution).expect("solution");
+    let t0 = Instant::now();
+    while imu.publish(&ImuSample::default()).expect("probe") == 0 {
+        assert!(
+            t0.elapsed() < Duration::from_secs(20),
+            "echo did not subscribe"
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    std::thread::sleep(Duration::from_millis(100));
+    sol.drain(|_| {}).expect("drain");
+    let n = (seconds * 1000.0) as u64;
+    let mut sent_at: Vec<Option<Instant>> = vec![None; n as usize + 2];
+    let mut latency_ns = Vec::with_capacity(n as usize);
+    let start = Instant::now() + Duration::from_millis(50);
+    let drain = |latency_ns: &mut Vec<u64>, sent_at: &[Option<Instant>]| {
+        sol.drain(|s| {
+            if let Some(Some(t)) = sent_at.get(s.seq as usize) {
+                latency_ns.push(t.elapsed().as_nanos() as u64);
+            }
+        })
+        .expect("drain");
+    };
+    for k in 1..=n {
+        let deadline = start + Duration::from_micros(k * 1000);
+        while Instant::now() < deadline {
+            drain(&mut latency_ns, &sent_at);
+            std::hint::spin_loop();
+        }
+        sent_at[k as usize] = Some(Instant::now());
+        imu.publish(&ImuSample {
+            t_ns: k * 1_000_000,
+            seq: k,
+            dt_s: 0.001,
+            ..Default::default()
+        })
+        .expect("imu");
+    }
+    let settle = Instant::now();
+    while settle.elapsed() < Duration::from_millis(200) {
+        drain(&mut latency_ns, &sent_at);
+    }
+    imu.publish(&ImuSample {
+        seq: u64::MAX,
+        ..Default::default()
+    })
+    .expect("stop");
+    let t0 = Instant::now();
+    while child.try_wait().expect("wait").is_none() && t0.elapsed() < Duration::from_secs(5) {
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    let _ = child.kill();
+    let _ = child.wait();
+    drop((imu, sol, node));
+    polarnav_ipc::remove_isolated(&cfg);
+    latency_ns
+}
+
 fn main() {
+    if std::env::args().any(|a| a == "--echo") {
+        echo();
+        return;
+    }
     let seconds: f64 = std::env::args()
         .skip(1)
         .find_map(|a| a.parse().ok())
@@ -37,6 +162,11 @@ fn main() {
         "{} missing: run cargo build --release --bins first",
         daemon_bin.display()
     );
+    // The transport's floor first, then the daemon, in the same run.
+    let floor_s = seconds.min(20.0);
+    let mut floor_ns = floor(floor_s);
+    let floor_p50 = percentile(&mut floor_ns, 0.5);
+    let floor_p99 = percentile(&mut floor_ns, 0.99);
     let cfg = TransportConfig::isolated("bench");
     let dir = std::env::temp_dir().join(format!("polarnav-bench-live-{}", std::process::id()));
     std::fs::create_dir_all(&dir).expect("dir");
@@ -218,6 +348,19 @@ fn main() {
         percentile(&mut latency_ns, 0.5),
         percentile(&mut latency_ns, 0.99),
         percentile(&mut latency_ns, 1.0)
+    );
+    let (p50, p99) = (
+        percentile(&mut latency_ns, 0.5),
+        percentile(&mut latency_ns, 0.99),
+    );
+    println!(
+        "  transport floor (bare echo process, same services and WaitSet wake-up, {floor_s:.0} s): p50 {floor_p50:.1} µs, p99 {floor_p99:.1} µs ({} round trips)",
+        floor_ns.len()
+    );
+    println!(
+        "  daemon / floor: p50 {:.2}x, p99 {:.2}x (target p99 <= 1.5x)",
+        p50 / floor_p50,
+        p99 / floor_p99
     );
     println!(
         "  daemon cycles {}, overruns {} of which {} with the cycle's own CPU time over the period, the rest preemptions (cycle time mean {:.1} µs, max {:.1} µs in the last status period)",
