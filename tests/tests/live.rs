@@ -1644,3 +1644,168 @@ fn second_daemon_on_a_prefix_in_use_exits_2_naming_the_running_one() {
     let mut third = env.start_daemon("third", None);
     assert_eq!(terminate(&mut third, Duration::from_secs(20)), Some(0));
 }
+
+/// Whether this process runs as root (switching users needs it).
+fn running_as_root() -> bool {
+    std::fs::read_to_string("/proc/self/status").is_ok_and(|s| {
+        s.lines()
+            .find(|l| l.starts_with("Uid:"))
+            .and_then(|l| l.split_whitespace().nth(1))
+            == Some("0")
+    })
+}
+
+/// The unit's user model without systemd: the daemon as a dedicated uid and
+/// gid with the unit's umask (0007), its iceoryx2 root inside a runtime
+/// directory the service user owns (0750, as `RuntimeDirectory=` makes it).
+/// Another user can neither pre-empt the root nor subscribe; a second
+/// daemon of the service user on the prefix exits 2; a client of the service
+/// user reads the outputs; no file or shared memory of the daemon is open to
+/// others but iceoryx2's global management segment. (A client of another
+/// uid in the group cannot subscribe yet: iceoryx2 0.10 creates its shared
+/// memory 0600; see README "Live service".)
+#[test]
+fn service_user_model_keeps_other_users_out() {
+    use std::os::unix::fs::PermissionsExt;
+    use std::os::unix::process::CommandExt;
+    if !running_as_root() {
+        eprintln!(
+            "service_user_model_keeps_other_users_out: not root, cannot switch users: not run"
+        );
+        return;
+    }
+    let env = Env::new("usermodel");
+    let (svc, other) = (64_201u32, 64_203u32);
+    // Short, as /run/polarnav is: iceoryx2's event sockets live under the
+    // root, and a socket path is limited to 108 bytes.
+    let runtime = PathBuf::from(format!("/tmp/pnu{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&runtime);
+    std::fs::create_dir_all(&runtime).expect("runtime dir");
+    struct RemoveOnDrop(PathBuf);
+    impl Drop for RemoveOnDrop {
+        fn drop(&mut self) {
+            let _ = std::fs::remove_dir_all(&self.0);
+        }
+    }
+    let _cleanup = RemoveOnDrop(runtime.clone());
+    std::os::unix::fs::chown(&runtime, Some(svc), Some(svc)).expect("chown");
+    std::fs::set_permissions(&runtime, std::fs::Permissions::from_mode(0o750)).expect("chmod");
+    let root = runtime.join("iceoryx2");
+    let iox_prefix = env.cfg.iox_prefix.clone().expect("isolated");
+    let as_user = |uid: u32, log: &str, program: &Path, args: &[&str]| {
+        let mut c = Command::new("sh");
+        c.arg("-c")
+            .arg("umask 0007; exec \"$0\" \"$@\"")
+            .arg(program)
+            .args(args)
+            .uid(uid)
+            .gid(uid)
+            .env("POLARNAV_IOX_PREFIX", &iox_prefix)
+            .env("POLARNAV_IOX_ROOT", &root)
+            .env("RUST_LOG", "info")
+            .stdin(Stdio::null())
+            .stdout(std::fs::File::create(env.dir.join(format!("{log}.out"))).expect("log"))
+            .stderr(std::fs::File::create(env.dir.join(format!("{log}.err"))).expect("log"));
+        c
+    };
+    let cfg_path = env.dir.join("nav.toml");
+    let cfg_arg = cfg_path.to_str().expect("utf-8");
+    let listen = ["listen", "--prefix", &env.cfg.prefix, "--duration", "1"];
+    // Another user first: it cannot create the root in the service user's
+    // directory (under /tmp it could have, and the daemon would then fail).
+    let mut pre = as_user(other, "pre", &bin("sensor-replay"), &listen)
+        .spawn()
+        .map(Proc)
+        .expect("pre-empting client");
+    let pre_exit = wait(&mut pre, Duration::from_secs(20));
+    assert_ne!(
+        pre_exit,
+        Some(0),
+        "another user opened services in the service user's root"
+    );
+    assert!(!root.exists(), "another user created the iceoryx2 root");
+    // The daemon as the service user.
+    let _daemon = as_user(svc, "daemon", &bin("nav-daemon"), &["--config", cfg_arg])
+        .spawn()
+        .map(Proc)
+        .expect("daemon");
+    if let Err(e) = std::panic::catch_unwind(|| {
+        env.wait_for("daemon", "services open", Duration::from_secs(20))
+    }) {
+        let err = std::fs::read_to_string(env.dir.join("daemon.err")).unwrap_or_default();
+        let tail: Vec<&str> = err
+            .lines()
+            .filter(|l| l.contains("rror") || l.contains("ail"))
+            .take(12)
+            .collect();
+        panic!("daemon as the service user did not start: {tail:?} ({e:?})");
+    }
+    // A second daemon of the service user on the prefix: exit 2.
+    let mut second = as_user(svc, "second", &bin("nav-daemon"), &["--config", cfg_arg])
+        .spawn()
+        .map(Proc)
+        .expect("second daemon");
+    assert_eq!(wait(&mut second, Duration::from_secs(20)), Some(2));
+    // A client outside the group cannot subscribe.
+    let mut outsider = as_user(other, "outsider", &bin("sensor-replay"), &listen)
+        .spawn()
+        .map(Proc)
+        .expect("outsider");
+    assert_ne!(
+        wait(&mut outsider, Duration::from_secs(20)),
+        Some(0),
+        "a user outside the group subscribed"
+    );
+    // A client of the service user reads the daemon's status.
+    let mut own = as_user(
+        svc,
+        "own",
+        &bin("sensor-replay"),
+        &["listen", "--prefix", &env.cfg.prefix, "--duration", "2.5"],
+    )
+    .spawn()
+    .map(Proc)
+    .expect("own client");
+    assert_eq!(wait(&mut own, Duration::from_secs(20)), Some(0));
+    let own_out = std::fs::read_to_string(env.dir.join("own.out")).unwrap_or_default()
+        + &std::fs::read_to_string(env.dir.join("own.err")).unwrap_or_default();
+    assert!(own_out.contains("status"), "{own_out}");
+    // Nothing of the daemon's in /dev/shm or its root is open to others.
+    let mut open_to_others = Vec::new();
+    let mut checked = 0;
+    let mut check = |p: PathBuf| {
+        if let Ok(m) = std::fs::symlink_metadata(&p) {
+            checked += 1;
+            if m.permissions().mode() & 0o007 != 0 {
+                open_to_others.push(format!("{} {:o}", p.display(), m.permissions().mode()));
+            }
+        }
+    };
+    for e in std::fs::read_dir("/dev/shm").expect("/dev/shm").flatten() {
+        if e.file_name().to_string_lossy().starts_with(&iox_prefix) {
+            check(e.path());
+        }
+    }
+    let mut dirs = vec![root.clone()];
+    while let Some(d) = dirs.pop() {
+        check(d.clone());
+        for e in std::fs::read_dir(&d).into_iter().flatten().flatten() {
+            if e.file_type().is_ok_and(|t| t.is_dir()) {
+                dirs.push(e.path());
+            } else {
+                check(e.path());
+            }
+        }
+    }
+    eprintln!("user model: {checked} files checked, open to others: {open_to_others:?}");
+    assert!(checked > 10, "{checked}");
+    // The one exception is iceoryx2's own: its 16-byte global management
+    // segment is created world-writable (0666) on purpose by iceoryx2 0.10,
+    // whoever creates it (README "Live service", known limits).
+    assert!(
+        open_to_others
+            .iter()
+            .all(|f| f.contains(".global_mgmt ") && f.ends_with(" 100666")),
+        "{open_to_others:?}"
+    );
+}
