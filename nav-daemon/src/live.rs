@@ -326,6 +326,22 @@ struct Ports {
 }
 
 impl Ports {
+    /// Drains `sub` into `take`, keeping only the samples of its owner.
+    fn drain_owned<T: std::fmt::Debug + ZeroCopySend + Copy + 'static>(
+        &self,
+        sub: &TopicSubscriber<T>,
+        owner: &mut Owner,
+        stream: &str,
+        mut take: impl FnMut(T),
+    ) -> Result<(), TransportError> {
+        sub.drain_with_origin(|p, x| {
+            if owner.admit(stream, p, |o| self.connected(sub, o)) {
+                take(x);
+            }
+        })?;
+        Ok(())
+    }
+
     /// Whether publisher `id` still serves `sub`'s service: dead processes'
     /// publishers are removed first (a driver killed with SIGKILL and
     /// restarted takes over its service).
@@ -684,32 +700,14 @@ impl LoopState {
         buf.clear();
         let mut imu_seen = false;
         let [o_init, o_imu, o_srs, o_cns, o_baro] = &mut self.owners;
-        ports.init.drain_with_origin(|p, x| {
-            if o_init.admit("init", p, |o| ports.connected(&ports.init, o)) {
-                buf.push(Drained::Init(x));
-            }
+        ports.drain_owned(&ports.init, o_init, "init", |x| buf.push(Drained::Init(x)))?;
+        ports.drain_owned(&ports.imu, o_imu, "IMU", |x| {
+            imu_seen = true;
+            buf.push(Drained::Imu(x));
         })?;
-        ports.imu.drain_with_origin(|p, x| {
-            if o_imu.admit("IMU", p, |o| ports.connected(&ports.imu, o)) {
-                imu_seen = true;
-                buf.push(Drained::Imu(x));
-            }
-        })?;
-        ports.srs.drain_with_origin(|p, x| {
-            if o_srs.admit("SRS", p, |o| ports.connected(&ports.srs, o)) {
-                buf.push(Drained::Srs(x));
-            }
-        })?;
-        ports.cns.drain_with_origin(|p, x| {
-            if o_cns.admit("CNS", p, |o| ports.connected(&ports.cns, o)) {
-                buf.push(Drained::Cns(x));
-            }
-        })?;
-        ports.baro.drain_with_origin(|p, x| {
-            if o_baro.admit("baro", p, |o| ports.connected(&ports.baro, o)) {
-                buf.push(Drained::Baro(x));
-            }
-        })?;
+        ports.drain_owned(&ports.srs, o_srs, "SRS", |x| buf.push(Drained::Srs(x)))?;
+        ports.drain_owned(&ports.cns, o_cns, "CNS", |x| buf.push(Drained::Cns(x)))?;
+        ports.drain_owned(&ports.baro, o_baro, "baro", |x| buf.push(Drained::Baro(x)))?;
         ports.srs.clear_events();
         ports.cns.clear_events();
         ports.baro.clear_events();
