@@ -37,9 +37,22 @@ impl ProcessNoise {
         }
     }
 
+    /// The factors e^(−Δt/τ) by which the gyro and accelerometer bias
+    /// estimates decay over `dt` (1 for constant biases).
+    pub fn bias_decay(&self, dt: f64) -> (f64, f64) {
+        let d = |tau: f64| {
+            if tau.is_finite() {
+                (-dt / tau).exp()
+            } else {
+                1.0
+            }
+        };
+        (d(self.gyro_bias_tau_s), d(self.accel_bias_tau_s))
+    }
+
     /// Diagonal of G Q Gᵀ (the attitude/velocity noise enters through C_b^n,
     /// which preserves the isotropic densities).
-    fn density(&self) -> SVector<f64, 15> {
+    pub fn density(&self) -> SVector<f64, 15> {
         let mut q = SVector::<f64, 15>::zeros();
         let gm = |s: f64, tau: f64| {
             if tau.is_finite() && tau > 0.0 {
