@@ -37,6 +37,13 @@
 #define POLARNAV_FLAG_RESUMED (1 << 7)
 
 /**
+ * The state was reset to an aid that had been rejected at the gate for
+ * `[aids] reset_after_s` while consistent (the step is in the reset
+ * block; cleared by the next fused aid).
+ */
+#define AID_RESET (1 << 8)
+
+/**
  * Navigation frame tag used on the wire.
  */
 enum WireFrame
