@@ -119,7 +119,7 @@ pub fn log_event(log: &str, e: &Event) {
                 norm(&reset.delta_pos_e_m),
                 norm(&reset.delta_vel_e_mps),
                 reset.delta_heading_rad.to_degrees(),
-                verdict.inflation.min(1e6)
+                verdict.covariance_inflation.min(1e8)
             )
         }
     }

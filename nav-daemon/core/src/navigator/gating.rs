@@ -157,7 +157,7 @@ impl Navigator {
             self.aids.streaks[k].fused(t_ns, &m.z, &m.h, &m.r, &out.dx);
             self.feed_back(t_ns, &out.dx);
         } else {
-            self.aids.streaks[k].rejected(t_ns, &m.z, &m.r, out.nis);
+            self.aids.streaks[k].rejected(t_ns, &m.z, &m.r, out.nis, &out.innovation_var);
             self.maybe_reset(which, t_ns, m);
         }
         AidOutcome {
@@ -200,7 +200,7 @@ impl Navigator {
 
     /// Resets the states the aid observes to its measurement `m` with its σ:
     /// the covariance of the other states is scaled by the measured
-    /// inflation κ (P ← D P D, D = √κ off the observed block, which keeps P
+    /// inflation κ of H P Hᵀ (P ← D P D, D = √κ off the observed block, which keeps P
     /// positive definite), the observed states' is widened along the
     /// measurement (Gᵀ Λ G with G = H on the observed block, Λ = 10⁴ (z² +
     /// S) per component, so their prior no longer counts), and the
@@ -214,11 +214,12 @@ impl Navigator {
         m: &Measurement<M>,
         verdict: &StreakVerdict,
     ) {
-        const KAPPA_MAX: f64 = 1e6;
+        // σ at most 10⁴ times what P said: beyond, the state is unknown anyway.
+        const KAPPA_MAX: f64 = 1e8;
         let before = self.err.p;
         let old = self.solution();
         let o = which.observed_block();
-        let kappa = verdict.inflation.min(KAPPA_MAX);
+        let kappa = verdict.covariance_inflation.min(KAPPA_MAX);
         let mut d = SVector::<f64, 15>::repeat(kappa.sqrt());
         for i in o..o + 3 {
             d[i] = 1.0;

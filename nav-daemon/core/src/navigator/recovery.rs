@@ -24,9 +24,12 @@
 //!   start without one) there is nothing to step from and only the first
 //!   test applies.
 //!
-//! The measured inflation κ = mean NIS / dof of the streak is how far P
-//! under-states the error; the reset scales the covariance of the states the
-//! aid does not observe by it.
+//! The measured inflation of the test ratio (mean NIS / dof of the streak)
+//! says how far the innovation covariance S = H P Hᵀ + R under-states the
+//! innovations; since R is the aid's and right, the filter's own part
+//! H P Hᵀ is under-stated by κ = Σ (zᵀz − tr R) / Σ tr(H P Hᵀ), which can
+//! be far larger. The reset scales the covariance of the states the aid
+//! does not observe by κ.
 //!
 //! Fixed-size sums: nothing here allocates.
 
@@ -51,6 +54,10 @@ pub(super) struct Streak {
     syy: [f64; 3],
     /// Σ NIS of the rejected samples.
     nis: f64,
+    /// Σ (zᵀz − tr R) and Σ tr(H P Hᵀ) = Σ (tr S − tr R): what the
+    /// innovations held beyond the aid's noise, and what P predicted of it.
+    excess: f64,
+    predicted: f64,
     /// The last fused sample: time and whitened post-fit residual.
     anchor: Option<(u64, [f64; 3])>,
 }
@@ -70,6 +77,10 @@ pub struct StreakVerdict {
     pub step_bound: f64,
     /// Mean NIS / dof over the streak: the inflation of the test ratio.
     pub inflation: f64,
+    /// Σ (zᵀz − tr R) / Σ tr(H P Hᵀ) over the streak (at least 1): how many
+    /// times the filter's own part of the innovation covariance was too
+    /// small. The reset scales the unobserved states' covariance by it.
+    pub covariance_inflation: f64,
 }
 
 impl StreakVerdict {
@@ -120,13 +131,14 @@ impl Streak {
         };
     }
 
-    /// A sample rejected at the gate, with its NIS.
+    /// A sample rejected at the gate, with its NIS and the diagonal of S.
     pub(super) fn rejected<const M: usize>(
         &mut self,
         t_ns: u64,
         z: &SVector<f64, M>,
         r: &SMatrix<f64, M, M>,
         nis: f64,
+        s_diag: &SVector<f64, M>,
     ) {
         let Some(y) = whiten(z, r) else {
             return;
@@ -150,6 +162,8 @@ impl Streak {
             self.syy[i] += d * d;
         }
         self.nis += nis;
+        self.excess += z.norm_squared() - r.trace();
+        self.predicted += s_diag.sum() - r.trace();
         self.n += 1;
     }
 
@@ -209,6 +223,11 @@ impl Streak {
             step,
             step_bound: gate,
             inflation: (self.nis / (f64::from(self.n) * self.dof as f64)).max(1.0),
+            covariance_inflation: if self.predicted > 0.0 {
+                (self.excess / self.predicted).max(1.0)
+            } else {
+                1.0
+            },
         })
     }
 }
@@ -259,7 +278,7 @@ mod tests {
                 if outliers && k % 2 == 0 {
                     z[1] += 60.0;
                 }
-                s.rejected(ns(t), &z, &r, 100.0);
+                s.rejected(ns(t), &z, &r, 100.0, &SVector::<f64, 2>::new(5.0, 10.0));
             }
             s.verdict(ns(30.0), 13.816, 3_000_000_000).expect("verdict")
         };
