@@ -447,4 +447,105 @@ mod tests {
                 .is_none()
         );
     }
+
+    #[test]
+    #[allow(clippy::float_cmp)] // copies of the same decimal literals: exact
+    fn the_shipped_config_says_it_uses_the_navigation_preset() {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config/nav-daemon.toml");
+        let c = Config::load(&path).expect("shipped config");
+        assert_eq!(c.filter.preset, Some(SensorGrade::Navigation));
+        assert_eq!(
+            c.filter,
+            SensorGrade::Navigation.apply(&FilterSettings::default())
+        );
+    }
+
+    #[test]
+    #[allow(clippy::float_cmp)] // copies of the same decimal literals: exact
+    fn a_preset_expands_where_it_is_named_and_explicit_keys_win() {
+        let c = Config::parse("[filter]\npreset = \"mems\"\narw_dpsh = 0.5\n", "x.toml")
+            .expect("config");
+        assert_eq!(c.filter.arw_dpsh, 0.5);
+        assert_eq!(c.filter.gyro_bias_instability_dph, 50.0);
+        assert_eq!(c.filter.accel_bias_tau_s, 600.0);
+        // The header's preset replaces the file's noise keys; the command line wins over both.
+        let file = ConfigFile::parse("[filter]\narw_dpsh = 0.5\n", "x.toml").expect("file");
+        let meta = "[navigator]\npreset = \"tactical\"\n";
+        let e = effective(&file, Some(meta), &CliOverrides::default()).expect("effective");
+        assert_eq!(e.config.filter.arw_dpsh, 0.1);
+        assert_eq!(e.source("filter.arw_dpsh"), Some(&Source::Header));
+        let cli = CliOverrides {
+            preset: Some(SensorGrade::Mems),
+            ..Default::default()
+        };
+        let e = effective(&file, Some(meta), &cli).expect("effective");
+        assert_eq!(e.config.filter.vrw_ug_psqhz, 300.0);
+        assert_eq!(e.config.filter.preset, Some(SensorGrade::Mems));
+        // A recorded header (every key) reproduces the settings.
+        let again = effective(
+            &ConfigFile::defaults(),
+            Some(&e.header_toml()),
+            &CliOverrides::default(),
+        )
+        .expect("effective");
+        assert_eq!(again.config.filter, e.config.filter);
+    }
+
+    #[test]
+    fn absurd_noise_and_recovery_values_name_the_file_and_key() {
+        for (text, key) in [
+            ("[filter]\npreset = \"consumer\"\n", "filter.preset"),
+            ("[filter]\npreset = 3\n", "filter.preset"),
+            (
+                "[filter]\ngyro_bias_tau_s = -1.0\n",
+                "filter.gyro_bias_tau_s",
+            ),
+            (
+                "[filter]\ngyro_bias_tau_s = 1e-300\n",
+                "filter.gyro_bias_tau_s",
+            ),
+            (
+                "[filter]\naccel_bias_tau_s = 1e300\n",
+                "filter.accel_bias_tau_s",
+            ),
+            (
+                "[filter]\naccel_bias_tau_s = inf\n",
+                "filter.accel_bias_tau_s",
+            ),
+            (
+                "[filter]\ngyro_bias_instability_dph = nan\n",
+                "filter.gyro_bias_instability_dph",
+            ),
+            (
+                "[filter]\ngyro_bias_instability_dph = -0.1\n",
+                "filter.gyro_bias_instability_dph",
+            ),
+            (
+                "[filter]\naccel_bias_instability_ug = 1e300\n",
+                "filter.accel_bias_instability_ug",
+            ),
+            ("[filter]\ngyro_bias_dph = 1e-300\n", "filter.gyro_bias_dph"),
+            ("[filter]\narw_dpsh = 1e300\n", "filter.arw_dpsh"),
+            ("[aids]\nreset_after_s = -1.0\n", "aids.reset_after_s"),
+            ("[aids]\nreset_after_s = 1e-300\n", "aids.reset_after_s"),
+            ("[aids]\nreset_after_s = nan\n", "aids.reset_after_s"),
+            ("[aids]\nreset_after_s = 1e300\n", "aids.reset_after_s"),
+        ] {
+            let e = Config::parse(text, "x.toml").expect_err(text).to_string();
+            assert!(e.contains("x.toml") && e.contains(key), "{text}: {e}");
+        }
+        let meta = "[navigator.filter]\npreset = \"consumer\"\n";
+        let e = effective(
+            &ConfigFile::defaults(),
+            Some(meta),
+            &CliOverrides::default(),
+        )
+        .expect_err("bad header preset")
+        .to_string();
+        assert!(
+            e.contains("navlog header") && e.contains("filter.preset"),
+            "{e}"
+        );
+        assert!(Config::parse("[aids]\nreset_after_s = 0.0\n", "x.toml").is_ok());
+    }
 }

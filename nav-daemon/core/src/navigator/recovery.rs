@@ -154,12 +154,19 @@ impl Streak {
             *s += tk;
             tk *= t;
         }
-        for i in 0..self.dof {
-            let d = y[i] - self.y0[i];
-            self.sy[i][0] += d;
-            self.sy[i][1] += d * t;
-            self.sy[i][2] += d * t * t;
-            self.syy[i] += d * d;
+        let dof = self.dof;
+        for (((yi, y0), sy), syy) in y
+            .iter()
+            .zip(&self.y0)
+            .zip(&mut self.sy)
+            .zip(&mut self.syy)
+            .take(dof)
+        {
+            let d = yi - y0;
+            sy[0] += d;
+            sy[1] += d * t;
+            sy[2] += d * t * t;
+            *syy += d * d;
         }
         self.nis += nis;
         self.excess += z.norm_squared() - r.trace();
@@ -194,11 +201,10 @@ impl Streak {
         let a_inv = a.try_inverse()?;
         let mut resid = 0.0;
         let mut coef = [Vector3::zeros(); 3];
-        for i in 0..self.dof {
-            let b = Vector3::from(self.sy[i]);
-            let c = a_inv * b;
-            resid += (self.syy[i] - b.dot(&c)).max(0.0);
-            coef[i] = c;
+        for ((sy, syy), c) in self.sy.iter().zip(&self.syy).zip(&mut coef).take(self.dof) {
+            let b = Vector3::from(*sy);
+            *c = a_inv * b;
+            resid += (syy - b.dot(c)).max(0.0);
         }
         let nu = (self.dof * (self.n as usize - 3)) as f64;
         let step = self.anchor.and_then(|(ta, ya)| {
