@@ -108,29 +108,27 @@ fn the_mems_scenario_flies_the_mems_preset() {
     assert_eq!(s.imu.accel_bias_ug, 0.0);
 }
 
-/// Recovery by resets: with the navigation-grade preset the filter rejects
-/// the aids of a MEMS flight, resets to them and stays within 10× the
-/// horizontal RMSE of the run with the right preset, where without resets
-/// it drifts more than 1000× off; every reset is published (count, time,
-/// deltas) and the right preset needs none. (The issue's 2× is not met, see
-/// the ignored test below.)
+/// Acceptance (issue 12): with the navigation-grade preset the filter
+/// rejects the aids of a MEMS flight, resets to them and recovers to within
+/// 2× the horizontal RMSE of the run with the right preset, where without
+/// resets it drifts tens of km off; every reset is published (count, time,
+/// deltas) and the right preset needs none. Seeds 1 and 2 (release: ~1 s).
 #[test]
-fn a_mems_flight_with_the_navigation_preset_recovers_by_resets() {
-    check_recovery(10.0);
-}
-
-/// Issue 12's acceptance bound, 2× the right preset's horizontal RMSE: NOT
-/// met today on seed 1 (24.3 m vs 3.56 m, 6.8×; seed 2 meets it, 7.59 vs 4.87 m, 1.56×); kept as the
-/// target. Run with
-/// `cargo test --release -p polarnav-tests --test recovery -- --ignored`.
-#[test]
-#[ignore = "acceptance bound not met yet: 6.8x on seed 1 (1.56x on seed 2)"]
 fn a_mems_flight_with_the_navigation_preset_recovers_within_2x() {
-    check_recovery(2.0);
+    check_recovery(&[1, 2], 2.0);
 }
 
-fn check_recovery(factor: f64) {
-    for seed in [1, 2] {
+/// The same on more seeds: `cargo test --release -p polarnav-tests --test
+/// recovery -- --ignored`.
+#[test]
+#[ignore = "fails today on seeds 3 (4.73x) and 6 (2.02x); the other six are within 2x"]
+fn a_mems_flight_recovers_within_2x_on_more_seeds() {
+    check_recovery(&[3, 4, 5, 6, 7, 8], 2.0);
+}
+
+fn check_recovery(seeds: &[u64], factor: f64) {
+    let mut over = Vec::new();
+    for &seed in seeds {
         let records = mems_flight(seed);
         let right = fly(&records, None, None);
         let wrong = fly(&records, Some(SensorGrade::Navigation), None);
@@ -163,13 +161,11 @@ fn check_recovery(factor: f64) {
         }
         assert!(right.resets.is_empty(), "the right preset reset");
         assert!(!wrong.resets.is_empty(), "no reset");
-        assert!(
-            wrong.rmse_h_m <= factor * right.rmse_h_m,
-            "navigation preset {:.2} m vs right preset {:.2} m",
-            wrong.rmse_h_m,
-            right.rmse_h_m
-        );
+        if wrong.rmse_h_m > factor * right.rmse_h_m {
+            over.push((seed, wrong.rmse_h_m / right.rmse_h_m));
+        }
         assert!(open.rmse_h_m > 1000.0 * right.rmse_h_m);
+        assert!(wrong.last.flags & msgs::solution_flags::AID_RESET == 0 || wrong.resets.len() > 0);
         // The reset block of the published solution is the last reset.
         let (_, last, _) = wrong.resets.last().expect("reset");
         assert_eq!(wrong.last.reset_count, last.count);
@@ -183,4 +179,8 @@ fn check_recovery(factor: f64) {
                 .all(|(a, b)| a.to_bits() == b.to_bits())
         );
     }
+    assert!(
+        over.is_empty(),
+        "navigation-preset RMSE above {factor}x the right preset's (seed, ratio): {over:?}"
+    );
 }

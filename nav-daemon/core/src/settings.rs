@@ -385,7 +385,7 @@ impl Default for AidSettings {
             baro_timeout_s: 1.0,
             max_latency_s: 0.1,
             fuse: AidSet::default(),
-            reset_after_s: 10.0,
+            reset_after_s: 5.0,
         }
     }
 }
