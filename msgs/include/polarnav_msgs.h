@@ -39,7 +39,7 @@
 /**
  * The state was reset to an aid that had been rejected at the gate for
  * `[aids] reset_after_s` while consistent (the step is in the reset
- * block; cleared by the next fused aid).
+ * block; cleared when that aid is next fused).
  */
 #define AID_RESET (1 << 8)
 

@@ -171,7 +171,7 @@ pub mod solution_flags {
     pub const RESUMED: u32 = 1 << 7;
     /// The state was reset to an aid that had been rejected at the gate for
     /// `[aids] reset_after_s` while consistent (the step is in the reset
-    /// block; cleared by the next fused aid).
+    /// block; cleared when that aid is next fused).
     pub const AID_RESET: u32 = 1 << 8;
 }
 

@@ -19,6 +19,8 @@ struct Flight {
     rmse_h_m: f64,
     resets: Vec<(Stream, ResetRecord, StreakVerdict)>,
     last: Solution,
+    /// Solutions flagged AID_RESET.
+    flagged: usize,
 }
 
 fn header(records: &[Record]) -> Option<&str> {
@@ -80,6 +82,11 @@ fn fly(records: &[Record], preset: Option<SensorGrade>, reset_after_s: Option<f6
         rmse_h_m: (sum / n as f64).sqrt(),
         resets,
         last: *out.solutions.last().expect("solutions"),
+        flagged: out
+            .solutions
+            .iter()
+            .filter(|s| s.flags & msgs::solution_flags::AID_RESET != 0)
+            .count(),
     }
 }
 
@@ -165,7 +172,8 @@ fn check_recovery(seeds: &[u64], factor: f64) {
             over.push((seed, wrong.rmse_h_m / right.rmse_h_m));
         }
         assert!(open.rmse_h_m > 1000.0 * right.rmse_h_m);
-        assert!(wrong.last.flags & msgs::solution_flags::AID_RESET == 0 || wrong.resets.len() > 0);
+        // Flagged from each reset until the next fused aid, never without one.
+        assert!(wrong.flagged >= wrong.resets.len() && right.flagged == 0);
         // The reset block of the published solution is the last reset.
         let (_, last, _) = wrong.resets.last().expect("reset");
         assert_eq!(wrong.last.reset_count, last.count);

@@ -33,8 +33,8 @@ pub(super) struct AidGate {
     /// Aid resets so far (SRS, CNS, baro) and the verdict of the last one.
     pub(super) resets: [u32; 3],
     pub(super) last_reset_verdict: Option<StreakVerdict>,
-    /// The state was reset to an aid and no aid has been fused since.
-    pub(super) reset_pending_flag: bool,
+    /// The state was reset to this aid (index) and it has not been fused since.
+    pub(super) reset_pending_flag: Option<usize>,
 }
 
 impl AidGate {
@@ -50,7 +50,7 @@ impl AidGate {
             reset_after_ns: secs_to_ns(a.reset_after_s),
             resets: [0; 3],
             last_reset_verdict: None,
-            reset_pending_flag: false,
+            reset_pending_flag: None,
         }
     }
 
@@ -153,7 +153,9 @@ impl Navigator {
         if out.fused {
             self.coasting = false;
             self.resumed = false;
-            self.aids.reset_pending_flag = false;
+            if self.aids.reset_pending_flag == Some(k) {
+                self.aids.reset_pending_flag = None;
+            }
             self.aids.streaks[k].fused(t_ns, &m.z, &m.h, &m.r, &out.dx);
             self.feed_back(t_ns, &out.dx);
         } else {
@@ -249,7 +251,7 @@ impl Navigator {
         let k = which.index();
         self.aids.resets[k] += 1;
         self.aids.last_reset_verdict = Some(*verdict);
-        self.aids.reset_pending_flag = true;
+        self.aids.reset_pending_flag = Some(k);
         self.aids.clear_streaks();
         self.record_reset(&old);
     }
