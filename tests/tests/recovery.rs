@@ -21,6 +21,7 @@ struct Flight {
     last: Solution,
     /// Solutions flagged AID_RESET.
     flagged: usize,
+    status: msgs::Status,
 }
 
 fn header(records: &[Record]) -> Option<&str> {
@@ -42,7 +43,7 @@ fn fly(records: &[Record], preset: Option<SensorGrade>, reset_after_s: Option<f6
     if let Some(r) = reset_after_s {
         settings.navigator.aid_settings.reset_after_s = r;
     }
-    let (out, _) = session::navigate(records, settings);
+    let (out, status) = session::navigate(records, settings);
     let truth: Vec<TruthRecord> = records
         .iter()
         .filter_map(|r| match r {
@@ -87,6 +88,7 @@ fn fly(records: &[Record], preset: Option<SensorGrade>, reset_after_s: Option<f6
             .iter()
             .filter(|s| s.flags & msgs::solution_flags::AID_RESET != 0)
             .count(),
+        status,
     }
 }
 
@@ -191,4 +193,44 @@ fn check_recovery(seeds: &[u64], factor: f64) {
         over.is_empty(),
         "navigation-preset RMSE above {factor}x the right preset's (seed, ratio): {over:?}"
     );
+}
+
+/// A real aid fault that is self-consistent once it has begun — a step of
+/// the CNS fix by 500 m (25 σ) north, or of the baro by 100 m (10 σ), held
+/// for 120 s — is rejected for all of it and never resets the state: the
+/// streak is left by a step from the last fused sample, which the
+/// continuity test refuses. (The fault campaign's own faults are checked in
+/// tests/tests/faults.rs.)
+#[test]
+fn a_persistent_step_fault_is_rejected_throughout_and_never_resets() {
+    let base =
+        std::fs::read_to_string(repo("config/scenarios/faults/cns-jumps.toml")).expect("scenario");
+    let i = base.find("[[faults.event]]").expect("faults");
+    for (stream, magnitude, per_s) in [("cns", 500.0, 1), ("baro", 100.0, 10)] {
+        let text = format!(
+            "{}[[faults.event]]\nkind = \"outliers\"\nstream = \"{stream}\"\nstart_s = 400.0\nduration_s = 120.0\nmagnitude = {magnitude}\n",
+            &base[..i]
+        );
+        let records = simulate_records(&text, 1);
+        let f = fly(&records, None, None);
+        let st = if stream == "cns" {
+            f.status.cns
+        } else {
+            f.status.baro
+        };
+        eprintln!(
+            "{stream} step of {magnitude} m for 120 s: {} rejected at the gate, {} resets, horizontal RMSE {:.2} m",
+            st.rejected_gate,
+            f.resets.len(),
+            f.rmse_h_m
+        );
+        assert!(f.resets.is_empty(), "{stream}: reset to a faulty aid");
+        assert_eq!(f.status.reset_count, 0);
+        assert!(
+            st.rejected_gate >= 120 * per_s,
+            "{stream}: only {} of {} faulty samples rejected",
+            st.rejected_gate,
+            120 * per_s
+        );
+    }
 }
