@@ -38,6 +38,13 @@
 #define POLARNAV_FLAG_RESUMED (1 << 7)
 
 /**
+ * The state was reset to an aid that had been rejected at the gate for
+ * `[aids] reset_after_s` while consistent (the step is in the reset
+ * block; cleared when that aid is next fused).
+ */
+#define POLARNAV_FLAG_AID_RESET (1 << 8)
+
+/**
  * A second publisher sent on an input service in the last status period:
  * its samples were refused (`StreamCounters::refused_publisher`).
  */

@@ -169,6 +169,10 @@ pub mod solution_flags {
     pub const COASTING: u32 = 1 << 6;
     /// The navigator was resumed from a checkpoint (cleared by the next fused aid).
     pub const RESUMED: u32 = 1 << 7;
+    /// The state was reset to an aid that had been rejected at the gate for
+    /// `[aids] reset_after_s` while consistent (the step is in the reset
+    /// block; cleared when that aid is next fused).
+    pub const AID_RESET: u32 = 1 << 8;
     /// A second publisher sent on an input service in the last status period:
     /// its samples were refused (`StreamCounters::refused_publisher`).
     pub const SECOND_PUBLISHER: u32 = 1 << 10;

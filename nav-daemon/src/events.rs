@@ -106,5 +106,30 @@ pub fn log_event(log: &str, e: &Event) {
             t_s = secs(*t_ns),
             "{log}: covariance lost finiteness or positive variances: re-inflated"
         ),
+        Event::AidReset {
+            stream,
+            reset,
+            verdict,
+        } => {
+            let norm = |d: &[f64; 3]| d.iter().map(|x| x * x).sum::<f64>().sqrt();
+            tracing::warn!(
+                t_ns = reset.t_ns,
+                count = reset.count,
+                "{log}: {} rejected for {:.1} s ({} samples) while consistent (residual χ²/ν {:.2} ≤ {:.2}, step from last fused {}): reset to it, |Δr| {:.2} m, |Δv| {:.3} m/s, Δψ {:.4}°, covariance of the unobserved states ×{:.3e}",
+                stream.name(),
+                verdict.duration_s,
+                verdict.samples,
+                verdict.consistency,
+                verdict.consistency_bound,
+                verdict.step.map_or("none (stale)".to_owned(), |s| format!(
+                    "χ² {s:.2} ≤ {:.2}",
+                    verdict.step_bound
+                )),
+                norm(&reset.delta_pos_e_m),
+                norm(&reset.delta_vel_e_mps),
+                reset.delta_heading_rad.to_degrees(),
+                verdict.covariance_inflation.min(1e8)
+            )
+        }
     }
 }

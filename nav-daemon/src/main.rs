@@ -7,7 +7,7 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 use nav_daemon::batch::{self, BatchOptions};
-use polarnav_config::{AidSet, CliOverrides, ConfigFile, Conversion, effective};
+use polarnav_config::{AidSet, CliOverrides, ConfigFile, Conversion, SensorGrade, effective};
 
 #[derive(Debug, Parser)]
 #[command(
@@ -58,6 +58,10 @@ enum Cmd {
         /// Print a progress line every this many seconds of flight (0 = quiet).
         #[arg(long, default_value_t = 0.0)]
         progress: f64,
+        /// IMU noise model of a sensor grade: navigation, tactical or mems
+        /// (over the configuration's and the log header's `[filter]` noise keys).
+        #[arg(long)]
+        preset: Option<String>,
     },
 }
 
@@ -127,6 +131,7 @@ fn main() -> ExitCode {
             progress,
             no_switch,
             align,
+            preset,
         }) => {
             let usage = |m: String| {
                 eprintln!("error: {m}");
@@ -135,6 +140,10 @@ fn main() -> ExitCode {
             let fuse = match aids.as_deref().map(AidSet::parse).transpose() {
                 Ok(a) => a,
                 Err(m) => return usage(format!("--aids: {m}")),
+            };
+            let preset = match preset.as_deref().map(SensorGrade::parse).transpose() {
+                Ok(g) => g,
+                Err(m) => return usage(format!("--preset: {m}")),
             };
             let conversion = match conversion.as_deref() {
                 None => None,
@@ -157,6 +166,7 @@ fn main() -> ExitCode {
                     },
                     align_s: align,
                     prefix: None,
+                    preset,
                 },
                 progress_every_s: progress,
             };

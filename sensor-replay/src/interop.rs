@@ -67,6 +67,20 @@ pub struct AidSynthesis {
     pub baro_sigma_m: Option<f64>,
     pub srs_sigma_mps: Option<f64>,
     pub seed: u64,
+    /// The IMU's sensor grade, written to the header as `[navigator]
+    /// preset` so that `batch` uses its noise model.
+    pub preset: Option<polarnav_config::SensorGrade>,
+}
+
+/// The header metadata of an import: the description lines as TOML
+/// comments and, with a preset, the `[navigator]` table that names it (so
+/// the metadata is TOML that `batch` applies).
+fn import_metadata(description: &str, preset: Option<polarnav_config::SensorGrade>) -> String {
+    let mut out: String = description.lines().map(|l| format!("# {l}\n")).collect();
+    if let Some(g) = preset {
+        out += &format!("[navigator]\npreset = \"{}\"\n", g.name());
+    }
+    out
 }
 
 impl AidSynthesis {
@@ -347,7 +361,7 @@ pub fn import_kfgins<W: Write>(
             ),
             "kfgins",
             aids.seed,
-            &meta,
+            &import_metadata(&meta, aids.preset),
         ),
         &records,
     )?;
@@ -529,7 +543,7 @@ pub fn import_psins<W: Write>(
             concat!("sensor-replay ", env!("CARGO_PKG_VERSION"), " import-psins"),
             "psins",
             aids.seed,
-            &meta,
+            &import_metadata(&meta, aids.preset),
         ),
         &records,
     )?;

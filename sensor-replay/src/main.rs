@@ -143,6 +143,10 @@ struct AidArgs {
     /// Random seed of the synthesized noise.
     #[arg(long, default_value_t = 1)]
     seed: u64,
+    /// The IMU's sensor grade (navigation, tactical, mems), written to the
+    /// log header so that `batch` uses its noise model.
+    #[arg(long)]
+    preset: Option<String>,
 }
 
 impl AidArgs {
@@ -161,11 +165,18 @@ impl AidArgs {
                 ));
             }
         }
+        let preset = self
+            .preset
+            .as_deref()
+            .map(polarnav_config::SensorGrade::parse)
+            .transpose()
+            .map_err(|m| Fail(2, format!("--preset: {m}")))?;
         Ok(AidSynthesis {
             cns_sigma_m: self.cns_sigma,
             baro_sigma_m: self.baro_sigma,
             srs_sigma_mps: self.srs_sigma,
             seed: self.seed,
+            preset,
         })
     }
 }

@@ -46,7 +46,7 @@ pub fn render(sol: Option<&Solution>, st: Option<&Status>, solutions_per_s: f64)
                 x.roll_rad.to_degrees()
             ));
             s.push_str(&format!(
-                "flags: {} {} {} {} {} {} {} {}   resets {} (last Δr {:.2} m)\n",
+                "flags: {} {} {} {} {} {} {} {} {}   resets {} (last Δr {:.2} m)\n",
                 flag(solution_flags::ALIGNED, "aligned"),
                 flag(solution_flags::SRS_FRESH, "srs"),
                 flag(solution_flags::CNS_FRESH, "cns"),
@@ -55,6 +55,7 @@ pub fn render(sol: Option<&Solution>, st: Option<&Status>, solutions_per_s: f64)
                 flag(solution_flags::LAST_INNOVATION_REJECTED, "rejected"),
                 flag(solution_flags::COASTING, "coasting"),
                 flag(solution_flags::RESUMED, "resumed"),
+                flag(solution_flags::AID_RESET, "aid-reset"),
                 x.reset_count,
                 x.reset_delta_pos_e_m
                     .iter()

@@ -162,6 +162,7 @@ fn psins_rlg_record_imports_completely_with_the_documented_mean_rates() {
         baro_sigma_m: Some(10.0),
         srs_sigma_mps: Some(0.5),
         seed: 3,
+        preset: None,
     };
     let sum = interop::import_psins(&file, &aids, &mut buf).expect("import");
     assert_eq!(sum.imu, 184_718);
@@ -187,4 +188,44 @@ fn psins_rlg_record_imports_completely_with_the_documented_mean_rates() {
     for (got, want) in acc.iter().zip([-0.061, 0.159, 9.794]) {
         assert!((got - want).abs() < 0.001, "{got} vs {want}");
     }
+}
+
+/// `--preset` on an import: the header names the grade and `batch`'s
+/// effective settings take its noise model from it.
+#[test]
+fn an_import_with_a_preset_carries_it_to_batch() {
+    let file = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../shared/datasets/psins-lasergyro/lasergyro.imu");
+    let mut buf = Vec::new();
+    let aids = AidSynthesis {
+        cns_sigma_m: None,
+        baro_sigma_m: None,
+        srs_sigma_mps: None,
+        seed: 3,
+        preset: Some(polarnav_config::SensorGrade::Tactical),
+    };
+    interop::import_psins(&file, &aids, &mut buf).expect("import");
+    let (records, _) = read_all(&buf);
+    let meta = records
+        .iter()
+        .find_map(|r| match r {
+            Record::Header(h) => Some(h.metadata.clone()),
+            _ => None,
+        })
+        .expect("header");
+    assert!(meta.contains("# imported from PSINS"), "{meta}");
+    let e = polarnav_config::effective(
+        &polarnav_config::ConfigFile::defaults(),
+        Some(&meta),
+        &polarnav_config::CliOverrides::default(),
+    )
+    .expect("effective");
+    assert_eq!(
+        e.config.filter,
+        polarnav_config::SensorGrade::Tactical.apply(&Default::default())
+    );
+    assert_eq!(
+        e.source("filter.arw_dpsh"),
+        Some(&polarnav_config::Source::Header)
+    );
 }

@@ -106,3 +106,85 @@ fn thirty_seed_average_nees_is_inside_the_95_percent_chi2_band() {
         );
     }
 }
+
+/// The same pole window flown with a tactical-grade IMU whose biases are
+/// Gauss–Markov processes (the tactical preset's σ and τ, no constant
+/// part), 300 s at 100 Hz, the filter given the tactical preset (issue 12).
+fn gm_window() -> String {
+    let v: std::collections::BTreeMap<_, _> = polarnav::settings::SensorGrade::Tactical
+        .values()
+        .into_iter()
+        .collect();
+    WINDOW
+        .replace(
+            "[imu]\nrate_hz = 200.0\ngyro_bias_dph = 0.01\naccel_bias_ug = 100.0\narw_dpsh = 0.001\nvrw_ug_psqhz = 10.0\n",
+            &format!(
+                "[imu]\nrate_hz = 100.0\narw_dpsh = {}\nvrw_ug_psqhz = {}\ngm_gyro_sigma_dph = {}\ngm_gyro_tau_s = {}\ngm_accel_sigma_ug = {}\ngm_accel_tau_s = {}\n",
+                v["arw_dpsh"],
+                v["vrw_ug_psqhz"],
+                v["gyro_bias_instability_dph"],
+                v["gyro_bias_tau_s"],
+                v["accel_bias_instability_ug"],
+                v["accel_bias_tau_s"]
+            ),
+        )
+        .replace("duration_s = 900.0", "duration_s = 300.0")
+}
+
+/// 30 seeds with Gauss–Markov truth biases and the matching preset: the
+/// average NEES of position, velocity and attitude inside the 95 % band,
+/// and the RMS tilt error at most 1.2× the filter's own RMS tilt σ (the
+/// covariance analysis of the same model: P of the filter given the
+/// truth's noise model, which is what a covariance analysis propagates).
+#[test]
+fn gauss_markov_biases_with_the_matching_preset_are_consistent() {
+    let text = gm_window();
+    assert!(text.contains("gm_gyro_sigma_dph"), "scenario not rewritten");
+    let cfg = NavigatorConfig {
+        filter: polarnav::settings::SensorGrade::Tactical.apply(&Default::default()),
+        ..Default::default()
+    };
+    let runs: Vec<Run> = std::thread::scope(|scope| {
+        let handles: Vec<_> = (0..2u64)
+            .map(|k| {
+                let (text, cfg) = (&text, &cfg);
+                scope.spawn(move || {
+                    (0..RUNS)
+                        .filter(|s| s % 2 == k)
+                        .map(|seed| run(&simulate_records(text, 500 + seed), cfg, None))
+                        .collect::<Vec<_>>()
+                })
+            })
+            .collect();
+        handles
+            .into_iter()
+            .flat_map(|h| h.join().expect("thread"))
+            .collect()
+    });
+    let per_seed: Vec<Vec<[f64; 3]>> = runs.iter().map(nees).collect();
+    let epochs = per_seed[0].len();
+    for (i, name) in ["position", "velocity", "attitude"].iter().enumerate() {
+        let mean = (0..epochs)
+            .map(|k| per_seed.iter().map(|r| r[k][i]).sum::<f64>() / RUNS as f64)
+            .sum::<f64>()
+            / epochs as f64;
+        eprintln!(
+            "GM biases, tactical preset: {name} average NEES {mean:.3} (band [{LO:.3}, {HI:.3}])"
+        );
+        assert!(
+            (LO..=HI).contains(&mean),
+            "{name} average NEES {mean} outside [{LO}, {HI}]"
+        );
+    }
+    let (mut e2, mut s2) = (0.0, 0.0);
+    for r in &runs {
+        for (s, t) in r.snaps.iter().zip(&r.truth) {
+            let (_, _, a) = errors(s, t);
+            e2 += a.x * a.x + a.y * a.y;
+            s2 += s.cov_att[(0, 0)] + s.cov_att[(1, 1)];
+        }
+    }
+    let ratio = (e2 / s2).sqrt();
+    eprintln!("GM biases, tactical preset: RMS tilt error / RMS tilt σ = {ratio:.3} (bound 1.2)");
+    assert!(ratio <= 1.2, "tilt error {ratio}× the covariance limit");
+}

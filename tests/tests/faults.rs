@@ -226,6 +226,15 @@ fn fault_campaign_through_batch() {
         }
     }
     assert!(failed.is_empty(), "failed: {failed:?}");
+    // No injected fault may reset the state to the faulty aid (issue 12):
+    // these flights have no re-initialization, so every reset would be one.
+    for r in &results {
+        assert_eq!(
+            r.status.reset_count, 0,
+            "{}: {} resets",
+            r.name, r.status.reset_count
+        );
+    }
 }
 
 /// Aids that arrive late are fused at their own time stamp, against the

@@ -125,6 +125,7 @@ fn real_rlg_record_forced_switches_match_a_never_switching_run() {
         baro_sigma_m: Some(10.0),
         srs_sigma_mps: Some(0.5),
         seed: 1,
+        preset: None,
     };
     import_psins(
         &repo("../shared/datasets/psins-lasergyro/lasergyro.imu"),

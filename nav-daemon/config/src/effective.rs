@@ -59,12 +59,8 @@ impl ConfigFile {
     /// Parses and validates configuration text; `origin` names it.
     pub fn parse(text: &str, origin: &str) -> Result<Self, ConfigError> {
         let config = Config::parse(text, origin)?;
-        let table: toml::Table = text
-            .parse()
-            .map_err(|e: toml::de::Error| ConfigError::Parse {
-                path: origin.to_owned(),
-                message: e.to_string(),
-            })?;
+        // The keys a preset expands to are the file's too.
+        let table = Config::table(text, origin)?;
         let mut keys = BTreeSet::new();
         leaves(&table, "", &mut |k, _| {
             keys.insert(k);
@@ -95,6 +91,8 @@ pub struct CliOverrides {
     pub force_switch_s: Option<Vec<f64>>,
     /// `--align SECONDS`.
     pub align_s: Option<f64>,
+    /// `--preset GRADE`: the grade's noise keys (over the file's and the header's).
+    pub preset: Option<polarnav::settings::SensorGrade>,
     /// `--prefix` (the live daemon).
     pub prefix: Option<String>,
 }
@@ -107,6 +105,7 @@ fn flag(key: &str) -> &'static str {
         "aids.fuse" => "--aids",
         "frame.force_switch_s" | "frame.never_switch" => "--force-switch/--no-switch",
         "align_s" => "--align",
+        k if k.starts_with("filter.") => "--preset",
         _ => "an option",
     }
 }
@@ -262,6 +261,22 @@ pub fn effective(
     {
         for (k, v) in o.assignments() {
             assign(&mut table, &k, v, Source::Header);
+        }
+    }
+    if let Some(g) = cli.preset {
+        assign(
+            &mut table,
+            "filter.preset",
+            toml::Value::String(g.name().to_owned()),
+            Source::CommandLine,
+        );
+        for (k, v) in g.values() {
+            assign(
+                &mut table,
+                &format!("filter.{k}"),
+                toml::Value::Float(v),
+                Source::CommandLine,
+            );
         }
     }
     if let Some(c) = cli.conversion {

@@ -14,8 +14,41 @@ use serde::{Deserialize, Serialize};
 pub use effective::{CliOverrides, ConfigFile, Effective, Source, effective};
 use polarnav::navigator::NavigatorConfig;
 pub use polarnav::settings::{
-    AidSet, AidSettings, Conversion, FilterSettings, FrameSettings, InitSettings, SettingsError,
+    AidSet, AidSettings, Conversion, FilterSettings, FrameSettings, InitSettings, SensorGrade,
+    SettingsError,
 };
+
+/// Reads a `preset` value (a sensor grade's name); `origin` and `key` name it in errors.
+pub fn parse_preset(v: &toml::Value, origin: &str, key: &str) -> Result<SensorGrade, ConfigError> {
+    let invalid = |message: String| ConfigError::Invalid {
+        path: origin.to_owned(),
+        key: key.to_owned(),
+        message,
+    };
+    match v.as_str() {
+        Some(name) => SensorGrade::parse(name).map_err(invalid),
+        None => Err(invalid(format!(
+            "expected a sensor grade name (navigation, tactical, mems), got {v}"
+        ))),
+    }
+}
+
+/// Expands `filter.preset` of one place's settings (a file, or a header's
+/// `[navigator]`): every noise key of the grade that the same table does not
+/// set itself is set to the grade's value. Keys given beside the preset win.
+pub fn expand_preset(t: &mut toml::Table, origin: &str) -> Result<(), ConfigError> {
+    let Some(toml::Value::Table(filter)) = t.get_mut("filter") else {
+        return Ok(());
+    };
+    let Some(v) = filter.get("preset") else {
+        return Ok(());
+    };
+    let grade = parse_preset(v, origin, "filter.preset")?;
+    for (k, v) in grade.values() {
+        filter.entry(k.to_owned()).or_insert(toml::Value::Float(v));
+    }
+    Ok(())
+}
 
 /// The whole file.
 #[derive(Debug, Clone, Deserialize, Serialize, PartialEq)]
@@ -126,10 +159,28 @@ fn check(origin: &str, key: &str, v: f64, ok: bool, expected: &str) -> Result<()
 impl Config {
     /// Parses configuration text; `origin` names it in errors.
     pub fn parse(text: &str, origin: &str) -> Result<Self, ConfigError> {
-        let c: Config = toml::from_str(text).map_err(|e| ConfigError::Parse {
-            path: origin.to_owned(),
-            message: e.to_string(),
-        })?;
+        Self::from_table(Self::table(text, origin)?, origin)
+    }
+
+    /// The file's text as a table, with its `filter.preset` expanded.
+    pub(crate) fn table(text: &str, origin: &str) -> Result<toml::Table, ConfigError> {
+        let mut t: toml::Table = text
+            .parse()
+            .map_err(|e: toml::de::Error| ConfigError::Parse {
+                path: origin.to_owned(),
+                message: e.to_string(),
+            })?;
+        expand_preset(&mut t, origin)?;
+        Ok(t)
+    }
+
+    fn from_table(t: toml::Table, origin: &str) -> Result<Self, ConfigError> {
+        let c: Config = toml::Value::Table(t)
+            .try_into()
+            .map_err(|e: toml::de::Error| ConfigError::Parse {
+                path: origin.to_owned(),
+                message: e.to_string(),
+            })?;
         c.validate(origin)?;
         Ok(c)
     }
@@ -212,6 +263,9 @@ pub struct ScenarioOverrides {
     pub switch_enter_deg: Option<f64>,
     pub switch_leave_deg: Option<f64>,
     pub force_switch_s: Option<Vec<f64>>,
+    /// Sensor grade of the scenario's IMU (the short form of `filter.preset`):
+    /// its noise keys, unless this table sets them itself.
+    pub preset: Option<SensorGrade>,
     /// IMU noise model of the scenario's sensor class (replaces `[filter]` values that are set).
     pub gyro_bias_dph: Option<f64>,
     pub accel_bias_ug: Option<f64>,
@@ -230,6 +284,9 @@ impl ScenarioOverrides {
         let Some(nav) = table.get("navigator") else {
             return Ok(None);
         };
+        if let Some(v) = nav.get("filter").and_then(|f| f.get("preset")) {
+            parse_preset(v, origin, "filter.preset")?;
+        }
         let o: Self = nav
             .clone()
             .try_into()
@@ -247,6 +304,19 @@ impl ScenarioOverrides {
         let mut out = Vec::new();
         let mut put = |k: &str, v: toml::Value| out.push((k.to_owned(), v));
         let f = toml::Value::Float;
+        // A grade first, so that any key this table sets beside it wins.
+        let table_grade = self
+            .filter
+            .as_ref()
+            .and_then(|t| t.get("preset"))
+            .and_then(toml::Value::as_str)
+            .and_then(|n| SensorGrade::parse(n).ok());
+        if let Some(g) = table_grade.or(self.preset) {
+            put("filter.preset", toml::Value::String(g.name().to_owned()));
+            for (k, v) in g.values() {
+                put(&format!("filter.{k}"), f(v));
+            }
+        }
         if let Some(v) = self.switch_enter_deg {
             put("frame.switch_enter_deg", f(v));
             if self.switch_leave_deg.is_none() {
@@ -373,5 +443,106 @@ mod tests {
                 .expect("ok")
                 .is_none()
         );
+    }
+
+    #[test]
+    #[allow(clippy::float_cmp)] // copies of the same decimal literals: exact
+    fn the_shipped_config_says_it_uses_the_navigation_preset() {
+        let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config/nav-daemon.toml");
+        let c = Config::load(&path).expect("shipped config");
+        assert_eq!(c.filter.preset, Some(SensorGrade::Navigation));
+        assert_eq!(
+            c.filter,
+            SensorGrade::Navigation.apply(&FilterSettings::default())
+        );
+    }
+
+    #[test]
+    #[allow(clippy::float_cmp)] // copies of the same decimal literals: exact
+    fn a_preset_expands_where_it_is_named_and_explicit_keys_win() {
+        let c = Config::parse("[filter]\npreset = \"mems\"\narw_dpsh = 0.5\n", "x.toml")
+            .expect("config");
+        assert_eq!(c.filter.arw_dpsh, 0.5);
+        assert_eq!(c.filter.gyro_bias_instability_dph, 50.0);
+        assert_eq!(c.filter.accel_bias_tau_s, 600.0);
+        // The header's preset replaces the file's noise keys; the command line wins over both.
+        let file = ConfigFile::parse("[filter]\narw_dpsh = 0.5\n", "x.toml").expect("file");
+        let meta = "[navigator]\npreset = \"tactical\"\n";
+        let e = effective(&file, Some(meta), &CliOverrides::default()).expect("effective");
+        assert_eq!(e.config.filter.arw_dpsh, 0.1);
+        assert_eq!(e.source("filter.arw_dpsh"), Some(&Source::Header));
+        let cli = CliOverrides {
+            preset: Some(SensorGrade::Mems),
+            ..Default::default()
+        };
+        let e = effective(&file, Some(meta), &cli).expect("effective");
+        assert_eq!(e.config.filter.vrw_ug_psqhz, 300.0);
+        assert_eq!(e.config.filter.preset, Some(SensorGrade::Mems));
+        // A recorded header (every key) reproduces the settings.
+        let again = effective(
+            &ConfigFile::defaults(),
+            Some(&e.header_toml()),
+            &CliOverrides::default(),
+        )
+        .expect("effective");
+        assert_eq!(again.config.filter, e.config.filter);
+    }
+
+    #[test]
+    fn absurd_noise_and_recovery_values_name_the_file_and_key() {
+        for (text, key) in [
+            ("[filter]\npreset = \"consumer\"\n", "filter.preset"),
+            ("[filter]\npreset = 3\n", "filter.preset"),
+            (
+                "[filter]\ngyro_bias_tau_s = -1.0\n",
+                "filter.gyro_bias_tau_s",
+            ),
+            (
+                "[filter]\ngyro_bias_tau_s = 1e-300\n",
+                "filter.gyro_bias_tau_s",
+            ),
+            (
+                "[filter]\naccel_bias_tau_s = 1e300\n",
+                "filter.accel_bias_tau_s",
+            ),
+            (
+                "[filter]\naccel_bias_tau_s = inf\n",
+                "filter.accel_bias_tau_s",
+            ),
+            (
+                "[filter]\ngyro_bias_instability_dph = nan\n",
+                "filter.gyro_bias_instability_dph",
+            ),
+            (
+                "[filter]\ngyro_bias_instability_dph = -0.1\n",
+                "filter.gyro_bias_instability_dph",
+            ),
+            (
+                "[filter]\naccel_bias_instability_ug = 1e300\n",
+                "filter.accel_bias_instability_ug",
+            ),
+            ("[filter]\ngyro_bias_dph = 1e-300\n", "filter.gyro_bias_dph"),
+            ("[filter]\narw_dpsh = 1e300\n", "filter.arw_dpsh"),
+            ("[aids]\nreset_after_s = -1.0\n", "aids.reset_after_s"),
+            ("[aids]\nreset_after_s = 1e-300\n", "aids.reset_after_s"),
+            ("[aids]\nreset_after_s = nan\n", "aids.reset_after_s"),
+            ("[aids]\nreset_after_s = 1e300\n", "aids.reset_after_s"),
+        ] {
+            let e = Config::parse(text, "x.toml").expect_err(text).to_string();
+            assert!(e.contains("x.toml") && e.contains(key), "{text}: {e}");
+        }
+        let meta = "[navigator.filter]\npreset = \"consumer\"\n";
+        let e = effective(
+            &ConfigFile::defaults(),
+            Some(meta),
+            &CliOverrides::default(),
+        )
+        .expect_err("bad header preset")
+        .to_string();
+        assert!(
+            e.contains("navlog header") && e.contains("filter.preset"),
+            "{e}"
+        );
+        assert!(Config::parse("[aids]\nreset_after_s = 0.0\n", "x.toml").is_ok());
     }
 }

@@ -322,6 +322,13 @@ pub enum Event {
     CovarianceRepaired {
         t_ns: u64,
     },
+    /// An aid rejected for `[aids] reset_after_s` while consistent reset the
+    /// states it observes: the reset as published and the tests' findings.
+    AidReset {
+        stream: Stream,
+        reset: crate::navigator::ResetRecord,
+        verdict: crate::navigator::StreakVerdict,
+    },
 }
 
 /// A sample whose values could be navigated on (the navigator checks the
@@ -1091,12 +1098,22 @@ impl Session {
             self.count_outside(a.stream(), |c| c.not_used += 1);
             return;
         };
+        let resets = n.aid_resets();
         if let Err(reason) = a.offer(n) {
             sink.event(&Event::Rejected {
                 stream: a.stream(),
                 t_ns: a.t_ns(),
                 seq: a.seq(),
                 reason,
+            });
+        }
+        if n.aid_resets() != resets
+            && let Some(verdict) = n.last_aid_reset()
+        {
+            sink.event(&Event::AidReset {
+                stream: a.stream(),
+                reset: *n.last_reset(),
+                verdict: *verdict,
             });
         }
         self.check_repairs(sink);

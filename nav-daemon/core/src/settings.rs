@@ -205,10 +205,95 @@ impl InitSettings {
     }
 }
 
+/// A sensor grade: the IMU noise model of a class of sensors, by name
+/// (`[filter] preset`, a scenario's `[navigator] preset`, the importers'
+/// `--preset`). Each bias is one stationary first-order Gauss–Markov
+/// process, so its initial 1-σ is its stationary σ (the filter's prior and
+/// its process noise describe the same process).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum SensorGrade {
+    /// Navigation grade (ring-laser / fibre-optic gyros, servo
+    /// accelerometers): papers/001 Table 1's noise and initial bias σ, the
+    /// biases wandering with a 1 h correlation time.
+    Navigation,
+    /// Tactical grade (small FOG / high-end MEMS gyros).
+    Tactical,
+    /// Consumer/industrial MEMS.
+    Mems,
+}
+
+impl SensorGrade {
+    pub const ALL: [SensorGrade; 3] = [
+        SensorGrade::Navigation,
+        SensorGrade::Tactical,
+        SensorGrade::Mems,
+    ];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            SensorGrade::Navigation => "navigation",
+            SensorGrade::Tactical => "tactical",
+            SensorGrade::Mems => "mems",
+        }
+    }
+
+    /// Parses a grade name; the error lists the names.
+    pub fn parse(s: &str) -> Result<Self, String> {
+        Self::ALL
+            .into_iter()
+            .find(|g| g.name() == s)
+            .ok_or_else(|| {
+                format!("unknown sensor grade {s:?}: expected navigation, tactical or mems")
+            })
+    }
+
+    /// The `[filter]` keys this grade sets and their values (datasheet
+    /// units: deg/√h, µg/√Hz, deg/h, µg, s).
+    pub fn values(self) -> [(&'static str, f64); 8] {
+        // (ARW, VRW, gyro bias σ, τ_g, accel bias σ, τ_a)
+        let (arw, vrw, g, tg, a, ta) = match self {
+            SensorGrade::Navigation => (0.001, 10.0, 0.01, 3600.0, 100.0, 3600.0),
+            SensorGrade::Tactical => (0.1, 50.0, 1.0, 1800.0, 500.0, 1800.0),
+            SensorGrade::Mems => (0.3, 300.0, 50.0, 600.0, 2000.0, 600.0),
+        };
+        [
+            ("arw_dpsh", arw),
+            ("vrw_ug_psqhz", vrw),
+            ("gyro_bias_dph", g),
+            ("gyro_bias_instability_dph", g),
+            ("gyro_bias_tau_s", tg),
+            ("accel_bias_ug", a),
+            ("accel_bias_instability_ug", a),
+            ("accel_bias_tau_s", ta),
+        ]
+    }
+
+    /// `base` with this grade's noise model (other keys unchanged).
+    pub fn apply(self, base: &FilterSettings) -> FilterSettings {
+        let mut f = base.clone();
+        for (k, v) in self.values() {
+            *f.noise_key_mut(k).expect("a preset sets noise keys only") = v;
+        }
+        f.preset = Some(self);
+        f
+    }
+}
+
+impl std::fmt::Display for SensorGrade {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
 /// `[filter]`: IMU noise model and initial bias uncertainty, in datasheet units.
 #[derive(Debug, Clone, Deserialize, Serialize, PartialEq)]
 #[serde(deny_unknown_fields, default)]
 pub struct FilterSettings {
+    /// The sensor grade the noise keys were taken from (keys given beside
+    /// it in the same place override it); `None` when they are given one by one.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub preset: Option<SensorGrade>,
     /// Angle random walk (deg/√h).
     pub arw_dpsh: f64,
     /// Velocity random walk (µg/√Hz).
@@ -246,6 +331,7 @@ impl Default for FilterSettings {
     fn default() -> Self {
         // papers/001 Table 1.
         Self {
+            preset: None,
             arw_dpsh: 0.001,
             vrw_ug_psqhz: 10.0,
             gyro_bias_dph: 0.01,
@@ -281,6 +367,10 @@ pub struct AidSettings {
     /// The aids to fuse: a list of `srs`, `cns`, `baro`, or `none`
     /// (received samples of the others are counted as not used).
     pub fuse: AidSet,
+    /// An aid rejected at the gate continuously for this long (s) while its
+    /// own innovations agree with each other and with its last fused sample
+    /// resets the states it observes to it (0 = never).
+    pub reset_after_s: f64,
 }
 
 impl Default for AidSettings {
@@ -295,6 +385,7 @@ impl Default for AidSettings {
             baro_timeout_s: 1.0,
             max_latency_s: 0.1,
             fuse: AidSet::default(),
+            reset_after_s: 5.0,
         }
     }
 }
@@ -341,28 +432,77 @@ fn check(origin: &str, key: &str, v: f64, ok: bool, expected: &str) -> Result<()
 }
 
 impl FilterSettings {
+    /// The noise key `name` (a key a [`SensorGrade`] sets).
+    fn noise_key_mut(&mut self, name: &str) -> Option<&mut f64> {
+        Some(match name {
+            "arw_dpsh" => &mut self.arw_dpsh,
+            "vrw_ug_psqhz" => &mut self.vrw_ug_psqhz,
+            "gyro_bias_dph" => &mut self.gyro_bias_dph,
+            "gyro_bias_instability_dph" => &mut self.gyro_bias_instability_dph,
+            "gyro_bias_tau_s" => &mut self.gyro_bias_tau_s,
+            "accel_bias_ug" => &mut self.accel_bias_ug,
+            "accel_bias_instability_ug" => &mut self.accel_bias_instability_ug,
+            "accel_bias_tau_s" => &mut self.accel_bias_tau_s,
+            _ => return None,
+        })
+    }
+
     pub fn validate(&self, origin: &str) -> Result<(), SettingsError> {
-        for (k, v) in [
-            ("filter.arw_dpsh", self.arw_dpsh),
-            ("filter.vrw_ug_psqhz", self.vrw_ug_psqhz),
+        // Ranges wide enough for any real IMU and narrow enough that the
+        // squares, 2σ²/τ and P₀ stay normal doubles: a value outside them is
+        // a unit mistake, not a sensor.
+        for (k, v, max) in [
+            ("filter.arw_dpsh", self.arw_dpsh, 100.0),
+            ("filter.vrw_ug_psqhz", self.vrw_ug_psqhz, 1e5),
             (
                 "filter.gyro_bias_instability_dph",
                 self.gyro_bias_instability_dph,
+                1e4,
             ),
             (
                 "filter.accel_bias_instability_ug",
                 self.accel_bias_instability_ug,
+                1e5,
             ),
         ] {
-            check(origin, k, v, v >= 0.0, "a number ≥ 0")?;
+            check(
+                origin,
+                k,
+                v,
+                (0.0..=max).contains(&v),
+                &format!("a number in [0, {max}]"),
+            )?;
+        }
+        for (k, v, min, max) in [
+            ("filter.gyro_bias_dph", self.gyro_bias_dph, 1e-6, 1e4),
+            ("filter.accel_bias_ug", self.accel_bias_ug, 1e-3, 1e5),
+        ] {
+            check(
+                origin,
+                k,
+                v,
+                (min..=max).contains(&v),
+                &format!("an initial 1-σ in [{min}, {max}]"),
+            )?;
         }
         for (k, v) in [
-            ("filter.gyro_bias_dph", self.gyro_bias_dph),
-            ("filter.accel_bias_ug", self.accel_bias_ug),
             ("filter.gyro_bias_tau_s", self.gyro_bias_tau_s),
             ("filter.accel_bias_tau_s", self.accel_bias_tau_s),
         ] {
-            check(origin, k, v, v > 0.0, "a positive number")?;
+            // Below 1 s a "bias" is white noise, and below 10 covariance
+            // intervals the second-order Φ = 1 − Δt/τ + (Δt/τ)²/2 is no
+            // longer close to e^(−Δt/τ); above ~11 days it is a constant
+            // over any flight.
+            let min = (10.0 * self.covariance_interval_s).max(1.0);
+            check(
+                origin,
+                k,
+                v,
+                (min..=1e6).contains(&v),
+                &format!(
+                    "a correlation time in [{min}, 1e6] s (at least 10 filter.covariance_interval_s)"
+                ),
+            )?;
         }
         for (k, v) in [
             ("filter.max_gyro_rate_dps", self.max_gyro_rate_dps),
@@ -434,6 +574,14 @@ impl AidSettings {
         ] {
             check(origin, k, v, v > 0.0, "a positive time in seconds")?;
         }
+        let r = self.reset_after_s;
+        check(
+            origin,
+            "aids.reset_after_s",
+            r,
+            r == 0.0 || (5.0..=3600.0).contains(&r),
+            "0 (never) or a time in [5, 3600] s",
+        )?;
         Ok(())
     }
 }

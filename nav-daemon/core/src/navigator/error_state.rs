@@ -100,6 +100,12 @@ impl ErrorState {
         let mut f = nominal.nav().error_dynamics(&f_b);
         self.noise.add_bias_dynamics(&mut f);
         filter::propagate(&mut self.p, &f, &self.noise, self.acc_dt);
+        // The bias estimates are the mean of Gauss–Markov processes: they
+        // decay as e^(−Δt/τ) between updates, so that the error δb = b̂ − b
+        // follows δḃ = −δb/τ − w as F states (constant when τ = ∞).
+        let (dg, da) = self.noise.bias_decay(self.acc_dt);
+        self.gyro_bias *= dg;
+        self.accel_bias *= da;
         self.acc_dt = 0.0;
         self.acc_dv_b = Vector3::zeros();
         if covariance_usable(&self.p) {

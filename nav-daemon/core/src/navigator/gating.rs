@@ -4,14 +4,16 @@
 //! measurement models are `crate::aids`.
 
 use msgs::{BaroSample, CnsFix, SrsSample};
-use nalgebra::Vector3;
+use nalgebra::{SMatrix, SVector, Vector3};
 
 use crate::aids::control::AidControl;
 use crate::aids::{self, AidError, Measurement};
 use crate::error_model::idx;
+use crate::filter;
 use crate::mech::AnyNav;
 use crate::settings::{AidSet, AidSettings};
 
+use super::recovery::{Streak, StreakVerdict};
 use super::{AidOutcome, InputRejection, Navigator, secs_to_ns};
 
 /// The per-aid fusion controls, which aids are selected, and the latency limit.
@@ -24,6 +26,15 @@ pub(super) struct AidGate {
     pub(super) max_latency_ns: u64,
     /// The last gated innovation was rejected (solution flag).
     pub(super) last_rejected: bool,
+    /// Rejection streaks (SRS, CNS, baro) and the time after which a
+    /// healthy aid's streak resets the filter to it (0 = never).
+    pub(super) streaks: [Streak; 3],
+    pub(super) reset_after_ns: u64,
+    /// Aid resets so far (SRS, CNS, baro) and the verdict of the last one.
+    pub(super) resets: [u32; 3],
+    pub(super) last_reset_verdict: Option<StreakVerdict>,
+    /// The state was reset to this aid (index) and it has not been fused since.
+    pub(super) reset_pending_flag: Option<usize>,
 }
 
 impl AidGate {
@@ -35,6 +46,18 @@ impl AidGate {
             enabled,
             max_latency_ns: secs_to_ns(a.max_latency_s),
             last_rejected: false,
+            streaks: [Streak::default(); 3],
+            reset_after_ns: secs_to_ns(a.reset_after_s),
+            resets: [0; 3],
+            last_reset_verdict: None,
+            reset_pending_flag: None,
+        }
+    }
+
+    /// Forgets every streak and anchor (frame switch, reset).
+    pub(super) fn clear_streaks(&mut self) {
+        for s in &mut self.streaks {
+            s.clear();
         }
     }
 }
@@ -44,6 +67,25 @@ pub(super) enum AidKind {
     Srs,
     Cns,
     Baro,
+}
+
+impl AidKind {
+    fn index(self) -> usize {
+        match self {
+            AidKind::Srs => 0,
+            AidKind::Cns => 1,
+            AidKind::Baro => 2,
+        }
+    }
+
+    /// The block of states the aid observes: velocity for SRS, position for
+    /// CNS and baro.
+    fn observed_block(self) -> usize {
+        match self {
+            AidKind::Srs => idx::DV,
+            AidKind::Cns | AidKind::Baro => idx::DP,
+        }
+    }
 }
 
 impl Navigator {
@@ -107,24 +149,111 @@ impl Navigator {
         };
         self.control_mut(which).record(t_ns, &out);
         self.aids.last_rejected = !out.fused;
+        let k = which.index();
         if out.fused {
             self.coasting = false;
             self.resumed = false;
-            let dx = out.dx;
-            let part = |o: usize| Vector3::new(dx[o], dx[o + 1], dx[o + 2]);
-            let (phi, dv, dp) = (part(idx::PHI), part(idx::DV), part(idx::DP));
-            self.nominal.correct(&phi, &dv, &dp);
-            // Only states an aid may still be fused against (within the latency limit).
-            let oldest = t_ns.min(self.t_ns).saturating_sub(self.aids.max_latency_ns);
-            self.history.correct(oldest, &phi, &dv, &dp);
-            self.err.gyro_bias += part(idx::BG);
-            self.err.accel_bias += part(idx::BA);
+            if self.aids.reset_pending_flag == Some(k) {
+                self.aids.reset_pending_flag = None;
+            }
+            self.aids.streaks[k].fused(t_ns, &m.z, &m.h, &m.r, &out.dx);
+            self.feed_back(t_ns, &out.dx);
+        } else {
+            self.aids.streaks[k].rejected(t_ns, &m.z, &m.r, out.nis, &out.innovation_var);
+            self.maybe_reset(which, t_ns, m);
         }
         AidOutcome {
             fused: out.fused,
             test_ratio: out.test_ratio,
             excluded_body: None,
         }
+    }
+
+    /// Closed-loop feedback of an estimated error `dx` at `t_ns`.
+    fn feed_back(&mut self, t_ns: u64, dx: &SVector<f64, 15>) {
+        let part = |o: usize| Vector3::new(dx[o], dx[o + 1], dx[o + 2]);
+        let (phi, dv, dp) = (part(idx::PHI), part(idx::DV), part(idx::DP));
+        self.nominal.correct(&phi, &dv, &dp);
+        // Only states an aid may still be fused against (within the latency limit).
+        let oldest = t_ns.min(self.t_ns).saturating_sub(self.aids.max_latency_ns);
+        self.history.correct(oldest, &phi, &dv, &dp);
+        self.err.gyro_bias += part(idx::BG);
+        self.err.accel_bias += part(idx::BA);
+    }
+
+    /// After a rejection: if the aid's streak has lasted `reset_after_s` and
+    /// the aid is healthy by [`super::recovery`]'s tests, reset to it.
+    fn maybe_reset<const M: usize>(&mut self, which: AidKind, t_ns: u64, m: &Measurement<M>) {
+        let after = self.aids.reset_after_ns;
+        let k = which.index();
+        let streak = &self.aids.streaks[k];
+        if after == 0 || streak.duration_ns(t_ns) < after {
+            return;
+        }
+        let c = self.control(which);
+        let Some(verdict) = streak.verdict(t_ns, c.gate, c.timeout_ns) else {
+            return;
+        };
+        if !verdict.healthy() {
+            return;
+        }
+        self.reset_to_aid(which, t_ns, m, &verdict);
+    }
+
+    /// Resets the states the aid observes to its measurement `m` with its σ:
+    /// the covariance of the other states is scaled by the measured
+    /// inflation κ of H P Hᵀ (P ← D P D, D = √κ off the observed block, which keeps P
+    /// positive definite), the observed states' is widened along the
+    /// measurement (Gᵀ Λ G with G = H on the observed block, Λ = 10⁴ (z² +
+    /// S) per component, so their prior no longer counts), and the
+    /// measurement is fused without a gate. The step is published as a
+    /// reset (count, time, deltas). An update that fails leaves everything
+    /// as it was.
+    fn reset_to_aid<const M: usize>(
+        &mut self,
+        which: AidKind,
+        t_ns: u64,
+        m: &Measurement<M>,
+        verdict: &StreakVerdict,
+    ) {
+        // σ at most 10⁴ times what P said: beyond, the state is unknown anyway.
+        const KAPPA_MAX: f64 = 1e8;
+        let before = self.err.p;
+        let old = self.solution();
+        let o = which.observed_block();
+        let kappa = verdict.covariance_inflation.min(KAPPA_MAX);
+        let mut d = SVector::<f64, 15>::repeat(kappa.sqrt());
+        for i in o..o + 3 {
+            d[i] = 1.0;
+        }
+        let mut p = self.err.p;
+        for i in 0..15 {
+            for j in 0..15 {
+                p[(i, j)] *= d[i] * d[j];
+            }
+        }
+        let mut g = SMatrix::<f64, M, 15>::zeros();
+        g.fixed_view_mut::<M, 3>(0, o)
+            .copy_from(&m.h.fixed_view::<M, 3>(0, o));
+        let s = m.h * before * m.h.transpose() + m.r;
+        let mut lambda = SMatrix::<f64, M, M>::zeros();
+        for i in 0..M {
+            lambda[(i, i)] = 1e4 * (m.z[i] * m.z[i] + s[(i, i)]);
+        }
+        p += g.transpose() * lambda * g;
+        filter::symmetrize(&mut p);
+        self.err.p = p;
+        let Some(out) = self.err.update(m, f64::INFINITY) else {
+            self.err.p = before;
+            return;
+        };
+        self.feed_back(t_ns, &out.dx);
+        let k = which.index();
+        self.aids.resets[k] += 1;
+        self.aids.last_reset_verdict = Some(*verdict);
+        self.aids.reset_pending_flag = Some(k);
+        self.aids.clear_streaks();
+        self.record_reset(&old);
     }
 
     fn control(&self, which: AidKind) -> &AidControl {

@@ -27,12 +27,14 @@ mod error_state;
 mod gating;
 mod history;
 mod imu_input;
+mod recovery;
 mod report;
 use error_state::ErrorState;
 use gating::AidGate;
 use history::History;
 use imu_input::ImuLimits;
 pub use imu_input::{IMU_DT_RANGE_S, MAX_BRIDGE_STEPS};
+pub use recovery::{StreakVerdict, chi2_999_per_dof};
 
 /// Navigator settings.
 #[derive(Debug, Clone, PartialEq)]
@@ -404,6 +406,16 @@ impl Navigator {
         &self.reset
     }
 
+    /// Resets to an aid so far: (SRS, CNS, baro).
+    pub fn aid_resets(&self) -> [u32; 3] {
+        self.aids.resets
+    }
+
+    /// The tests' findings for the last reset to an aid.
+    pub fn last_aid_reset(&self) -> Option<&StreakVerdict> {
+        self.aids.last_reset_verdict.as_ref()
+    }
+
     /// IMU gaps coasted and the sensor time coasted (ns).
     pub fn gaps(&self) -> (u64, u64) {
         (self.imu_gap_count, self.coasted_ns)
@@ -481,6 +493,8 @@ impl Navigator {
         if self.conversion == Conversion::Paper {
             self.err.convert(to, &before);
         }
+        // The aids' innovations change axes with the frame.
+        self.aids.clear_streaks();
         self.switch_count += 1;
         self.last_switch_t_ns = self.t_ns;
         SwitchEvent {

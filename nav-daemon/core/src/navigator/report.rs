@@ -70,6 +70,9 @@ impl Navigator {
         if self.resumed {
             f |= solution_flags::RESUMED;
         }
+        if self.aids.reset_pending_flag.is_some() {
+            f |= solution_flags::AID_RESET;
+        }
         f
     }
 
