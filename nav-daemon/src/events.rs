@@ -1,6 +1,8 @@
 //! The session's decisions as log lines, for both drivers (`batch` and the
 //! live loop), so that the same event reads the same in either log.
 
+use std::time::{Duration, Instant};
+
 use polarnav::session::{Event, InitSource};
 
 /// A sensor time stamp in seconds, as the logs show times.
@@ -131,5 +133,44 @@ pub fn log_event(log: &str, e: &Event) {
                 verdict.covariance_inflation.min(1e8)
             )
         }
+    }
+}
+
+/// At most one log line per second for a recurring event; counts the rest.
+#[derive(Debug, Default)]
+pub struct RateLimit {
+    last: Option<Instant>,
+    suppressed: u64,
+}
+
+impl RateLimit {
+    /// `Some(suppressed since the last line)` when a line may be written now.
+    pub fn due(&mut self) -> Option<u64> {
+        if self
+            .last
+            .is_some_and(|t| t.elapsed() < Duration::from_secs(1))
+        {
+            self.suppressed += 1;
+            return None;
+        }
+        self.last = Some(Instant::now());
+        Some(std::mem::take(&mut self.suppressed))
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn rate_limit_allows_one_line_per_second_and_counts_the_rest() {
+        let mut r = RateLimit::default();
+        assert_eq!(r.due(), Some(0));
+        assert_eq!(r.due(), None);
+        assert_eq!(r.due(), None);
+        // A second later the next line reports the two suppressed.
+        r.last = Some(Instant::now() - Duration::from_millis(1001));
+        assert_eq!(r.due(), Some(2));
+        assert_eq!(r.due(), None);
     }
 }

@@ -5,3 +5,4 @@ pub mod batch;
 pub mod events;
 pub mod live;
 pub mod notify;
+pub mod owner;

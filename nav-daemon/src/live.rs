@@ -30,6 +30,9 @@ use polarnav::session::{Event, Input, Session, Sink, Stream};
 use polarnav_config::Effective;
 use polarnav_ipc::{TopicPublisher, TopicSubscriber, TransportConfig, TransportError};
 
+use crate::events::RateLimit;
+use crate::owner::Owner;
+
 /// Settings of the live loop.
 #[derive(Debug, Clone, PartialEq)]
 pub struct LiveOptions {
@@ -200,65 +203,9 @@ fn refuse_if_served(cfg: &TransportConfig, me: Option<i32>) -> Result<(), LiveEr
     Ok(())
 }
 
-/// Who may publish on one input service: the first publisher to send owns
-/// it until it disconnects or its process dies (a driver restarted after a
-/// crash takes over); samples of any other publisher meanwhile are refused
-/// and counted, never received.
-#[derive(Debug, Default)]
-struct Owner {
-    id: Option<u128>,
-    refused: u64,
-    refused_at_status: u64,
-    /// When the owner was last found still connected (a flood of refused
-    /// samples checks at most every OWNER_CHECK_PERIOD).
-    confirmed: Option<Instant>,
-    log: RateLimit,
-}
-
-const OWNER_CHECK_PERIOD: Duration = Duration::from_millis(20);
-
 /// How often the settings publisher connects new subscribers (and hands
 /// them its history): well inside the recorder's `SETTINGS_WAIT` of 100 ms.
 const SETTINGS_UPDATE_PERIOD: Duration = Duration::from_millis(25);
-
-impl Owner {
-    /// Whether a sample of `origin` is taken; `connected(id)` says whether
-    /// publisher `id` is still there.
-    fn admit(&mut self, stream: &str, origin: u128, connected: impl FnOnce(u128) -> bool) -> bool {
-        let Some(owner) = self.id else {
-            self.id = Some(origin);
-            return true;
-        };
-        if owner == origin {
-            return true;
-        }
-        let recent = self
-            .confirmed
-            .is_some_and(|t| t.elapsed() < OWNER_CHECK_PERIOD);
-        if !recent {
-            if connected(owner) {
-                self.confirmed = Some(Instant::now());
-            } else {
-                tracing::info!(
-                    stream,
-                    "{stream} publisher {owner:032x} gone: publisher {origin:032x} takes over"
-                );
-                self.id = Some(origin);
-                self.confirmed = None;
-                return true;
-            }
-        }
-        self.refused += 1;
-        if let Some(suppressed) = self.log.due() {
-            tracing::warn!(
-                stream,
-                suppressed,
-                "{stream}: sample of a second publisher {origin:032x} refused (publisher {owner:032x} owns the service)"
-            );
-        }
-        false
-    }
-}
 
 /// What a run did (for logs and tests).
 #[derive(Debug, Clone, Default, PartialEq)]
@@ -535,28 +482,6 @@ pub fn status_line(s: &Status, lat_deg: Option<f64>) -> String {
         s.overruns,
         s.overruns_cpu
     )
-}
-
-/// At most one log line per second for a recurring event; counts the rest.
-#[derive(Debug, Default)]
-struct RateLimit {
-    last: Option<Instant>,
-    suppressed: u64,
-}
-
-impl RateLimit {
-    /// `Some(suppressed since the last line)` when a line may be written now.
-    fn due(&mut self) -> Option<u64> {
-        if self
-            .last
-            .is_some_and(|t| t.elapsed() < Duration::from_secs(1))
-        {
-            self.suppressed += 1;
-            return None;
-        }
-        self.last = Some(Instant::now());
-        Some(std::mem::take(&mut self.suppressed))
-    }
 }
 
 /// Publishes the session's solutions and logs its decisions (rejections at
@@ -843,22 +768,5 @@ impl LoopState {
             }
         }
         s
-    }
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn rate_limit_allows_one_line_per_second_and_counts_the_rest() {
-        let mut r = RateLimit::default();
-        assert_eq!(r.due(), Some(0));
-        assert_eq!(r.due(), None);
-        assert_eq!(r.due(), None);
-        // A second later the next line reports the two suppressed.
-        r.last = Some(Instant::now() - Duration::from_millis(1001));
-        assert_eq!(r.due(), Some(2));
-        assert_eq!(r.due(), None);
     }
 }
