@@ -84,9 +84,10 @@ fn batch_writes_the_design_header_and_one_row_per_imu_sample() {
     assert_eq!(rows[0], polarnav::solution_csv::HEADER);
     assert_eq!(rows.len(), 501);
     // Stationary and exact: still at 45° N after 5 s.
-    let last: Vec<&str> = rows[500].split(',').collect();
-    assert_eq!(last[1], "g");
-    assert!((last[2].parse::<f64>().expect("lat") - 45.0).abs() < 1e-9);
+    let parsed = polarnav::solution_csv::parse(&rows.join("\n"), "out.csv").expect("rows");
+    let last = parsed[499];
+    assert_eq!(last.frame, 'g');
+    assert!((last.lat_deg - 45.0).abs() < 1e-9);
     std::fs::remove_dir_all(&dir).ok();
 }
 
@@ -162,10 +163,11 @@ fn forced_switch_times_switch_the_frame_in_batch() {
     let dir = temp_dir("forced");
     let (code, err, rows) = run_batch(&dir, &stationary_log(400, true), &["--force-switch", "1,3"]);
     assert_eq!(code, 0, "{err}");
-    let frame = |i: usize| rows[i].split(',').nth(1).expect("frame").to_owned();
-    assert_eq!(frame(50), "g"); // t = 0.5 s
-    assert_eq!(frame(200), "G"); // t = 2.0 s
-    assert_eq!(frame(350), "g"); // t = 3.5 s
+    let parsed = polarnav::solution_csv::parse(&rows.join("\n"), "out.csv").expect("rows");
+    let frame = |i: usize| parsed[i - 1].frame;
+    assert_eq!(frame(50), 'g'); // t = 0.5 s
+    assert_eq!(frame(200), 'G'); // t = 2.0 s
+    assert_eq!(frame(350), 'g'); // t = 3.5 s
     assert!(err.contains("2 frame switch"), "{err}");
     std::fs::remove_dir_all(&dir).ok();
 }

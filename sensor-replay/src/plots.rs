@@ -408,6 +408,7 @@ mod tests {
                 pitch_deg: 0.0,
                 roll_deg: 0.0,
                 sigma_enu_m: [5.0, 5.0, 2.0],
+                ..Row::from_solution(&msgs::Solution::default())
             })
             .collect();
         let epochs: Vec<Epoch> = rows

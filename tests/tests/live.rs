@@ -894,12 +894,28 @@ fn python_consumer_receives_solution_and_status() {
     let mut last_seq = None;
     let mut first_seq = None;
     let mut gaps = 0;
+    // Columns by header name, so the consumer may add or reorder columns.
+    let header: Vec<&str> = text.lines().next().unwrap_or("").split(',').collect();
+    let col = |name: &str| {
+        header
+            .iter()
+            .position(|h| h.trim() == name)
+            .unwrap_or_else(|| panic!("python csv has no column {name:?}"))
+    };
+    let (i_t, i_seq) = (col("t_ns"), col("seq"));
+    let state: Vec<usize> = [
+        "lat_rad", "lon_rad", "h_m", "r_x", "r_y", "r_z", "v_x", "v_y", "v_z", "q_w", "q_x", "q_y",
+        "q_z",
+    ]
+    .into_iter()
+    .map(col)
+    .collect();
     for line in text.lines().skip(1) {
         let v: Vec<f64> = line
             .split(',')
             .map(|x| x.parse().expect("number"))
             .collect();
-        let seq = v[1] as u64;
+        let seq = v[i_seq] as u64;
         if let Some(l) = last_seq {
             assert!(seq > l, "solutions out of order");
             gaps += seq - l - 1;
@@ -909,15 +925,15 @@ fn python_consumer_receives_solution_and_status() {
         // The daemon numbers its solutions from 1.
         let r = &rows[(seq - 1) as usize];
         assert_eq!(
-            v[0] as u64,
+            v[i_t] as u64,
             (r.t_s * 1e9).round() as u64,
             "t_ns of seq {seq}"
         );
         let mut expect = row_state(r);
         expect[0] = expect[0].to_radians();
         expect[1] = expect[1].to_radians();
-        for (x, y) in v[2..15].iter().zip(expect) {
-            worst = worst.max((x - y).abs());
+        for (&k, y) in state.iter().zip(expect) {
+            worst = worst.max((v[k] - y).abs());
         }
         received += 1;
     }

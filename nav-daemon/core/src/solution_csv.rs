@@ -1,18 +1,30 @@
 //! Solution CSV, columns exactly as DESIGN "Command-line contract".
+//!
+//! The first 24 columns are the original contract; the columns after them
+//! (σ of velocity and attitude, biases, grid heading, flags, aid freshness,
+//! counters) were added after them so that readers that index the first 24
+//! keep working. [`parse`] finds every column by its header name, so columns
+//! may be reordered and unknown columns are ignored.
 
 use std::io::Write;
 
-use msgs::{Solution, WireFrame};
+use msgs::{Solution, WireFrame, solution_flags};
 
-/// The header line.
-pub const HEADER: &str = "t_s,frame,lat_deg,lon_deg,h_m,x_m,y_m,z_m,vx,vy,vz,ve,vn,vu,qw,qx,qy,qz,heading_deg,pitch_deg,roll_deg,sig_e_m,sig_n_m,sig_u_m";
+/// The original 24 columns.
+pub const HEADER_BASE: &str = "t_s,frame,lat_deg,lon_deg,h_m,x_m,y_m,z_m,vx,vy,vz,ve,vn,vu,qw,qx,qy,qz,heading_deg,pitch_deg,roll_deg,sig_e_m,sig_n_m,sig_u_m";
+
+/// The header line: [`HEADER_BASE`] and the columns added after it.
+pub const HEADER: &str = "t_s,frame,lat_deg,lon_deg,h_m,x_m,y_m,z_m,vx,vy,vz,ve,vn,vu,qw,qx,qy,qz,heading_deg,pitch_deg,roll_deg,sig_e_m,sig_n_m,sig_u_m,sig_vnav_x_mps,sig_vnav_y_mps,sig_vnav_z_mps,sig_att_x_deg,sig_att_y_deg,sig_att_z_deg,bg_x_rps,bg_y_rps,bg_z_rps,ba_x_mps2,ba_y_mps2,ba_z_mps2,grid_heading_deg,flags,srs_fresh,cns_fresh,baro_fresh,imu_lost,coasting,switch_count,reset_count";
+
+/// Number of columns of [`HEADER`].
+pub const COLUMNS: usize = 45;
 
 /// Writes one row. Numbers are written in their shortest round-trip form
 /// (zmij, Schubfach-based), so a row reads back to the same f64 values bit for bit. The row
 /// is assembled in a stack buffer and written once; no allocation.
 pub fn write_row<W: Write>(out: &mut W, s: &Solution) -> std::io::Result<()> {
-    // 24 columns of at most 24 bytes each, plus separators.
-    let mut line = [0u8; 640];
+    // 45 columns of at most 24 bytes each, plus separators.
+    let mut line = [0u8; 1200];
     let mut n = 0;
     let mut buf = zmij::Buffer::new();
     let mut push = |bytes: &[u8], n: &mut usize| {
@@ -27,6 +39,10 @@ pub fn write_row<W: Write>(out: &mut W, s: &Solution) -> std::io::Result<()> {
     let [ve, vn, vu] = s.v_enu_mps;
     let [qw, qx, qy, qz] = s.q_b_e;
     let [se, sn, su] = s.sigma_pos_enu_m;
+    let [svx, svy, svz] = s.sigma_vel_mps;
+    let [sax, say, saz] = s.sigma_att_rad;
+    let [bgx, bgy, bgz] = s.gyro_bias_rps;
+    let [ba_x, ba_y, ba_z] = s.accel_bias_mps2;
     for v in [
         s.lat_rad.to_degrees(),
         s.lon_rad.to_degrees(),
@@ -50,15 +66,63 @@ pub fn write_row<W: Write>(out: &mut W, s: &Solution) -> std::io::Result<()> {
         se,
         sn,
         su,
+        svx,
+        svy,
+        svz,
+        sax.to_degrees(),
+        say.to_degrees(),
+        saz.to_degrees(),
+        bgx,
+        bgy,
+        bgz,
+        ba_x,
+        ba_y,
+        ba_z,
+        s.grid_heading_rad.to_degrees(),
     ] {
         push(b",", &mut n);
         push(buf.format(v).as_bytes(), &mut n);
+    }
+    let bit = |b: u32| u32::from(s.flags & b != 0);
+    let mut ibuf = itoa_buf::Buf::default();
+    for v in [
+        s.flags,
+        bit(solution_flags::SRS_FRESH),
+        bit(solution_flags::CNS_FRESH),
+        bit(solution_flags::BARO_FRESH),
+        bit(solution_flags::IMU_LOST),
+        bit(solution_flags::COASTING),
+        s.switch_count,
+        s.reset_count,
+    ] {
+        push(b",", &mut n);
+        push(ibuf.format(v), &mut n);
     }
     push(b"\n", &mut n);
     out.write_all(&line[..n])
 }
 
-/// One parsed row (the columns the evaluator needs).
+/// Decimal formatting of a u32 without allocation.
+mod itoa_buf {
+    #[derive(Default)]
+    pub struct Buf([u8; 10]);
+    impl Buf {
+        pub fn format(&mut self, mut v: u32) -> &[u8] {
+            let mut i = self.0.len();
+            loop {
+                i -= 1;
+                self.0[i] = b'0' + (v % 10) as u8;
+                v /= 10;
+                if v == 0 {
+                    break;
+                }
+            }
+            &self.0[i..]
+        }
+    }
+}
+
+/// One parsed row: every column of [`HEADER`].
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Row {
     pub t_s: f64,
@@ -74,6 +138,24 @@ pub struct Row {
     pub pitch_deg: f64,
     pub roll_deg: f64,
     pub sigma_enu_m: [f64; 3],
+    /// 1-σ of velocity, navigation-frame axes (m/s).
+    pub sigma_vel_nav_mps: [f64; 3],
+    /// 1-σ of attitude error φ, navigation-frame axes (deg).
+    pub sigma_att_deg: [f64; 3],
+    /// Gyro bias estimate, body axes (rad/s).
+    pub gyro_bias_rps: [f64; 3],
+    /// Accelerometer bias estimate, body axes (m/s²).
+    pub accel_bias_mps2: [f64; 3],
+    pub grid_heading_deg: f64,
+    /// `msgs::solution_flags` bit set.
+    pub flags: u32,
+    pub srs_fresh: bool,
+    pub cns_fresh: bool,
+    pub baro_fresh: bool,
+    pub imu_lost: bool,
+    pub coasting: bool,
+    pub switch_count: u32,
+    pub reset_count: u32,
 }
 
 impl Row {
@@ -81,6 +163,7 @@ impl Row {
     /// (the same f64 values: the CSV numbers round-trip exactly), without
     /// the text in between.
     pub fn from_solution(s: &Solution) -> Self {
+        let bit = |b: u32| s.flags & b != 0;
         Self {
             t_s: s.t_ns as f64 * 1e-9,
             frame: WireFrame::from_u8(s.frame).map_or('?', WireFrame::letter),
@@ -95,6 +178,19 @@ impl Row {
             pitch_deg: s.pitch_rad.to_degrees(),
             roll_deg: s.roll_rad.to_degrees(),
             sigma_enu_m: s.sigma_pos_enu_m,
+            sigma_vel_nav_mps: s.sigma_vel_mps,
+            sigma_att_deg: s.sigma_att_rad.map(f64::to_degrees),
+            gyro_bias_rps: s.gyro_bias_rps,
+            accel_bias_mps2: s.accel_bias_mps2,
+            grid_heading_deg: s.grid_heading_rad.to_degrees(),
+            flags: s.flags,
+            srs_fresh: bit(solution_flags::SRS_FRESH),
+            cns_fresh: bit(solution_flags::CNS_FRESH),
+            baro_fresh: bit(solution_flags::BARO_FRESH),
+            imu_lost: bit(solution_flags::IMU_LOST),
+            coasting: bit(solution_flags::COASTING),
+            switch_count: s.switch_count,
+            reset_count: s.reset_count,
         }
     }
 }
@@ -107,8 +203,10 @@ pub enum ReadCsvError {
         path: String,
         source: std::io::Error,
     },
-    #[error("{path}: header is not the solution CSV header")]
+    #[error("{path}: empty file, expected the solution CSV header")]
     Header { path: String },
+    #[error("{path}: header has no column {column:?}")]
+    MissingColumn { path: String, column: &'static str },
     #[error("{path}:{line}: {what}")]
     Row {
         path: String,
@@ -127,37 +225,75 @@ pub fn read(path: &std::path::Path) -> Result<Vec<Row>, ReadCsvError> {
     parse(&text, &p)
 }
 
-/// Parses solution CSV text; `p` names its origin in errors.
+/// Parses solution CSV text; `p` names its origin in errors. Columns are found
+/// by header name: any order, unknown columns ignored; a missing column is an
+/// error naming it.
 pub fn parse(text: &str, p: &str) -> Result<Vec<Row>, ReadCsvError> {
     let p = p.to_owned();
     let mut lines = text.lines();
-    if lines.next().map(str::trim) != Some(HEADER) {
+    let Some(head) = lines.next() else {
         return Err(ReadCsvError::Header { path: p });
+    };
+    let names: Vec<&str> = head.split(',').map(str::trim).collect();
+    // idx[k] = position in the file of column k of HEADER.
+    let mut idx = [0usize; COLUMNS];
+    for (k, want) in HEADER.split(',').enumerate() {
+        idx[k] = names
+            .iter()
+            .position(|n| *n == want)
+            .ok_or(ReadCsvError::MissingColumn {
+                path: p.clone(),
+                column: want,
+            })?;
     }
+    let width = names.len();
     let mut rows = Vec::new();
     for (i, line) in lines.enumerate() {
-        let f: Vec<&str> = line.split(',').collect();
-        if f.len() != 24 {
+        let line_no = i + 2;
+        let f: Vec<&str> = line.split(',').map(str::trim).collect();
+        if f.len() != width {
             return Err(ReadCsvError::Row {
                 path: p,
-                line: i + 2,
-                what: format!("{} columns, expected 24", f.len()),
+                line: line_no,
+                what: format!("{} columns, the header has {width}", f.len()),
             });
         }
-        let mut v = [0.0f64; 24];
-        for (k, s) in f.iter().enumerate() {
-            if k == 1 {
-                continue;
-            }
-            v[k] = s.trim().parse().map_err(|_| ReadCsvError::Row {
+        let col = |k: usize| f[idx[k]];
+        let num = |k: usize| -> Result<f64, ReadCsvError> {
+            col(k).parse().map_err(|_| ReadCsvError::Row {
                 path: p.clone(),
-                line: i + 2,
-                what: format!("column {} is not a number: {s:?}", k + 1),
-            })?;
+                line: line_no,
+                what: format!(
+                    "column {} is not a number: {:?}",
+                    HEADER.split(',').nth(k).unwrap_or("?"),
+                    col(k)
+                ),
+            })
+        };
+        let int = |k: usize| -> Result<u32, ReadCsvError> {
+            col(k).parse().map_err(|_| ReadCsvError::Row {
+                path: p.clone(),
+                line: line_no,
+                what: format!(
+                    "column {} is not an unsigned integer: {:?}",
+                    HEADER.split(',').nth(k).unwrap_or("?"),
+                    col(k)
+                ),
+            })
+        };
+        let mut v = [0.0f64; 37];
+        for (k, slot) in v.iter_mut().enumerate() {
+            if k != 1 {
+                *slot = num(k)?;
+            }
+        }
+        let mut u = [0u32; 8];
+        for (j, slot) in u.iter_mut().enumerate() {
+            *slot = int(37 + j)?;
         }
         rows.push(Row {
             t_s: v[0],
-            frame: f[1].chars().next().unwrap_or('?'),
+            frame: col(1).chars().next().unwrap_or('?'),
             lat_deg: v[2],
             lon_deg: v[3],
             h_m: v[4],
@@ -169,6 +305,19 @@ pub fn parse(text: &str, p: &str) -> Result<Vec<Row>, ReadCsvError> {
             pitch_deg: v[19],
             roll_deg: v[20],
             sigma_enu_m: [v[21], v[22], v[23]],
+            sigma_vel_nav_mps: [v[24], v[25], v[26]],
+            sigma_att_deg: [v[27], v[28], v[29]],
+            gyro_bias_rps: [v[30], v[31], v[32]],
+            accel_bias_mps2: [v[33], v[34], v[35]],
+            grid_heading_deg: v[36],
+            flags: u[0],
+            srs_fresh: u[1] != 0,
+            cns_fresh: u[2] != 0,
+            baro_fresh: u[3] != 0,
+            imu_lost: u[4] != 0,
+            coasting: u[5] != 0,
+            switch_count: u[6],
+            reset_count: u[7],
         });
     }
     Ok(rows)
@@ -254,6 +403,119 @@ mod tests {
         let q = &f[13..17];
         for (a, b) in q.iter().zip(s.q_b_e) {
             assert_eq!(a.to_bits(), b.to_bits());
+        }
+    }
+
+    fn sample() -> Solution {
+        let mut s = Solution {
+            t_ns: 2_250_000_000,
+            frame: 1,
+            ..Default::default()
+        };
+        s.lat_rad = 1.5;
+        s.sigma_vel_mps = [0.1, 0.2, 0.3];
+        s.sigma_att_rad = [1e-3, 2e-3, 3e-2];
+        s.gyro_bias_rps = [1e-6, -2e-6, 3.5e-7];
+        s.accel_bias_mps2 = [1e-3, -4e-4, 2e-2];
+        s.grid_heading_rad = 0.5;
+        s.flags = solution_flags::SRS_FRESH | solution_flags::BARO_FRESH | solution_flags::COASTING;
+        s.switch_count = 3;
+        s.reset_count = 12;
+        s
+    }
+
+    fn csv_of(s: &Solution) -> String {
+        let mut buf = Vec::new();
+        write_row(&mut buf, s).expect("write");
+        format!("{HEADER}\n{}", String::from_utf8(buf).expect("utf8"))
+    }
+
+    #[test]
+    fn header_has_the_declared_columns_and_keeps_the_original_24_first() {
+        assert_eq!(HEADER.split(',').count(), COLUMNS);
+        assert!(HEADER.starts_with(&format!("{HEADER_BASE},")));
+        assert_eq!(HEADER_BASE.split(',').count(), 24);
+    }
+
+    #[test]
+    // Exact equality is the contract: the numbers round-trip bit for bit.
+    #[allow(clippy::float_cmp)]
+    fn new_columns_round_trip_to_the_solution_values() {
+        let s = sample();
+        let text = csv_of(&s);
+        // Independent of the reader: split the written line by hand.
+        let line = text.lines().nth(1).expect("row");
+        let f: Vec<&str> = line.split(',').collect();
+        assert_eq!(f.len(), COLUMNS);
+        let num = |k: usize| f[k].parse::<f64>().expect("number");
+        assert_eq!(num(24), 0.1);
+        assert_eq!(num(26), 0.3);
+        assert_eq!(num(29), 3e-2f64.to_degrees());
+        assert_eq!(num(30), 1e-6);
+        assert_eq!(num(35), 2e-2);
+        assert_eq!(num(36), 0.5f64.to_degrees());
+        assert_eq!(&f[37..], ["74", "1", "0", "1", "0", "1", "3", "12"]);
+        // And the reader gives the Solution's fields converted by hand.
+        let rows = parse(&text, "t.csv").expect("rows");
+        let r = rows[0];
+        assert_eq!(r.sigma_vel_nav_mps, [0.1, 0.2, 0.3]);
+        assert_eq!(
+            r.sigma_att_deg,
+            [
+                1e-3f64.to_degrees(),
+                2e-3f64.to_degrees(),
+                3e-2f64.to_degrees()
+            ]
+        );
+        assert_eq!(r.gyro_bias_rps, [1e-6, -2e-6, 3.5e-7]);
+        assert_eq!(r.accel_bias_mps2, [1e-3, -4e-4, 2e-2]);
+        assert_eq!(r.grid_heading_deg, 0.5f64.to_degrees());
+        assert_eq!(r.flags, 2 | 8 | 64);
+        assert!(r.srs_fresh && !r.cns_fresh && r.baro_fresh && !r.imu_lost && r.coasting);
+        assert_eq!((r.switch_count, r.reset_count), (3, 12));
+        assert_eq!(r, Row::from_solution(&s));
+    }
+
+    /// Rewrites `text` with its columns in the order `order` (indices into the
+    /// written columns), `extra` appended as an unknown column.
+    fn permute(text: &str, order: &[usize], extra: Option<&str>) -> String {
+        let mut out = String::new();
+        for (i, line) in text.lines().enumerate() {
+            let f: Vec<&str> = line.split(',').collect();
+            let mut g: Vec<&str> = order.iter().map(|&k| f[k]).collect();
+            if let Some(e) = extra {
+                g.insert(3, if i == 0 { e } else { "not-a-number" });
+            }
+            out.push_str(&g.join(","));
+            out.push('\n');
+        }
+        out
+    }
+
+    #[test]
+    fn reordered_and_extra_columns_read_the_same_rows() {
+        let s = sample();
+        let text = csv_of(&s);
+        let want = parse(&text, "a").expect("rows");
+        let reversed: Vec<usize> = (0..COLUMNS).rev().collect();
+        let got = parse(&permute(&text, &reversed, None), "b").expect("reordered");
+        assert_eq!(got, want);
+        let ident: Vec<usize> = (0..COLUMNS).collect();
+        let got = parse(&permute(&text, &ident, Some("operator_note")), "c").expect("extra");
+        assert_eq!(got, want);
+    }
+
+    #[test]
+    fn a_missing_column_is_named_with_the_file() {
+        let text = csv_of(&sample());
+        for drop in ["sig_u_m", "baro_fresh", "t_s", "reset_count"] {
+            let k = HEADER.split(',').position(|n| n == drop).expect("known");
+            let order: Vec<usize> = (0..COLUMNS).filter(|&i| i != k).collect();
+            let err = parse(&permute(&text, &order, None), "flight.csv").expect_err("missing");
+            assert_eq!(
+                err.to_string(),
+                format!("flight.csv: header has no column \"{drop}\"")
+            );
         }
     }
 }
