@@ -322,7 +322,13 @@ fn replay_equals_batch(tag: &str, burners: usize) {
     let mut recorder = env.start_recorder(&rec_path);
     let mut play = env.start_play("play", &log, "20");
     if burners > 0 {
-        std::thread::sleep(Duration::from_millis(1500));
+        // Stop the daemon once it navigates (inputs flowing), not after a
+        // guessed delay; the 1 s stop itself is the condition under test.
+        env.wait_for(
+            "daemon",
+            "first solution published",
+            Duration::from_secs(20),
+        );
         let signal = |sig: &str| {
             Command::new("kill")
                 .args([sig, &daemon.id().to_string()])
