@@ -17,6 +17,7 @@ use msgs::{ImuSample, InitState, TruthRecord};
 use nalgebra::{Matrix3, UnitQuaternion, Vector3};
 use polarnav::earth::{self, Geodetic};
 use polarnav::frames;
+use polarnav::navigator::IMU_DT_RANGE_S;
 use rand::SeedableRng;
 use rand_chacha::ChaCha20Rng;
 
@@ -50,13 +51,222 @@ pub enum ImportError {
 /// Lines skipped by an importer.
 #[derive(Debug, Clone, Default, PartialEq, Eq)]
 pub struct Skipped {
-    /// (file, 1-based line number, reason) of every skipped line.
+    /// (file, 1-based line number, reason) of the first [`Skipped::MAX_NAMED`]
+    /// skipped lines, in file order.
     pub lines: Vec<(String, usize, String)>,
+    /// Every skipped line, named or not.
+    pub count: u64,
 }
 
 impl Skipped {
+    /// Skipped lines kept with their reasons; the rest are only counted, so
+    /// that a file of garbage costs bounded memory.
+    pub const MAX_NAMED: usize = 1000;
+
     fn note(&mut self, file: &str, line: usize, why: String) {
-        self.lines.push((file.to_owned(), line, why));
+        self.count += 1;
+        if self.lines.len() < Self::MAX_NAMED {
+            self.lines.push((file.to_owned(), line, why));
+        }
+    }
+}
+
+/// Longest text line an importer reads (bytes); a longer one is skipped
+/// without being held in memory.
+pub const MAX_LINE_BYTES: usize = 4096;
+
+/// The text lines of a file with bounded memory: each line is held up to
+/// [`MAX_LINE_BYTES`]; a line that is not UTF-8 or is longer is handed out as
+/// a reason to skip it, with its 1-based number, and reading goes on.
+struct TextLines<R> {
+    reader: R,
+    path: String,
+    buf: Vec<u8>,
+    number: usize,
+}
+
+/// One line of a text file: its number and its text, or why it cannot be read as text.
+type TextLine<'a> = (usize, Result<&'a str, String>);
+
+impl TextLines<std::io::BufReader<std::fs::File>> {
+    fn open(path: &std::path::Path) -> Result<Self, ImportError> {
+        let f = std::fs::File::open(path).map_err(|source| ImportError::Io {
+            path: path.display().to_string(),
+            source,
+        })?;
+        Ok(Self::new(
+            std::io::BufReader::with_capacity(1 << 16, f),
+            path.display().to_string(),
+        ))
+    }
+}
+
+impl<R: std::io::BufRead> TextLines<R> {
+    fn new(reader: R, path: String) -> Self {
+        Self {
+            reader,
+            path,
+            buf: Vec::with_capacity(MAX_LINE_BYTES),
+            number: 0,
+        }
+    }
+
+    /// The next line, or `None` at the end of the file; an I/O error makes
+    /// the file unreadable.
+    fn next_line(&mut self) -> Result<Option<TextLine<'_>>, ImportError> {
+        self.buf.clear();
+        let mut len = 0usize;
+        let mut any = false;
+        loop {
+            let chunk = match self.reader.fill_buf() {
+                Ok(c) => c,
+                Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
+                Err(source) => {
+                    return Err(ImportError::Io {
+                        path: self.path.clone(),
+                        source,
+                    });
+                }
+            };
+            if chunk.is_empty() {
+                break;
+            }
+            any = true;
+            let (part, done) = match chunk.iter().position(|&b| b == b'\n') {
+                Some(i) => (&chunk[..i], Some(i + 1)),
+                None => (chunk, None),
+            };
+            len += part.len();
+            let room = MAX_LINE_BYTES.saturating_sub(self.buf.len());
+            self.buf.extend_from_slice(&part[..part.len().min(room)]);
+            let used = done.unwrap_or(chunk.len());
+            self.reader.consume(used);
+            if done.is_some() {
+                break;
+            }
+        }
+        if !any {
+            return Ok(None);
+        }
+        self.number += 1;
+        let line = if len > MAX_LINE_BYTES {
+            Err(format!("line of {len} bytes, longer than {MAX_LINE_BYTES}"))
+        } else {
+            std::str::from_utf8(&self.buf)
+                .map(|t| t.trim_end_matches('\r'))
+                .map_err(|e| format!("not UTF-8 text (byte {})", e.valid_up_to() + 1))
+        };
+        Ok(Some((self.number, line)))
+    }
+}
+
+/// Where a time-stamped line falls on a file's time line.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Step {
+    /// The first line: the time base.
+    First,
+    /// The next line, `dt` seconds after the previous one; `after_skip`
+    /// when a line between them was skipped (so `dt` spans lost data).
+    Next { dt: f64, after_skip: bool },
+    /// The first line after a confirmed gap longer than the longest interval.
+    AfterGap,
+}
+
+/// The time line of one file: stamps must increase by at least `min_dt_s`;
+/// a step longer than `max_dt_s` is held until the next line confirms it (it
+/// follows the held line) or shows it an outlier (it follows the line
+/// before), so one absurd stamp costs only its own line.
+struct Timeline<T> {
+    min_dt_s: f64,
+    max_dt_s: f64,
+    prev: Option<f64>,
+    held: Option<(usize, f64, T)>,
+    /// A line was skipped since the last one placed.
+    lost: bool,
+}
+
+impl<T> Timeline<T> {
+    fn new(min_dt_s: f64, max_dt_s: f64) -> Self {
+        Self {
+            min_dt_s,
+            max_dt_s,
+            prev: None,
+            held: None,
+            lost: false,
+        }
+    }
+
+    /// A line between two placed ones was skipped for its content.
+    fn mark_lost(&mut self) {
+        self.lost = true;
+    }
+
+    /// Places the line `line` stamped `t` (s) carrying `item`: `emit` gets
+    /// every line that takes its place (a confirmed held line first);
+    /// skipped lines are noted with their reasons.
+    fn push(
+        &mut self,
+        line: usize,
+        t: f64,
+        item: T,
+        file: &str,
+        skipped: &mut Skipped,
+        mut emit: impl FnMut(usize, f64, Step, T),
+    ) {
+        let Some(p) = self.prev else {
+            self.prev = Some(t);
+            emit(line, t, Step::First, item);
+            return;
+        };
+        if let Some((hl, ht, hitem)) = self.held.take() {
+            if t > ht && t - ht <= self.max_dt_s {
+                self.prev = Some(ht);
+                self.lost = false;
+                emit(hl, ht, Step::AfterGap, hitem);
+                return self.push(line, t, item, file, skipped, emit);
+            }
+            self.lost = true;
+            skipped.note(
+                file,
+                hl,
+                format!(
+                    "time {ht} is {} s after the line before and the next line (line {line}, time {t}) does not follow it",
+                    ht - p
+                ),
+            );
+        }
+        let dt = t - p;
+        if dt <= 0.0 {
+            self.lost = true;
+            skipped.note(file, line, format!("time {t} not after {p}"));
+        } else if dt < self.min_dt_s {
+            self.lost = true;
+            skipped.note(
+                file,
+                line,
+                format!("interval {dt:e} s shorter than {:e} s", self.min_dt_s),
+            );
+        } else if dt > self.max_dt_s {
+            self.held = Some((line, t, item));
+        } else {
+            self.prev = Some(t);
+            let after_skip = std::mem::take(&mut self.lost);
+            emit(line, t, Step::Next { dt, after_skip }, item);
+        }
+    }
+
+    /// The end of the file: a held line that nothing confirmed is skipped.
+    fn finish(&mut self, file: &str, skipped: &mut Skipped) {
+        if let (Some(p), Some((hl, ht, _))) = (self.prev, self.held.take()) {
+            skipped.note(
+                file,
+                hl,
+                format!(
+                    "time {ht} is {} s after the line before and is the last line, so nothing confirms it",
+                    ht - p
+                ),
+            );
+        }
     }
 }
 
@@ -93,6 +303,11 @@ impl AidSynthesis {
 #[derive(Debug, Clone, Default, PartialEq, Eq)]
 pub struct ImportSummary {
     pub imu: u64,
+    /// IMU lines not imported because their interval starts before the
+    /// first truth epoch (the init), and the line that is only the time
+    /// base of the next one: with `imu` and the skipped IMU lines, every
+    /// data line of the IMU file is counted once.
+    pub imu_unused: u64,
     pub truth: u64,
     pub cns: u64,
     pub baro: u64,
@@ -121,12 +336,33 @@ fn parse_fields(line: &str, n: usize) -> Result<Vec<f64>, String> {
     Ok(out)
 }
 
-fn read_text(path: &std::path::Path) -> Result<String, ImportError> {
-    std::fs::read_to_string(path).map_err(|source| ImportError::Io {
-        path: path.display().to_string(),
-        source,
-    })
+/// Checks a geodetic position for physical sense (degrees, metres).
+fn check_position(lat_deg: f64, lon_deg: f64, h_m: f64) -> Result<(), String> {
+    if lat_deg.abs() > 90.0 {
+        return Err(format!("latitude {lat_deg}° outside [-90, 90]"));
+    }
+    if lon_deg.abs() > 360.0 {
+        return Err(format!("longitude {lon_deg}° outside [-360, 360]"));
+    }
+    if !(POSITION_H_RANGE_M.0..=POSITION_H_RANGE_M.1).contains(&h_m) {
+        return Err(format!(
+            "height {h_m} m outside [{}, {}] m",
+            POSITION_H_RANGE_M.0, POSITION_H_RANGE_M.1
+        ));
+    }
+    Ok(())
 }
+
+/// Heights an imported position may have (m): from below the deepest
+/// ground to far above any aircraft.
+pub const POSITION_H_RANGE_M: (f64, f64) = (-1.0e4, 1.0e5);
+
+/// Largest attitude angle an imported line may state (deg).
+const MAX_ANGLE_DEG: f64 = 360.0;
+
+/// Longest gap between two truth epochs before the next line must confirm
+/// it (s): one day.
+const TRUTH_MAX_GAP_S: f64 = 86_400.0;
 
 fn to_ns(t_s: f64) -> u64 {
     (t_s * 1e9).round() as u64
@@ -251,89 +487,163 @@ pub fn import_kfgins<W: Write>(
     let truth_name = truth_path.display().to_string();
     let m = frd_to_rfu();
 
-    let mut truth_rows: Vec<(f64, TruthRecord)> = Vec::new();
-    let truth_text = read_text(truth_path)?;
-    for (i, line) in truth_text.lines().enumerate() {
-        let line = line.trim();
+    let mut truth: Vec<TruthRecord> = Vec::new();
+    let mut t0: Option<f64> = None;
+    let mut valid_truth = 0usize;
+    let mut timeline = Timeline::new(0.0, TRUTH_MAX_GAP_S);
+    let mut lines = TextLines::open(truth_path)?;
+    while let Some((no, line)) = lines.next_line()? {
+        let line = match line {
+            Ok(l) => l.trim(),
+            Err(why) => {
+                sum.skipped.note(&truth_name, no, why);
+                continue;
+            }
+        };
         if line.is_empty() || line.starts_with('#') || line.starts_with('%') {
             continue;
         }
-        match parse_fields(line, 11) {
-            Ok(v) => {
-                let geo = Geodetic::from_deg(v[2], v[3], v[4]);
-                let rpy = Vector3::new(v[8], v[9], v[10]).map(f64::to_radians);
-                truth_rows.push((
-                    v[1],
-                    truth_from_kfgins(0, &geo, &Vector3::new(v[5], v[6], v[7]), &rpy),
-                ));
+        let v = match parse_fields(line, 11).and_then(|v| {
+            check_position(v[2], v[3], v[4])?;
+            if let Some(a) = v[8..11].iter().find(|a| a.abs() > MAX_ANGLE_DEG) {
+                return Err(format!("attitude angle {a}° beyond ±{MAX_ANGLE_DEG}°"));
             }
-            Err(why) => sum.skipped.note(&truth_name, i + 1, why),
-        }
+            Ok(v)
+        }) {
+            Ok(v) => v,
+            Err(why) => {
+                sum.skipped.note(&truth_name, no, why);
+                continue;
+            }
+        };
+        valid_truth += 1;
+        let geo = Geodetic::from_deg(v[2], v[3], v[4]);
+        let rpy = Vector3::new(v[8], v[9], v[10]).map(f64::to_radians);
+        let rec = truth_from_kfgins(0, &geo, &Vector3::new(v[5], v[6], v[7]), &rpy);
+        timeline.push(
+            no,
+            v[1],
+            rec,
+            &truth_name,
+            &mut sum.skipped,
+            |_, t, _, mut rec| {
+                let t0 = *t0.get_or_insert(t);
+                rec.t_ns = to_ns(t - t0);
+                truth.push(rec);
+            },
+        );
     }
-    if truth_rows.is_empty() {
+    timeline.finish(&truth_name, &mut sum.skipped);
+    let Some(t0) = t0 else {
         return Err(ImportError::NotFormat {
             path: truth_name,
             format: "KF-GINS truth",
-            why: "no valid 11-column line".into(),
+            why: if valid_truth == 0 {
+                "no valid 11-column line".into()
+            } else {
+                "no line with a usable time".into()
+            },
         });
-    }
-    let t0 = truth_rows[0].0;
+    };
     let mut records: Vec<Record> = Vec::new();
-    let mut truth: Vec<TruthRecord> = Vec::new();
-    let mut last_t = f64::NEG_INFINITY;
-    for (t, mut rec) in truth_rows {
-        if t <= last_t {
-            sum.skipped
-                .note(&truth_name, 0, format!("truth time {t} not after {last_t}"));
-            continue;
-        }
-        last_t = t;
-        rec.t_ns = to_ns(t - t0);
-        truth.push(rec);
-    }
 
-    let imu_text = read_text(imu_path)?;
-    let mut prev_t: Option<f64> = None;
+    let mut timeline = Timeline::new(IMU_DT_RANGE_S.0, IMU_DT_RANGE_S.1);
+    let mut gap_lines: Vec<usize> = Vec::with_capacity(1);
+    let mut unused = 0u64;
+    let mut last_dt: Option<f64> = None;
     let mut seq = 0;
     let mut valid_lines = 0;
-    for (i, line) in imu_text.lines().enumerate() {
-        let line = line.trim();
+    let mut lines = TextLines::open(imu_path)?;
+    while let Some((no, line)) = lines.next_line()? {
+        let line = match line {
+            Ok(l) => l.trim(),
+            Err(why) => {
+                sum.skipped.note(&imu_name, no, why);
+                timeline.mark_lost();
+                continue;
+            }
+        };
         if line.is_empty() || line.starts_with('#') || line.starts_with('%') {
             continue;
         }
         let v = match parse_fields(line, 7) {
             Ok(v) => v,
             Err(why) => {
-                sum.skipped.note(&imu_name, i + 1, why);
+                sum.skipped.note(&imu_name, no, why);
+                timeline.mark_lost();
                 continue;
             }
         };
         valid_lines += 1;
-        let t = v[0];
-        if let Some(p) = prev_t
-            && t <= p
-        {
-            sum.skipped
-                .note(&imu_name, i + 1, format!("time {t} not after {p}"));
-            continue;
+        let (t, d_theta, d_v) = (
+            v[0],
+            m * Vector3::new(v[1], v[2], v[3]),
+            m * Vector3::new(v[4], v[5], v[6]),
+        );
+        let skipped = &mut sum.skipped;
+        timeline.push(
+            no,
+            t,
+            (d_theta, d_v),
+            &imu_name,
+            skipped,
+            |line, t, step, (d_theta, d_v)| {
+                // A KF-GINS line holds the increments over its own interval,
+                // which ends at its time and starts at the previous line's. When
+                // a line before it was skipped or a gap precedes it, its own
+                // interval is estimated by the last whole one, and the navigator
+                // bridges or coasts the missing time before it.
+                let dt = match step {
+                    // The first line has no interval: it is the time base.
+                    Step::First => {
+                        unused += 1;
+                        return;
+                    }
+                    Step::AfterGap => match last_dt {
+                        Some(d) => d,
+                        None => {
+                            gap_lines.push(line);
+                            return;
+                        }
+                    },
+                    Step::Next {
+                        dt,
+                        after_skip: false,
+                    } => {
+                        last_dt = Some(dt);
+                        dt
+                    }
+                    Step::Next {
+                        dt,
+                        after_skip: true,
+                    } => last_dt.map_or(dt, |d| d.min(dt)),
+                };
+                if t - dt < t0 - 1e-9 {
+                    unused += 1; // the interval starts before the init epoch
+                    return;
+                }
+                records.push(Record::Imu(ImuSample {
+                    t_ns: to_ns(t - t0),
+                    seq,
+                    dt_s: dt,
+                    d_theta_rad: d_theta.into(),
+                    d_v_mps: d_v.into(),
+                }));
+                seq += 1;
+            },
+        );
+        for line in gap_lines.drain(..) {
+            sum.skipped.note(
+                &imu_name,
+                line,
+                format!(
+                    "first line after a gap longer than {} s, before any whole interval: its own interval is unknown",
+                    IMU_DT_RANGE_S.1
+                ),
+            );
         }
-        let dt = prev_t.map(|p| t - p);
-        prev_t = Some(t);
-        let Some(dt) = dt else { continue }; // the first line has no interval
-        if t - dt < t0 - 1e-9 {
-            continue; // interval starts before the init epoch
-        }
-        let d_theta = m * Vector3::new(v[1], v[2], v[3]);
-        let d_v = m * Vector3::new(v[4], v[5], v[6]);
-        records.push(Record::Imu(ImuSample {
-            t_ns: to_ns(t - t0),
-            seq,
-            dt_s: dt,
-            d_theta_rad: d_theta.into(),
-            d_v_mps: d_v.into(),
-        }));
-        seq += 1;
     }
+    timeline.finish(&imu_name, &mut sum.skipped);
     if valid_lines == 0 {
         return Err(ImportError::NotFormat {
             path: imu_name,
@@ -342,6 +652,7 @@ pub fn import_kfgins<W: Write>(
         });
     }
     sum.imu = seq;
+    sum.imu_unused = unused;
     sum.truth = truth.len() as u64;
     records.push(Record::Init(init_from_truth(&truth[0])));
     records.extend(synthesize_aids(&truth, aids, &mut sum));
@@ -349,7 +660,7 @@ pub fn import_kfgins<W: Write>(
     sort_records(&mut records);
     let meta = format!(
         "imported from KF-GINS\nimu = {imu_name:?}\ntruth = {truth_name:?}\ntime_offset_s = {t0}\naids = {aids:?}\nskipped_lines = {}\n",
-        sum.skipped.lines.len()
+        sum.skipped.count
     );
     write_log(
         out,
@@ -437,32 +748,38 @@ pub fn import_psins<W: Write>(
     out: W,
 ) -> Result<ImportSummary, ImportError> {
     let name = path.display().to_string();
-    let text = read_text(path)?;
     let not = |why: String| ImportError::NotFormat {
         path: name.clone(),
         format: "PSINS text IMU",
         why,
     };
-    let mut lines = text.lines().enumerate().filter(|(_, l)| {
-        let l = l.trim();
-        !l.is_empty() && !l.starts_with('%')
-    });
-    let mut header = |what: &str| -> Result<Vec<f64>, ImportError> {
-        let (i, l) = lines
-            .next()
-            .ok_or_else(|| not(format!("missing header line: {what}")))?;
-        parse_fields(l, 6).map_err(|e| not(format!("line {}: {what}: {e}", i + 1)))
-    };
-    let att = header("pitch, roll, yaw, vE, vN, vU")?;
-    let pos = header("lat, lon, h, t0, interval (ms), g")?;
-    let scale = header("scale factors")?;
-    let ts = pos[4] * 1e-3;
-    if ts <= 0.0 {
-        return Err(not(format!(
-            "sample interval {} ms is not positive",
-            pos[4]
-        )));
+    let mut lines = TextLines::open(path)?;
+    let mut sum = ImportSummary::default();
+    // The three header lines: the first three lines of data (not comments).
+    let mut header = Vec::with_capacity(3);
+    while header.len() < 3 {
+        let Some((no, line)) = lines.next_line()? else {
+            return Err(not(format!(
+                "missing header line {} of 3 (attitude and velocity; position, time and interval; scale factors)",
+                header.len() + 1
+            )));
+        };
+        let line = line.map_err(|why| not(format!("line {no}: header: {why}")))?;
+        let line = line.trim();
+        if line.is_empty() || line.starts_with('%') {
+            continue;
+        }
+        let v = parse_fields(line, 6).map_err(|e| not(format!("line {no}: header: {e}")))?;
+        let check = match header.len() {
+            0 => psins_attitude_check(&v),
+            1 => psins_position_check(&v),
+            _ => psins_scale_check(&v),
+        };
+        check.map_err(|e| not(format!("line {no}: header: {e}")))?;
+        header.push(v);
     }
+    let (att, pos, scale) = (&header[0], &header[1], &header[2]);
+    let ts = pos[4] * 1e-3;
     let gyro_scale = scale[0..3]
         .iter()
         .map(|s| s / 3600.0 * std::f64::consts::PI / 180.0)
@@ -487,24 +804,35 @@ pub fn import_psins<W: Write>(
         q_b_e: [q.w, q.i, q.j, q.k],
     };
 
-    let mut sum = ImportSummary::default();
     let mut records = Vec::new();
     let dt_ns = to_ns(ts);
     let mut k: u64 = 0;
-    for (i, line) in lines {
-        match parse_fields(line, 6) {
-            Ok(v) => {
+    while let Some((no, line)) = lines.next_line()? {
+        let v = match line {
+            Ok(l) if l.trim().is_empty() || l.trim().starts_with('%') => continue,
+            Ok(l) => parse_fields(l, 6),
+            Err(why) => Err(why),
+        };
+        let v = v.and_then(|v| {
+            let th = Vector3::new(
+                v[0] * gyro_scale[0],
+                v[1] * gyro_scale[1],
+                v[2] * gyro_scale[2],
+            );
+            let dv = Vector3::new(
+                v[3] * accel_scale[0],
+                v[4] * accel_scale[1],
+                v[5] * accel_scale[2],
+            );
+            if th.iter().chain(dv.iter()).all(|x| x.is_finite()) {
+                Ok((th, dv))
+            } else {
+                Err("increment not finite once scaled".to_owned())
+            }
+        });
+        match v {
+            Ok((th, dv)) => {
                 k += 1;
-                let th = Vector3::new(
-                    v[0] * gyro_scale[0],
-                    v[1] * gyro_scale[1],
-                    v[2] * gyro_scale[2],
-                );
-                let dv = Vector3::new(
-                    v[3] * accel_scale[0],
-                    v[4] * accel_scale[1],
-                    v[5] * accel_scale[2],
-                );
                 records.push(Record::Imu(ImuSample {
                     t_ns: k * dt_ns,
                     seq: k - 1,
@@ -513,7 +841,7 @@ pub fn import_psins<W: Write>(
                     d_v_mps: dv.into(),
                 }));
             }
-            Err(why) => sum.skipped.note(&name, i + 1, why),
+            Err(why) => sum.skipped.note(&name, no, why),
         }
     }
     if k == 0 {
@@ -531,11 +859,7 @@ pub fn import_psins<W: Write>(
     sort_records(&mut records);
     let meta = format!(
         "imported from PSINS text IMU\nfile = {name:?}\nheader_attitude_deg = [{}, {}, {}] # pitch, roll, yaw (ccw); approximate per the file\nt0_s = {}\naids = {aids:?}\nskipped_lines = {}\n",
-        att[0],
-        att[1],
-        att[2],
-        pos[3],
-        sum.skipped.lines.len()
+        att[0], att[1], att[2], pos[3], sum.skipped.count
     );
     write_log(
         out,
@@ -548,6 +872,56 @@ pub fn import_psins<W: Write>(
         &records,
     )?;
     Ok(sum)
+}
+
+/// PSINS header line 1: pitch, roll, yaw (deg), v_E, v_N, v_U (m/s).
+fn psins_attitude_check(v: &[f64]) -> Result<(), String> {
+    if v[0].abs() > 90.0 {
+        return Err(format!("pitch {}° outside [-90, 90]", v[0]));
+    }
+    if let Some(a) = v[1..3].iter().find(|a| a.abs() > MAX_ANGLE_DEG) {
+        return Err(format!("angle {a}° beyond ±{MAX_ANGLE_DEG}°"));
+    }
+    let speed = Vector3::new(v[3], v[4], v[5]).norm();
+    if speed > PSINS_MAX_SPEED_MPS {
+        return Err(format!(
+            "speed {speed} m/s beyond {PSINS_MAX_SPEED_MPS} m/s"
+        ));
+    }
+    Ok(())
+}
+
+/// Fastest initial speed a PSINS header may state (m/s).
+const PSINS_MAX_SPEED_MPS: f64 = 1000.0;
+
+/// Local gravity a PSINS header may state (m/s²): the Earth's, with margin.
+const PSINS_GRAVITY_RANGE_MPS2: (f64, f64) = (9.7, 9.9);
+
+/// PSINS header line 2: latitude, longitude (deg), height (m), t0 (s),
+/// sample interval (ms), local gravity (m/s²).
+fn psins_position_check(v: &[f64]) -> Result<(), String> {
+    check_position(v[0], v[1], v[2])?;
+    let (lo, hi) = (IMU_DT_RANGE_S.0 * 1e3, IMU_DT_RANGE_S.1 * 1e3);
+    if !(lo..=hi).contains(&v[4]) {
+        return Err(format!(
+            "sample interval {} ms outside [{lo}, {hi}] ms",
+            v[4]
+        ));
+    }
+    let (glo, ghi) = PSINS_GRAVITY_RANGE_MPS2;
+    if !(glo..=ghi).contains(&v[5]) {
+        return Err(format!("gravity {} m/s² outside [{glo}, {ghi}] m/s²", v[5]));
+    }
+    Ok(())
+}
+
+/// PSINS header line 3: gyro (arcsec/count) and accelerometer (µg·s/count)
+/// scale factors, each positive and finite.
+fn psins_scale_check(v: &[f64]) -> Result<(), String> {
+    match v.iter().position(|s| *s <= 0.0) {
+        Some(i) => Err(format!("scale factor {} is {}, not positive", i + 1, v[i])),
+        None => Ok(()),
+    }
 }
 
 #[cfg(test)]

@@ -185,21 +185,22 @@ fn report_import(out: &std::path::Path, s: &interop::ImportSummary) {
     for (file, line, why) in s.skipped.lines.iter().take(20) {
         eprintln!("warning: {file}:{line}: skipped: {why}");
     }
-    if s.skipped.lines.len() > 20 {
+    if s.skipped.count > 20 {
         eprintln!(
             "warning: ... and {} more skipped lines",
-            s.skipped.lines.len() - 20
+            s.skipped.count - 20
         );
     }
     eprintln!(
-        "import: wrote {}: {} IMU, {} truth, {} CNS, {} baro, {} SRS records; {} line(s) skipped",
+        "import: wrote {}: {} IMU, {} truth, {} CNS, {} baro, {} SRS records; {} line(s) skipped; {} IMU line(s) unused (the time base, or before the first truth epoch)",
         out.display(),
         s.imu,
         s.truth,
         s.cns,
         s.baro,
         s.srs,
-        s.skipped.lines.len()
+        s.skipped.count,
+        s.imu_unused
     );
 }
 
