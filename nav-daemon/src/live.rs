@@ -3,10 +3,12 @@
 //!
 //! A WaitSet wakes on the IMU topic's event and on an interval tick at the
 //! nominal IMU period (which detects a missing IMU and keeps status flowing).
-//! Each cycle drains every subscriber into a preallocated buffer, orders the
-//! inputs by time stamp (then stream), pushes them into the same
-//! [`Session`] as `batch` and flushes it, publishing one solution per
-//! accepted IMU sample; status goes out at 1 Hz. Every decision between an
+//! Each cycle drains every subscriber into the preallocated
+//! [`polarnav::inbox::Inbox`], which hands the inputs to the same
+//! [`Session`] as `batch` in navlog order (an input stamped ahead of every
+//! IMU sample waits for the sample after it); the session publishes one
+//! solution per accepted IMU sample as it integrates it; status goes out
+//! at 1 Hz. Every decision between an
 //! input and a solution is the session's. systemd: READY=1 as soon as the
 //! services are open and the settings loaded (the daemon can take inputs;
 //! STATUS= says which it waits for), WATCHDOG=1 from this loop only (idle
@@ -26,7 +28,8 @@ use msgs::{
     solution_flags,
 };
 use polarnav::checkpoint::{self, Checkpoint};
-use polarnav::session::{Event, Input, Session, Sink, Stream};
+use polarnav::inbox::{Inbox, Received};
+use polarnav::session::{Event, Session, Sink, Stream};
 use polarnav_config::Effective;
 use polarnav_ipc::{TopicPublisher, TopicSubscriber, TransportConfig, TransportError};
 
@@ -225,41 +228,6 @@ pub struct LiveReport {
 /// is dropped.
 const CAPACITY: usize = 1024;
 
-/// An input drained this cycle, held by value in the preallocated buffer.
-/// Not boxed on purpose: boxing the SRS variant would allocate in the loop.
-#[allow(clippy::large_enum_variant)]
-#[derive(Debug, Clone, Copy)]
-enum Drained {
-    Init(InitState),
-    Imu(ImuSample),
-    Srs(SrsSample),
-    Cns(CnsFix),
-    Baro(BaroSample),
-}
-
-impl Drained {
-    /// Order within a cycle: time stamp, then init before IMU before the aids
-    /// (the order of a navlog, so the session sees what `batch` sees).
-    fn key(&self) -> (u64, u8) {
-        match self {
-            Drained::Init(x) => (x.t_ns, 0),
-            Drained::Imu(x) => (x.t_ns, 1),
-            Drained::Srs(x) => (x.t_ns, 2),
-            Drained::Cns(x) => (x.t_ns, 3),
-            Drained::Baro(x) => (x.t_ns, 4),
-        }
-    }
-    fn input(&self) -> Input<'_> {
-        match self {
-            Drained::Init(x) => Input::Init(x),
-            Drained::Imu(x) => Input::Imu(x),
-            Drained::Srs(x) => Input::Srs(x),
-            Drained::Cns(x) => Input::Cns(x),
-            Drained::Baro(x) => Input::Baro(x),
-        }
-    }
-}
-
 struct Ports {
     cfg: TransportConfig,
     imu: TopicSubscriber<ImuSample>,
@@ -423,9 +391,11 @@ pub fn run(
         }
     }
     {
+        // Nothing received is lost: what waited for the IMU goes first.
         let mut sink = PublishSink::new(&ports.solution, &mut state.out);
+        state.inbox.deliver_all(&mut state.session, &mut sink);
         state.session.finish(&mut sink);
-        sink.done()?;
+        state.report.solutions += sink.done()?;
     }
     ports.status.publish(&state.status())?;
     notify.stopping(&format!(
@@ -578,7 +548,7 @@ impl Sink for PublishSink<'_> {
 struct LoopState {
     session: Session,
     opts: LiveOptions,
-    buf: Vec<Drained>,
+    inbox: Inbox,
     checkpoint: Option<CheckpointWriter>,
     out: OutputState,
     /// Owners of the init, IMU, SRS, CNS and baro services.
@@ -601,7 +571,7 @@ impl LoopState {
         Self {
             session: Session::new(settings.session()),
             opts: opts.clone(),
-            buf: Vec::with_capacity(CAPACITY),
+            inbox: Inbox::with_capacity(CAPACITY),
             checkpoint: opts.checkpoint.as_ref().map(CheckpointWriter::start),
             out: OutputState::default(),
             owners: Default::default(),
@@ -618,35 +588,33 @@ impl LoopState {
         }
     }
 
-    /// One cycle: drain, order, push into the session, flush (publish).
+    /// One cycle: drain, then hand to the session in navlog order (it
+    /// publishes the solutions).
     fn cycle(&mut self, ports: &Ports) -> Result<(), LiveError> {
         self.report.cycles += 1;
-        let buf = &mut self.buf;
-        buf.clear();
         let mut imu_seen = false;
         let [o_init, o_imu, o_srs, o_cns, o_baro] = &mut self.owners;
-        ports.drain_owned(&ports.init, o_init, "init", |x| buf.push(Drained::Init(x)))?;
+        let (inbox, session, gaps) = (&mut self.inbox, &mut self.session, &mut self.out.gaps);
+        // Sequence gaps are noted in arrival order.
+        let mut receive = |r: Received| {
+            if let Some(e) = inbox.receive(session, r)
+                && let Some(suppressed) = gaps.due()
+            {
+                tracing::warn!(suppressed, "{e:?}");
+            }
+        };
+        ports.drain_owned(&ports.init, o_init, "init", |x| receive(Received::Init(x)))?;
         ports.drain_owned(&ports.imu, o_imu, "IMU", |x| {
             imu_seen = true;
-            buf.push(Drained::Imu(x));
+            receive(Received::Imu(x));
         })?;
-        ports.drain_owned(&ports.srs, o_srs, "SRS", |x| buf.push(Drained::Srs(x)))?;
-        ports.drain_owned(&ports.cns, o_cns, "CNS", |x| buf.push(Drained::Cns(x)))?;
-        ports.drain_owned(&ports.baro, o_baro, "baro", |x| buf.push(Drained::Baro(x)))?;
+        ports.drain_owned(&ports.srs, o_srs, "SRS", |x| receive(Received::Srs(x)))?;
+        ports.drain_owned(&ports.cns, o_cns, "CNS", |x| receive(Received::Cns(x)))?;
+        ports.drain_owned(&ports.baro, o_baro, "baro", |x| receive(Received::Baro(x)))?;
         ports.srs.clear_events();
         ports.cns.clear_events();
         ports.baro.clear_events();
         ports.init.clear_events();
-        // Sequence gaps in arrival order; then the cycle's inputs in time
-        // order (in place, without allocation) as a navlog has them.
-        for d in &self.buf {
-            if let Some(e) = self.session.arrived(&d.input())
-                && let Some(suppressed) = self.out.gaps.due()
-            {
-                tracing::warn!(suppressed, "{e:?}");
-            }
-        }
-        self.buf.sort_unstable_by_key(Drained::key);
         if imu_seen {
             self.last_imu_wall = Some(Instant::now());
             if self.imu_lost {
@@ -654,17 +622,13 @@ impl LoopState {
             }
             self.imu_lost = false;
         }
-        let buf = std::mem::take(&mut self.buf);
-        let published = {
-            let mut sink = PublishSink::new(&ports.solution, &mut self.out);
-            for d in &buf {
-                self.session.handle(d.input(), &mut sink);
-            }
-            self.session.flush(&mut sink);
-            sink.done()
-        };
-        self.buf = buf;
-        self.report.solutions += published?;
+        // No flush at the end of the cycle: the session emits each solution
+        // as its sample is integrated and fuses aids before the next sample,
+        // so where a cycle ends changes nothing.
+        let mut sink = PublishSink::new(&ports.solution, &mut self.out);
+        self.inbox
+            .deliver(&mut self.session, self.imu_lost, &mut sink);
+        self.report.solutions += sink.done()?;
         if let Some(w) = self.checkpoint.as_mut() {
             w.offer(&self.session);
         }
@@ -697,9 +661,11 @@ impl LoopState {
                 "IMU lost: no sample for {} nominal periods",
                 self.opts.imu_lost_periods
             );
+            // What waited for the IMU goes to the session, which offers it now.
             let mut sink = PublishSink::new(&ports.solution, &mut self.out);
+            self.inbox.deliver_all(&mut self.session, &mut sink);
             self.session.imu_lost(&mut sink);
-            sink.done()?;
+            self.report.solutions += sink.done()?;
         }
         Ok(self.last_status.elapsed() >= self.opts.status_period)
     }

@@ -22,6 +22,7 @@ pub mod error_model;
 pub mod filter;
 pub mod frame_select;
 pub mod frames;
+pub mod inbox;
 pub mod mech;
 pub mod navigator;
 pub mod session;

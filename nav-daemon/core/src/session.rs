@@ -23,14 +23,15 @@
 //! - **Aids** wait in a bounded queue (at most [`AID_QUEUE`] samples, at
 //!   most [`MAX_AID_LEAD_NS`] ahead of the IMU) and are fused in (time,
 //!   stream) order, each at its own time (the navigator's state history),
-//!   before the next IMU sample is integrated or at a flush: the aids
-//!   between two IMU samples are fused in the same order whatever order
-//!   they arrived in, so a live cycle (which drains its topics one after
-//!   the other) and a navlog give the same result.
-//! - **Solutions**: the solution of an IMU sample is emitted when the next
-//!   IMU sample arrives or when the driver calls [`Session::flush`] (the
-//!   live loop does at the end of every cycle), so it includes every aid
-//!   stamped up to its time that has arrived by then.
+//!   just before the next IMU sample is integrated: the aids between two
+//!   IMU samples are fused in the same order whatever order they arrived
+//!   in and however a driver grouped them, so a live cycle (which drains
+//!   its topics one after the other) and a navlog give the same result.
+//! - **Solutions**: the solution of an IMU sample is emitted as soon as the
+//!   sample is integrated. It holds every aid stamped up to the previous
+//!   sample's time; aids stamped within the sample's own
+//!   interval show from the next solution on. Nothing depends on where a
+//!   live cycle ends ([`Session::flush`] exists for tools only).
 //! - **Accounting**: every input is counted once, per stream:
 //!   `received = accepted + rejected_invalid + rejected_time + rejected_gate
 //!   + not_used`, and inits apart ([`InitCounters`]).
@@ -448,7 +449,6 @@ pub struct Session {
     outside: PerStream<StreamCounters>,
     seq: PerStream<SeqTracker>,
     inits: InitCounters,
-    solution_pending: bool,
     imu_lost: bool,
     resumed: bool,
     reinits: u32,
@@ -473,7 +473,6 @@ impl Session {
             outside: PerStream::default(),
             seq: PerStream::default(),
             inits: InitCounters::default(),
-            solution_pending: false,
             imu_lost: false,
             resumed: false,
             reinits: 0,
@@ -574,16 +573,14 @@ impl Session {
         }
     }
 
-    /// Emits the pending solution, if any (the live loop calls this at the
-    /// end of every cycle; `batch` at the end of the log).
+    /// Fuses the aids stamped up to the navigator's time now, for a tool
+    /// that reads the state after an epoch's aids. Drivers need not call it:
+    /// the session fuses them before the next IMU sample. The live loop must
+    /// not call it at the end of a cycle: where its cycles end would then
+    /// decide the order in which aids of one time stamp are fused, and live
+    /// would no longer equal `batch` bit for bit.
     pub fn flush(&mut self, sink: &mut impl Sink) {
         self.fuse_due(sink);
-        if self.solution_pending {
-            self.solution_pending = false;
-            if let Some(n) = &self.nav {
-                sink.solution(&n.solution());
-            }
-        }
     }
 
     /// The IMU stopped (live: no sample for several periods). Aids waiting
@@ -981,19 +978,24 @@ impl Session {
         });
     }
 
-    /// Feeds one fitting sample to the navigator, then the aids it reached.
-    /// The previous sample's solution goes out first: one per sample, also
-    /// when several are integrated in one push (confirmed candidates).
+    /// Feeds one fitting sample to the navigator after the aids stamped up
+    /// to the previous one, and emits its solution at once: one per sample,
+    /// also when several are integrated in one push (confirmed candidates).
+    /// The solution of a sample thus holds every aid stamped before it,
+    /// whichever cycle of the live loop brought them, and aids stamped
+    /// within its own interval show from the next sample on: the outputs
+    /// depend only on the order of the inputs, not on how a driver groups
+    /// them.
     fn integrate(&mut self, s: &ImuSample, sink: &mut impl Sink) {
-        self.flush(sink);
+        self.fuse_due(sink);
         let Some(n) = self.nav.as_mut() else { return };
         match n.on_imu(s) {
             Ok(out) => {
-                self.solution_pending = true;
                 self.last_imu_t_ns = s.t_ns;
                 if let Some(sw) = out.switch {
                     sink.event(&Event::Switch(sw));
                 }
+                sink.solution(&n.solution());
             }
             Err(reason) => sink.event(&Event::Rejected {
                 stream: Stream::Imu,

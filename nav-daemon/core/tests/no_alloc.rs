@@ -13,6 +13,7 @@ use msgs::{BaroSample, CnsFix, ImuSample, InitState, SrsLine, SrsSample};
 use nalgebra::{Rotation3, UnitQuaternion, Vector3};
 use polarnav::earth::{self, Geodetic, isa};
 use polarnav::frames;
+use polarnav::inbox::{Inbox, Received};
 use polarnav::navigator::{Navigator, NavigatorConfig};
 use polarnav::session::{Discard, Input, Session, SessionSettings};
 
@@ -189,7 +190,10 @@ fn steady_state_loop_does_not_allocate() {
     // cycle, status every second.
     let mut session = Session::new(SessionSettings::default());
     session.push(Input::Init(&init), &mut Discard);
-    let session_run = |from: u64, to: u64, session: &mut Session| {
+    // Through the live loop's inbox, one cycle per IMU sample (the baro
+    // drained before its IMU sample, the aids after).
+    let mut inbox = Inbox::with_capacity(64);
+    let session_run = |from: u64, to: u64, session: &mut Session, inbox: &mut Inbox| {
         let mut checksum = 0.0;
         for k in from..to {
             let t_ns = k * 5_000_000;
@@ -201,7 +205,7 @@ fn steady_state_loop_does_not_allocate() {
                 sigma_m: 10.0,
             };
             if k % 20 == 0 {
-                session.push(Input::Baro(&baro), &mut Discard);
+                inbox.receive(session, Received::Baro(baro));
             }
             let imu = ImuSample {
                 t_ns,
@@ -210,7 +214,7 @@ fn steady_state_loop_does_not_allocate() {
                 d_theta_rad: (w_b * dt).into(),
                 d_v_mps: (f_b * dt).into(),
             };
-            session.push(Input::Imu(&imu), &mut Discard);
+            inbox.receive(session, Received::Imu(imu));
             if k % 200 == 0 {
                 let cns = CnsFix {
                     t_ns,
@@ -219,17 +223,17 @@ fn steady_state_loop_does_not_allocate() {
                     lon_rad: geo.lon_rad,
                     sigma_h_m: 20.0,
                 };
-                session.push(Input::Cns(&cns), &mut Discard);
-                session.push(Input::Srs(&srs_at(t_ns)), &mut Discard);
+                inbox.receive(session, Received::Cns(cns));
+                inbox.receive(session, Received::Srs(srs_at(t_ns)));
                 checksum += session.status().cycles as f64;
             }
-            session.flush(&mut Discard);
+            inbox.deliver(session, false, &mut Discard);
             checksum += session.navigator().map_or(f64::NAN, |n| n.solution().h_m);
         }
         checksum
     };
-    session_run(1, 2_000, &mut session);
-    let (checksum, allocations) = counted(|| session_run(2_000, 12_000, &mut session));
+    session_run(1, 2_000, &mut session, &mut inbox);
+    let (checksum, allocations) = counted(|| session_run(2_000, 12_000, &mut session, &mut inbox));
     assert!(checksum.is_finite());
     let st = session.status();
     assert!(st.imu.accepted >= 11_999, "{:?}", st.imu);
