@@ -1,12 +1,14 @@
 #!/usr/bin/env bash
-# Quick start: build, simulate the default transpolar scenario, run the live
+# Quick start: build, simulate the default scenario (polar-crossing.toml: 68° N
+# over the North Pole to 68° N, through both frame switches), run the live
 # pipeline over iceoryx2 shared memory -- nav-daemon and the flight recorder as
-# services, sensor-replay publishing the flight at 50x wall-clock speed -- and
-# print the accuracy summary of the recorded live solution.
+# services, sensor-replay publishing the flight at 200x wall-clock speed --
+# print the accuracy summary of the recorded live solution, and check that it
+# is, bit for bit, what `nav-daemon batch` computes from the same log.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-scenario=${1:-config/scenarios/transpolar.toml}
-speed=${SPEED:-50}
+scenario=${1:-config/scenarios/polar-crossing.toml}
+speed=${SPEED:-200}
 out=out/quickstart
 prefix="quickstart_$$"
 mkdir -p "$out"
@@ -24,7 +26,8 @@ echo "== building (release)"
 cargo build --release --bins
 echo "== simulating $scenario"
 $B/sensor-replay simulate --scenario "$scenario" --out "$out/flight.navlog" --seed 1
-printf 'prefix = "%s"\n' "$prefix" > "$out/nav-daemon.toml"
+# The shipped configuration, on a prefix of its own.
+sed "s/^prefix = .*/prefix = \"$prefix\"/" config/nav-daemon.toml > "$out/nav-daemon.toml"
 
 echo "== starting nav-daemon and the flight recorder (services $prefix/...)"
 $B/nav-daemon --config "$out/nav-daemon.toml" > "$out/daemon.log" 2>&1 & pids+=($!)
@@ -45,4 +48,14 @@ tail -1 "$out/record.log"
 echo "== accuracy of the live solution"
 $B/sensor-replay export "$out/live.navlog" --solution-csv "$out/live.csv"
 $B/sensor-replay eval --log "$out/flight.navlog" --solution "$out/live.csv" --out "$out"
+
+echo "== the live solution against batch on the same log"
+$B/nav-daemon batch --config "$out/nav-daemon.toml" --log "$out/flight.navlog" --out "$out/batch.csv" 2>&1 | grep -E "^batch:"
+if cmp -s "$out/live.csv" "$out/batch.csv"; then
+  echo "live and batch solutions are identical ($(($(wc -l < "$out/live.csv") - 1)) rows)"
+  rm "$out/batch.csv"
+else
+  echo "live and batch solutions DIFFER: cmp $out/live.csv $out/batch.csv" >&2
+  exit 1
+fi
 echo "== outputs in $out/ (batch mode: nav-daemon batch --log $out/flight.navlog --out solution.csv)"

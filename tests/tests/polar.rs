@@ -64,3 +64,64 @@ fn transpolar_flight_meets_the_accuracy_targets_through_the_north_pole() {
 fn south_pole_flight_meets_the_accuracy_targets() {
     flight("config/scenarios/south-pole.toml");
 }
+
+/// The quick start's flight shows what polarnav is for: it enters the grid
+/// frame northbound at the 70° switch latitude, crosses the pole, and
+/// returns to geographic southbound at 69.5° — one switch each way — and
+/// meets the same accuracy targets as the flights above.
+#[test]
+fn the_quick_start_flight_switches_both_ways_and_crosses_the_pole() {
+    use polarnav::mech::FrameKind;
+    use polarnav::session::{Event, SessionSettings, navigate};
+    let file = "config/scenarios/polar-crossing.toml";
+    flight(file);
+    let text = std::fs::read_to_string(repo(file)).expect("scenario");
+    let records = simulate_records(&text, 1);
+    let (out, status) = navigate(&records, SessionSettings::default());
+    let switches: Vec<_> = out
+        .events
+        .iter()
+        .filter_map(|e| match e {
+            Event::Switch(s) => Some(*s),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(switches.len(), 2, "{switches:?}");
+    let (north, south) = (switches[0], switches[1]);
+    assert_eq!(
+        (north.from, north.to),
+        (FrameKind::Geographic, FrameKind::Grid)
+    );
+    assert_eq!(
+        (south.from, south.to),
+        (FrameKind::Grid, FrameKind::Geographic)
+    );
+    // At the thresholds, to the 250 m/s × 10 ms a sample moves (~2e-5°).
+    assert!(
+        (north.lat_rad.to_degrees() - 70.0).abs() < 1e-4,
+        "{north:?}"
+    );
+    assert!(
+        (south.lat_rad.to_degrees() - 69.5).abs() < 1e-4,
+        "{south:?}"
+    );
+    // The pole is crossed in between, in the grid frame.
+    let pole_t_ns = records
+        .iter()
+        .filter_map(|r| match r {
+            msgs::navlog::Record::Truth(t) => Some(t),
+            _ => None,
+        })
+        .max_by(|a, b| a.r_e_m[2].total_cmp(&b.r_e_m[2]))
+        .expect("truth")
+        .t_ns;
+    assert!(north.t_ns < pole_t_ns && pole_t_ns < south.t_ns);
+    assert_eq!(status.switch_count, 2);
+    // The flight ends back south of the switch latitude.
+    let last = out.solutions.last().expect("solutions");
+    assert!(
+        last.lat_rad.to_degrees() < 69.0 && last.frame == 0,
+        "{}",
+        last.lat_rad.to_degrees()
+    );
+}
