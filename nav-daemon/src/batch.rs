@@ -3,7 +3,10 @@
 //! Every decision between a record and a solution row is the session's
 //! (`polarnav::session`), exactly as in the live daemon; this driver only
 //! reads the navlog, builds the effective settings from the configuration
-//! file, the log header and the command line, and writes the CSV.
+//! file, the log header and the command line, and writes the solution: a
+//! CSV, or an MCAP file with every input stream, the solutions, status at
+//! 1 Hz of sensor time, every aid update at its gate, frame switches and
+//! truth (`polarnav_foxglove`).
 
 use std::io::{BufRead, Write};
 
@@ -15,6 +18,19 @@ use polarnav::session::{Event, InitCounters, Input, Session, Sink, Stream};
 use crate::events::log_event;
 use polarnav::solution_csv;
 use polarnav_config::{CliOverrides, ConfigError, ConfigFile, Effective, effective};
+use polarnav_foxglove::{AidTopic, AidUpdate, McapError, McapFile};
+
+/// Where a batch run writes its solution.
+#[derive(Debug)]
+pub enum Output<W: Write> {
+    /// The solution CSV (DESIGN's 24 columns, then the extra ones).
+    Csv(W),
+    /// An MCAP file with every channel of `polarnav_foxglove`.
+    Mcap(Box<McapFile>),
+}
+
+/// Status messages in an MCAP output: one per this much sensor time (as live).
+const MCAP_STATUS_PERIOD_NS: u64 = 1_000_000_000;
 
 /// Options of one batch run beyond the configuration file.
 #[derive(Debug, Clone, Default)]
@@ -87,6 +103,9 @@ pub enum BatchError {
     /// Writing the solution failed (exit 1).
     #[error("writing the solution: {0}")]
     Write(#[from] std::io::Error),
+    /// Writing the MCAP file failed (exit 1).
+    #[error(transparent)]
+    Mcap(#[from] McapError),
 }
 
 impl BatchError {
@@ -94,7 +113,10 @@ impl BatchError {
     pub fn exit_code(&self) -> i32 {
         match self {
             BatchError::Config(_) | BatchError::NoInit(_) | BatchError::AlignIncomplete { .. } => 2,
-            BatchError::Read { .. } | BatchError::Write(_) | BatchError::Align(..) => 1,
+            BatchError::Read { .. }
+            | BatchError::Write(_)
+            | BatchError::Mcap(_)
+            | BatchError::Align(..) => 1,
         }
     }
 }
@@ -102,7 +124,7 @@ impl BatchError {
 /// Writes solution rows and logs the session's decisions (the first few
 /// rejections per stream, every start, switch and resync).
 struct CsvSink<'a, W: Write> {
-    out: W,
+    out: Output<W>,
     log_name: &'a str,
     rows: u64,
     error: Option<std::io::Error>,
@@ -122,9 +144,14 @@ impl<W: Write> Sink for CsvSink<'_, W> {
         if self.error.is_some() {
             return;
         }
-        if let Err(e) = solution_csv::write_row(&mut self.out, s) {
-            self.error = Some(e);
-            return;
+        match &mut self.out {
+            Output::Csv(w) => {
+                if let Err(e) = solution_csv::write_row(w, s) {
+                    self.error = Some(e);
+                    return;
+                }
+            }
+            Output::Mcap(m) => m.channels().solution(s),
         }
         self.rows += 1;
         if self.progress_ns > 0 && s.t_ns >= self.next_progress_ns {
@@ -173,6 +200,22 @@ impl<W: Write> Sink for CsvSink<'_, W> {
                 }
             }
             Event::AlignmentFailed(err) => self.align_error = Some(*err),
+            Event::AidUpdate {
+                stream,
+                t_ns,
+                status,
+            } => {
+                let topic = match stream {
+                    Stream::Srs => Some(AidTopic::Srs),
+                    Stream::Cns => Some(AidTopic::Cns),
+                    Stream::Baro => Some(AidTopic::Baro),
+                    Stream::Imu => None,
+                };
+                if let (Output::Mcap(m), Some(topic)) = (&mut self.out, topic) {
+                    m.channels()
+                        .aid_update(topic, &AidUpdate::from_status(*t_ns, status));
+                }
+            }
             other => log_event(log, other),
         }
     }
@@ -184,6 +227,17 @@ pub fn run<R: BufRead, W: Write>(
     log: R,
     log_name: &str,
     out: W,
+    file: &ConfigFile,
+    opts: &BatchOptions,
+) -> Result<BatchReport, BatchError> {
+    run_to(log, log_name, Output::Csv(out), file, opts)
+}
+
+/// Runs the session over `log`, writing the solution to `out` (CSV or MCAP).
+pub fn run_to<R: BufRead, W: Write>(
+    log: R,
+    log_name: &str,
+    out: Output<W>,
     file: &ConfigFile,
     opts: &BatchOptions,
 ) -> Result<BatchReport, BatchError> {
@@ -214,16 +268,39 @@ pub fn run<R: BufRead, W: Write>(
         rejections_logged: [0; 4],
         gaps_logged: [0; 4],
     };
-    writeln!(sink.out, "{}", solution_csv::HEADER)?;
-    if let Some(rec) = &first
-        && let Some(input) = Input::from_record(rec)
-    {
-        session.push(input, &mut sink);
+    match &mut sink.out {
+        Output::Csv(w) => writeln!(w, "{}", solution_csv::HEADER)?,
+        Output::Mcap(m) => {
+            if let Some(Record::Header(h)) = &first {
+                m.header(h)?;
+            }
+        }
+    }
+    let mut next_status_ns = 0;
+    let mut push = |rec: &Record, session: &mut Session, sink: &mut CsvSink<'_, W>| {
+        if let Output::Mcap(m) = &mut sink.out {
+            // The log's inputs and truth; its own solutions and status (a
+            // recording) would mix with this run's.
+            if !matches!(rec, Record::Solution(_) | Record::Status(_)) {
+                m.channels().record(rec);
+            }
+        }
+        if let Some(input) = Input::from_record(rec) {
+            session.push(input, sink);
+        }
+        if let Output::Mcap(m) = &mut sink.out {
+            let now = session.span_ns().1;
+            if session.navigator().is_some() && now >= next_status_ns {
+                next_status_ns = now.saturating_add(MCAP_STATUS_PERIOD_NS);
+                m.channels().status(&session.status());
+            }
+        }
+    };
+    if let Some(rec) = &first {
+        push(rec, &mut session, &mut sink);
     }
     while let Some(rec) = reader.next_record().map_err(read_err)? {
-        if let Some(input) = Input::from_record(&rec) {
-            session.push(input, &mut sink);
-        }
+        push(&rec, &mut session, &mut sink);
         if let Some(e) = sink.error.take() {
             return Err(e.into());
         }
@@ -246,7 +323,13 @@ pub fn run<R: BufRead, W: Write>(
         return Err(BatchError::NoInit(log_name.to_owned()));
     };
     let covariance_repairs = nav.covariance_repairs();
-    sink.out.flush()?;
+    match sink.out {
+        Output::Csv(mut w) => w.flush()?,
+        Output::Mcap(mut m) => {
+            m.channels().status(&session.status());
+            m.close()?;
+        }
+    }
     let (first_t_ns, last_t_ns) = session.span_ns();
     Ok(BatchReport {
         read: reader.report().clone(),

@@ -108,6 +108,10 @@ pub fn log_event(log: &str, e: &Event) {
             t_s = secs(*t_ns),
             "{log}: covariance lost finiteness or positive variances: re-inflated"
         ),
+        // One per gated aid sample: rejections are logged as `Rejected`
+        // where the navigator refuses them; the gate's own verdicts are in
+        // status, and each one on the MCAP `/aid/*` channels.
+        Event::AidUpdate { .. } => {}
         Event::AidReset {
             stream,
             reset,

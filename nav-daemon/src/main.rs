@@ -31,10 +31,13 @@ struct Cli {
 
 #[derive(Debug, Subcommand)]
 enum Cmd {
-    /// Run the navigator over a navlog as fast as possible and write the solution CSV.
+    /// Run the navigator over a navlog as fast as possible and write the solution
+    /// (CSV, or MCAP for Foxglove and PlotJuggler when the name ends in .mcap).
     Batch {
         #[arg(long)]
         log: PathBuf,
+        /// Solution file: `.csv` (default format) or `.mcap` (every input stream,
+        /// solution, status, aid updates, frame switches and truth).
         #[arg(long)]
         out: PathBuf,
         /// Filter parameter conversion at frame switches: paper or none
@@ -175,15 +178,32 @@ fn main() -> ExitCode {
                 Ok(f) => BufReader::with_capacity(1 << 20, f),
                 Err(e) => return usage(format!("{log_name}: cannot open: {e}")),
             };
-            let output = match File::create(&out) {
-                Ok(f) => BufWriter::with_capacity(1 << 20, f),
-                Err(e) => {
-                    eprintln!("error: {}: cannot create: {e}", out.display());
-                    return ExitCode::from(1);
+            // The format by the extension: `.mcap` writes MCAP, anything else the CSV.
+            let is_mcap = out
+                .extension()
+                .is_some_and(|e| e.eq_ignore_ascii_case("mcap"));
+            let output = if is_mcap {
+                match polarnav_foxglove::McapFile::create(
+                    &out,
+                    polarnav_foxglove::AidSource::Updates,
+                ) {
+                    Ok(m) => batch::Output::Mcap(Box::new(m)),
+                    Err(e) => {
+                        eprintln!("error: {e}");
+                        return ExitCode::from(1);
+                    }
+                }
+            } else {
+                match File::create(&out) {
+                    Ok(f) => batch::Output::Csv(BufWriter::with_capacity(1 << 20, f)),
+                    Err(e) => {
+                        eprintln!("error: {}: cannot create: {e}", out.display());
+                        return ExitCode::from(1);
+                    }
                 }
             };
             let t0 = std::time::Instant::now();
-            match batch::run(input, &log_name, output, &config, &opts) {
+            match batch::run_to(input, &log_name, output, &config, &opts) {
                 Ok(r) => {
                     let wall = t0.elapsed().as_secs_f64();
                     let span = (r.last_t_ns.saturating_sub(r.first_t_ns)) as f64 * 1e-9;

@@ -42,7 +42,10 @@
 //! Nothing is logged here: decisions are reported as [`Event`]s to the
 //! driver's [`Sink`], which logs them as it sees fit.
 
-use msgs::{BaroSample, CnsFix, ImuSample, InitState, Solution, SrsSample, Status, StreamCounters};
+use msgs::{
+    AidStatus, BaroSample, CnsFix, ImuSample, InitState, Solution, SrsSample, Status,
+    StreamCounters,
+};
 
 use crate::align::{AlignError, Alignment, AlignmentAccumulator, aligned_init};
 use crate::checkpoint::{Checkpoint, CheckpointError};
@@ -322,6 +325,14 @@ pub enum Event {
     /// The covariance lost finiteness or positive variances and was re-inflated.
     CovarianceRepaired {
         t_ns: u64,
+    },
+    /// An aid sample reached its gate: fused or rejected there, with the
+    /// aid's status record after it (innovation, its variance, test ratio).
+    /// One per gated sample: sinks that log should log only rejections.
+    AidUpdate {
+        stream: Stream,
+        t_ns: u64,
+        status: AidStatus,
     },
     /// An aid rejected for `[aids] reset_after_s` while consistent reset the
     /// states it observes: the reset as published and the tests' findings.
@@ -1101,13 +1112,26 @@ impl Session {
             return;
         };
         let resets = n.aid_resets();
-        if let Err(reason) = a.offer(n) {
-            sink.event(&Event::Rejected {
+        match a.offer(n) {
+            Ok(_) => {
+                let st = n.status();
+                let status = match a {
+                    Aid::Srs(_) => st.srs_aid,
+                    Aid::Cns(_) => st.cns_aid,
+                    Aid::Baro(_) => st.baro_aid,
+                };
+                sink.event(&Event::AidUpdate {
+                    stream: a.stream(),
+                    t_ns: a.t_ns(),
+                    status,
+                });
+            }
+            Err(reason) => sink.event(&Event::Rejected {
                 stream: a.stream(),
                 t_ns: a.t_ns(),
                 seq: a.seq(),
                 reason,
-            });
+            }),
         }
         if n.aid_resets() != resets
             && let Some(verdict) = n.last_aid_reset()
