@@ -33,6 +33,85 @@ pub fn daemon_command(bin: &Path) -> (std::process::Command, bool) {
     }
 }
 
+/// A binary of the workspace, built by `cargo test --workspace` beside the
+/// test executables (`target/<profile>/NAME`).
+pub fn bin(name: &str) -> PathBuf {
+    let exe = std::env::current_exe().expect("test executable");
+    let dir = exe
+        .parent()
+        .and_then(Path::parent)
+        .expect("target directory");
+    let p = dir.join(name);
+    assert!(
+        p.exists(),
+        "{} is not built: run the workspace tests (cargo test --workspace)",
+        p.display()
+    );
+    p
+}
+
+/// The Python packages the tests run against, pinned: the iceoryx2 binding
+/// (the Python consumer), the reference MCAP reader with its protobuf
+/// decoder, and a WebSocket client for the Foxglove live view.
+pub const PYTHON_PACKAGES: [&str; 5] = [
+    "iceoryx2==0.10.0",
+    "mcap==1.6.0",
+    "mcap-protobuf-support==0.6.0",
+    "zstandard==0.25.0",
+    "websockets==17.4",
+];
+
+/// A Python interpreter with [`PYTHON_PACKAGES`]: a virtual environment in
+/// the target directory, created once (PyPI is needed the first time) under
+/// a file lock, so that test binaries running at the same time share it.
+pub fn python() -> PathBuf {
+    use std::process::{Command, Stdio};
+    let venv = bin("nav-daemon")
+        .parent()
+        .expect("target dir")
+        .join("python-tools");
+    let py = venv.join("bin/python3");
+    let check = |py: &Path| {
+        Command::new(py)
+            .args([
+                "-c",
+                "import importlib.metadata as m, sys\nfor p in sys.argv[1:]:\n    n, v = p.split('==')\n    assert m.version(n) == v, p",
+            ])
+            .args(PYTHON_PACKAGES)
+            .stderr(Stdio::null())
+            .status()
+            .is_ok_and(|s| s.success())
+    };
+    let lock_path = venv.with_extension("lock");
+    let lock = std::fs::File::create(&lock_path).expect("python venv lock file");
+    lock.lock().expect("python venv lock");
+    if !check(&py) {
+        let ok = Command::new("python3")
+            .args(["-m", "venv"])
+            .arg(&venv)
+            .status()
+            .is_ok_and(|s| s.success())
+            && Command::new(&py)
+                .args([
+                    "-m",
+                    "pip",
+                    "install",
+                    "--quiet",
+                    "--disable-pip-version-check",
+                ])
+                .args(PYTHON_PACKAGES)
+                .status()
+                .is_ok_and(|s| s.success());
+        assert!(
+            ok && check(&py),
+            "could not provide Python with {PYTHON_PACKAGES:?} (python3 -m venv {} && pip install ...)",
+            venv.display()
+        );
+    }
+    drop(lock);
+    py
+}
+
 /// Path of a file in the repository.
 pub fn repo(rel: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("..").join(rel)

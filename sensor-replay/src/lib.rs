@@ -13,3 +13,4 @@ pub mod scenario;
 pub mod sensors;
 pub mod simulate;
 pub mod trajectory;
+pub mod view;

@@ -9,6 +9,7 @@ use msgs::service::Topic;
 use msgs::{
     BaroSample, CnsFix, EffectiveSettings, ImuSample, InitState, Solution, SrsSample, Status,
 };
+use polarnav_foxglove::McapFile;
 use polarnav_ipc::{TopicPublisher, TopicSubscriber, TransportConfig, TransportError};
 
 use crate::logfile::{LogContents, SensorRef};
@@ -287,9 +288,53 @@ pub const RECORD_FLUSH_PERIOD: Duration = Duration::from_millis(50);
 /// settings (for the header) before it starts the file without them.
 pub const SETTINGS_WAIT: Duration = Duration::from_millis(100);
 
+/// Where the recorder writes.
+#[derive(Debug)]
+pub enum RecordOut<W: Write> {
+    /// A navlog (the daemon's settings in its header).
+    Navlog(W),
+    /// An MCAP file of the `polarnav_foxglove` channels (the header as its
+    /// `polarnav` metadata); aid updates come from the status records.
+    Mcap(Box<McapFile>),
+}
+
+/// The recorder's open file.
+enum RecordWriter<W: Write> {
+    Navlog(NavlogWriter<W>),
+    Mcap(Box<McapFile>),
+}
+
+impl<W: Write> RecordWriter<W> {
+    fn write(&mut self, r: &Record) -> Result<(), RecordError> {
+        match self {
+            RecordWriter::Navlog(w) => w.write(r)?,
+            RecordWriter::Mcap(m) => m.channels().record(r),
+        }
+        Ok(())
+    }
+
+    fn flush(&mut self) -> Result<(), RecordError> {
+        match self {
+            RecordWriter::Navlog(w) => w.flush()?,
+            RecordWriter::Mcap(m) => m.flush()?,
+        }
+        Ok(())
+    }
+
+    fn finish(self) -> Result<(), RecordError> {
+        match self {
+            RecordWriter::Navlog(w) => {
+                w.finish()?;
+            }
+            RecordWriter::Mcap(m) => m.close()?,
+        }
+        Ok(())
+    }
+}
+
 pub fn record<W: Write>(
     cfg: &TransportConfig,
-    out: W,
+    out: RecordOut<W>,
     stop: &AtomicBool,
     max_duration: Option<Duration>,
 ) -> Result<Recorded, RecordError> {
@@ -308,8 +353,10 @@ pub fn record<W: Write>(
     // starts once they arrive (or, without a daemon, when the records held
     // meanwhile reach HOLD_RECORDS, or at the end).
     let mut out = Some(out);
-    let mut w: Option<NavlogWriter<W>> = None;
-    let open = |out: &mut Option<W>, text: Option<&str>| -> Result<NavlogWriter<W>, RecordError> {
+    let mut w: Option<RecordWriter<W>> = None;
+    let open = |out: &mut Option<RecordOut<W>>,
+                text: Option<&str>|
+     -> Result<RecordWriter<W>, RecordError> {
         let metadata = match text {
             Some(t) => format!("# recorded live; the daemon's effective settings:\n{t}"),
             None => "recorded live (no daemon settings received)".to_owned(),
@@ -323,7 +370,13 @@ pub fn record<W: Write>(
         let out = out
             .take()
             .ok_or(RecordError::WaitSet("writer opened twice".into()))?;
-        Ok(NavlogWriter::new(out, header)?)
+        Ok(match out {
+            RecordOut::Navlog(out) => RecordWriter::Navlog(NavlogWriter::new(out, header)?),
+            RecordOut::Mcap(m) => {
+                m.header(&header)?;
+                RecordWriter::Mcap(m)
+            }
+        })
     };
     let waitset = WaitSetBuilder::new()
         .signal_handling_mode(SignalHandlingMode::Disabled)
@@ -421,6 +474,8 @@ pub enum RecordError {
     Transport(#[from] TransportError),
     #[error(transparent)]
     Write(#[from] msgs::navlog::WriteError),
+    #[error(transparent)]
+    Mcap(#[from] polarnav_foxglove::McapError),
     #[error("iceoryx2 waitset: {0}")]
     WaitSet(String),
 }

@@ -6,6 +6,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
+use polarnav_foxglove::{AidSource, McapFile};
 use sensor_replay::interop::{self, AidSynthesis, ImportError};
 use sensor_replay::scenario::Scenario;
 use sensor_replay::simulate::{self, SimOptions};
@@ -82,6 +83,23 @@ enum Cmd {
         #[arg(long)]
         duration: Option<f64>,
     },
+    /// Live view in Foxglove: serve the daemon's solution and health over the
+    /// Foxglove WebSocket protocol (open Foxglove, connect to ws://HOST:PORT).
+    /// Only a subscriber of the daemon's outputs: it never slows the daemon.
+    View {
+        /// iceoryx2 service prefix (the daemon's `prefix`; same rule).
+        #[arg(long, default_value = msgs::service::DEFAULT_PREFIX, value_parser = prefix_arg)]
+        prefix: String,
+        /// Address to listen on (0.0.0.0 for every interface of the flight computer).
+        #[arg(long, default_value = "127.0.0.1")]
+        host: String,
+        /// TCP port (Foxglove's default is 8765; 0 picks a free one).
+        #[arg(long, default_value_t = 8765)]
+        port: u16,
+        /// Stop after this many seconds.
+        #[arg(long)]
+        duration: Option<f64>,
+    },
     /// Export a navlog's truth (and more) to text formats.
     Export {
         log: PathBuf,
@@ -93,6 +111,11 @@ enum Cmd {
         /// Write KF-GINS imu.txt and truth.nav into this directory.
         #[arg(long)]
         kfgins: Option<PathBuf>,
+        /// Write every record as an MCAP file for Foxglove and PlotJuggler
+        /// (inputs, solutions, status, aid health from status, frame
+        /// switches, truth); the log is streamed, not loaded.
+        #[arg(long)]
+        mcap: Option<PathBuf>,
     },
     /// Import KF-GINS text logs (IMU increments FRD, NED truth).
     ImportKfgins {
@@ -320,18 +343,26 @@ fn run(cli: Cli) -> Result<(), Fail> {
             duration,
         } => {
             let stop = stop_flag()?;
-            let f = File::create(&out)
-                .map_err(|e| Fail(1, format!("{}: cannot create: {e}", out.display())))?;
+            // The format by the extension: `.mcap` writes MCAP, anything else a navlog.
+            let target = if is_mcap(&out) {
+                let m = McapFile::create(&out, AidSource::Status)
+                    .map_err(|e| Fail(1, e.to_string()))?;
+                sensor_replay::live::RecordOut::Mcap(Box::new(m))
+            } else {
+                let f = File::create(&out)
+                    .map_err(|e| Fail(1, format!("{}: cannot create: {e}", out.display())))?;
+                // A large buffer for few write calls; the recorder flushes it
+                // every RECORD_FLUSH_PERIOD, which bounds the loss to a kill.
+                sensor_replay::live::RecordOut::Navlog(BufWriter::with_capacity(1 << 20, f))
+            };
             let cfg = polarnav_ipc::TransportConfig::new(&prefix);
             eprintln!(
                 "record: {prefix}/... -> {} (stop with Ctrl-C)",
                 out.display()
             );
-            // A large buffer for few write calls; the recorder flushes it
-            // every RECORD_FLUSH_PERIOD, which bounds the loss to a kill.
             let n = sensor_replay::live::record(
                 &cfg,
-                BufWriter::with_capacity(1 << 20, f),
+                target,
                 &stop,
                 duration.map(std::time::Duration::from_secs_f64),
             )
@@ -353,6 +384,37 @@ fn run(cli: Cli) -> Result<(), Fail> {
                 duration.map(std::time::Duration::from_secs_f64),
             )
             .map_err(|e| Fail(1, e.to_string()))
+        }
+        Cmd::View {
+            prefix,
+            host,
+            port,
+            duration,
+        } => {
+            if let Some(d) = duration
+                && !(d.is_finite() && d >= 0.0 && d < 1e9)
+            {
+                return Err(bad(format!("--duration: expected seconds ≥ 0, got {d}")));
+            }
+            let stop = stop_flag()?;
+            let cfg = polarnav_ipc::TransportConfig::new(&prefix);
+            let n = sensor_replay::view::view(
+                &cfg,
+                &host,
+                port,
+                &stop,
+                duration.map(std::time::Duration::from_secs_f64),
+                |port| {
+                    // A test or a script reads the port from this line.
+                    eprintln!("view: serving {prefix}/solution and {prefix}/status on ws://{host}:{port} (Foxglove WebSocket)");
+                },
+            )
+            .map_err(|e| Fail(1, e.to_string()))?;
+            println!(
+                "view: {} solutions and {} status forwarded, {} solutions missed",
+                n.solutions, n.status, n.solution_gaps
+            );
+            Ok(())
         }
         Cmd::ImportKfgins {
             imu,
@@ -381,7 +443,15 @@ fn run(cli: Cli) -> Result<(), Fail> {
             truth_csv,
             solution_csv,
             kfgins,
+            mcap,
         } => {
+            if let Some(p) = &mcap {
+                let n = export_mcap(&log, p)?;
+                eprintln!("export: {n} records to {}", p.display());
+                if truth_csv.is_none() && solution_csv.is_none() && kfgins.is_none() {
+                    return Ok(());
+                }
+            }
             let c = logfile::load(&log).map_err(|e| bad(e.to_string()))?;
             if !c.report.is_clean() {
                 eprintln!("warning: {}: {}", log.display(), c.report);
@@ -506,6 +576,36 @@ fn run(cli: Cli) -> Result<(), Fail> {
 }
 
 /// SIGINT/SIGTERM set the returned flag (the loops finish their cycle and exit cleanly).
+/// An output named `*.mcap` is written as MCAP.
+fn is_mcap(p: &std::path::Path) -> bool {
+    p.extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("mcap"))
+}
+
+/// Streams a navlog into an MCAP file, record by record (bounded memory);
+/// a damaged record costs itself, as in every reader of the project.
+fn export_mcap(log: &std::path::Path, out: &std::path::Path) -> Result<u64, Fail> {
+    let f = File::open(log).map_err(|e| Fail(2, format!("{}: cannot open: {e}", log.display())))?;
+    let mut reader = msgs::navlog::NavlogReader::new(std::io::BufReader::with_capacity(1 << 20, f));
+    let mut m = McapFile::create(out, AidSource::Status).map_err(|e| Fail(1, e.to_string()))?;
+    let mut n = 0u64;
+    while let Some(r) = reader
+        .next_record()
+        .map_err(|e| Fail(2, format!("{}: {e}", log.display())))?
+    {
+        match &r {
+            msgs::navlog::Record::Header(h) => m.header(h).map_err(|e| Fail(1, e.to_string()))?,
+            other => m.channels().record(other),
+        }
+        n += 1;
+    }
+    if !reader.report().is_clean() {
+        eprintln!("warning: {}: {}", log.display(), reader.report());
+    }
+    m.close().map_err(|e| Fail(1, e.to_string()))?;
+    Ok(n)
+}
+
 fn stop_flag() -> Result<std::sync::Arc<std::sync::atomic::AtomicBool>, Fail> {
     let stop = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
     let flag = std::sync::Arc::clone(&stop);

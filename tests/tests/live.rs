@@ -12,25 +12,9 @@ use polarnav::session;
 use polarnav::solution_csv;
 use polarnav_config::{CliOverrides, ConfigFile, effective};
 use polarnav_ipc::{TransportConfig, remove_isolated};
-use polarnav_tests::repo;
+use polarnav_tests::{bin, python, repo};
 use sensor_replay::scenario::Scenario;
 use sensor_replay::simulate::{SimOptions, simulate};
-
-/// A binary of the workspace, next to this test's executable directory.
-fn bin(name: &str) -> PathBuf {
-    let exe = std::env::current_exe().expect("test executable");
-    let dir = exe
-        .parent()
-        .and_then(Path::parent)
-        .expect("target directory");
-    let p = dir.join(name);
-    assert!(
-        p.exists(),
-        "{} is not built: run the workspace tests (cargo test --workspace)",
-        p.display()
-    );
-    p
-}
 
 struct Env {
     dir: PathBuf,
@@ -741,56 +725,11 @@ fn units_order_after_a_daemon_that_is_ready_without_input() {
     );
 }
 
-/// A Python interpreter with the `iceoryx2` 0.10 package from PyPI: the system
-/// `python3` when it has it, else a virtual environment under the target
-/// directory, created once (network access to PyPI needed the first time).
-fn python_with_iceoryx2() -> PathBuf {
-    // Tests run in parallel threads: create the environment once.
-    static ONCE: std::sync::Mutex<()> = std::sync::Mutex::new(());
-    let _guard = ONCE.lock().unwrap_or_else(|e| e.into_inner());
-    let check = |py: &Path| {
-        Command::new(py)
-            .args([
-                "-c",
-                "import importlib.metadata as m, iceoryx2; assert m.version('iceoryx2').startswith('0.10.')",
-            ])
-            .stderr(Stdio::null())
-            .status()
-            .is_ok_and(|s| s.success())
-    };
-    let system = PathBuf::from("python3");
-    if check(&system) {
-        return system;
-    }
-    let venv = bin("nav-daemon")
-        .parent()
-        .expect("target dir")
-        .join("python-iceoryx2");
-    let py = venv.join("bin/python3");
-    if !check(&py) {
-        let ok = Command::new("python3")
-            .args(["-m", "venv"])
-            .arg(&venv)
-            .status()
-            .is_ok_and(|s| s.success())
-            && Command::new(&py)
-                .args(["-m", "pip", "install", "--quiet", "iceoryx2==0.10.0"])
-                .status()
-                .is_ok_and(|s| s.success());
-        assert!(
-            ok && check(&py),
-            "could not provide Python with iceoryx2 0.10 (python3 -m venv {} && pip install iceoryx2==0.10.0)",
-            venv.display()
-        );
-    }
-    py
-}
-
 /// The ctypes mirror in examples/python has exactly the Rust layout.
 #[test]
 fn python_ctypes_mirror_has_the_rust_layout() {
     use std::mem::{offset_of, size_of};
-    let py = python_with_iceoryx2();
+    let py = python();
     let out = Command::new(&py)
         .current_dir(repo("examples/python"))
         .args([
@@ -850,7 +789,7 @@ fn python_ctypes_mirror_has_the_rust_layout() {
 /// daemon's solutions and status; every solution it receives equals `batch`.
 #[test]
 fn python_consumer_receives_solution_and_status() {
-    let py = python_with_iceoryx2();
+    let py = python();
     let env = Env::new("python");
     let log = short_log(&env.dir, 10.0);
     let mut daemon = env.start_daemon("daemon", None);
@@ -1829,5 +1768,196 @@ fn service_user_model_keeps_other_users_out() {
             .iter()
             .all(|f| f.contains(".global_mgmt ") && f.ends_with(" 100666")),
         "{open_to_others:?}"
+    );
+}
+
+/// The port a `sensor-replay view` listens on, from its start line.
+fn view_port(env: &Env, log: &str) -> u16 {
+    env.wait_for(log, "view: serving", Duration::from_secs(20));
+    let err = std::fs::read_to_string(env.dir.join(format!("{log}.err"))).expect("view log");
+    let line = err
+        .lines()
+        .find(|l| l.contains("view: serving"))
+        .expect("start line");
+    line.rsplit(':')
+        .next()
+        .and_then(|p| p.split_whitespace().next())
+        .and_then(|p| p.parse().ok())
+        .unwrap_or_else(|| panic!("no port in {line:?}"))
+}
+
+/// Runs `tests/python/check_mcap.py` (the reference reader, PyPI `mcap`)
+/// on `mcap`, against `csv` when given; returns its per-topic counts.
+fn check_mcap(mcap: &Path, csv: Option<&Path>, require: &[&str]) -> serde_json::Value {
+    let mut c = Command::new(python());
+    c.arg(repo("tests/python/check_mcap.py")).arg(mcap);
+    if let Some(csv) = csv {
+        c.arg(csv);
+    }
+    let out = c.arg("--require").args(require).output().expect("python");
+    assert!(
+        out.status.success(),
+        "the reference reader refused {}: {}",
+        mcap.display(),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    serde_json::from_slice(&out.stdout).expect("check_mcap's summary")
+}
+
+/// The live view serves the daemon's solutions over the Foxglove WebSocket
+/// protocol: a client that negotiates the protocol's subprotocol and
+/// subscribes to `/solution` receives, while a replay runs, the solutions the
+/// flight recorder writes, value for value. An MCAP recorder beside it and
+/// the export of the navlog recording are read by the reference reader,
+/// with one `/solution` per recorded solution and every value equal to the
+/// exported CSV.
+#[test]
+fn foxglove_view_serves_the_recorded_solutions_and_mcap_recordings_read_back() {
+    let env = Env::new("fox");
+    let log = short_log(&env.dir, 40.0);
+    let _daemon = env.start_daemon("daemon", None);
+    let rec_path = env.dir.join("rec.navlog");
+    let mut recorder = env.start_recorder(&rec_path);
+    let mcap_rec = env.dir.join("rec.mcap");
+    let mut mcap_recorder = env
+        .command("sensor-replay", "record-mcap")
+        .args(["record", "--prefix", &env.cfg.prefix, "--out"])
+        .arg(&mcap_rec)
+        .spawn()
+        .map(Proc)
+        .expect("mcap recorder");
+    env.wait_for("record-mcap", "subscribed", Duration::from_secs(20));
+    let mut view = env
+        .command("sensor-replay", "view")
+        .args(["view", "--prefix", &env.cfg.prefix, "--port", "0"])
+        .spawn()
+        .map(Proc)
+        .expect("view");
+    let port = view_port(&env, "view");
+    let got = env.dir.join("ws.jsonl");
+    let mut client = env
+        .command_for(&python(), "client")
+        .arg(repo("tests/python/foxglove_client.py"))
+        .arg(format!("ws://127.0.0.1:{port}"))
+        .args(["/solution"])
+        .arg(&got)
+        .args(["60", "3"])
+        .spawn()
+        .map(Proc)
+        .expect("client");
+    // The client is subscribed before the flight starts.
+    env.wait_for("client", "subscribed to /solution", Duration::from_secs(60));
+    let mut play = env.start_play("play", &log, "10");
+    assert_eq!(wait(&mut play, Duration::from_secs(60)), Some(0), "play");
+    assert_eq!(
+        wait(&mut client, Duration::from_secs(80)),
+        Some(0),
+        "client"
+    );
+    std::thread::sleep(Duration::from_millis(300));
+    assert_eq!(terminate(&mut recorder, Duration::from_secs(10)), Some(0));
+    assert_eq!(
+        terminate(&mut mcap_recorder, Duration::from_secs(10)),
+        Some(0)
+    );
+    assert_eq!(terminate(&mut view, Duration::from_secs(10)), Some(0));
+
+    let summary: serde_json::Value = serde_json::from_str(
+        std::fs::read_to_string(env.dir.join("client.out"))
+            .expect("client summary")
+            .trim(),
+    )
+    .expect("client summary JSON");
+    let topics = summary["topics"].as_array().expect("topics");
+    for t in ["/solution", "/solution/fix", "/status", "/events/switch"] {
+        assert!(
+            topics.iter().any(|x| x == t),
+            "{t} not advertised: {topics:?}"
+        );
+    }
+    let (records, report) = msgs::navlog::read_all(&std::fs::read(&rec_path).expect("recording"));
+    assert!(report.is_clean(), "{report}");
+    let recorded = recorded_solutions(&records);
+    assert!(
+        recorded.len() > 7000,
+        "{} solutions recorded",
+        recorded.len()
+    );
+    let by_t: std::collections::HashMap<u64, &Solution> =
+        recorded.iter().map(|s| (s.t_ns, s)).collect();
+    let received: Vec<serde_json::Value> = std::fs::read_to_string(&got)
+        .expect("client messages")
+        .lines()
+        .map(|l| serde_json::from_str(l).expect("JSON line"))
+        .collect();
+    // Every solution of the flight reached the client (it subscribed before
+    // the replay began), each equal to the recorded one, in order.
+    assert_eq!(
+        received.len(),
+        recorded.len(),
+        "the client received {} solutions, the recorder {}",
+        received.len(),
+        recorded.len()
+    );
+    let mut prev = 0;
+    for (k, m) in received.iter().enumerate() {
+        let t = m["msg"]["t_ns"].as_u64().expect("t_ns");
+        assert_eq!(m["log_time"].as_u64(), Some(t), "message {k}: log time");
+        assert!(t > prev, "message {k}: out of order");
+        prev = t;
+        let want = by_t
+            .get(&t)
+            .unwrap_or_else(|| panic!("message {k}: {t} ns was not recorded"));
+        assert_eq!(
+            m["msg"],
+            polarnav_foxglove::json_of(*want),
+            "message {k} ({t} ns) differs from the recorded solution"
+        );
+    }
+    let err = std::fs::read_to_string(env.dir.join("view.out")).expect("view out");
+    assert!(err.contains(" 0 solutions missed"), "{err}");
+
+    // The MCAP recorder: the reference reader, one /solution per solution
+    // the navlog recorder has.
+    let counts = check_mcap(
+        &mcap_rec,
+        None,
+        &[
+            "/imu",
+            "/srs",
+            "/cns",
+            "/baro",
+            "/solution",
+            "/solution/fix",
+            "/status",
+        ],
+    );
+    assert_eq!(
+        counts["counts"]["/solution"].as_u64(),
+        Some(recorded.len() as u64),
+        "{counts}"
+    );
+    // The export of the navlog recording, against its solution CSV.
+    let exported = env.dir.join("export.mcap");
+    let csv = env.dir.join("export.csv");
+    let st = Command::new(bin("sensor-replay"))
+        .arg("export")
+        .arg(&rec_path)
+        .arg("--mcap")
+        .arg(&exported)
+        .arg("--solution-csv")
+        .arg(&csv)
+        .status()
+        .expect("export");
+    assert!(st.success());
+    let counts = check_mcap(
+        &exported,
+        Some(&csv),
+        &["/solution", "/solution/fix", "/status"],
+    );
+    assert_eq!(
+        counts["solutions_checked"].as_u64(),
+        Some(recorded.len() as u64),
+        "{counts}"
     );
 }

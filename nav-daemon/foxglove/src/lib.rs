@@ -503,6 +503,16 @@ impl McapFile {
             })
     }
 
+    /// Ends the current chunk and writes everything so far to the file (a
+    /// recorder killed after this loses nothing before it; a reader without
+    /// the summary section still reads every complete chunk).
+    pub fn flush(&self) -> Result<(), McapError> {
+        self.writer.flush().map_err(|source| McapError::Writer {
+            path: self.path.clone(),
+            source,
+        })
+    }
+
     /// Writes the summary and closes the file.
     pub fn close(self) -> Result<(), McapError> {
         let path = self.path;
