@@ -392,7 +392,7 @@ fn run(cli: Cli) -> Result<(), Fail> {
             duration,
         } => {
             if let Some(d) = duration
-                && !(d.is_finite() && d >= 0.0 && d < 1e9)
+                && !(0.0..1e9).contains(&d)
             {
                 return Err(bad(format!("--duration: expected seconds ≥ 0, got {d}")));
             }
