@@ -324,11 +324,13 @@ pub enum Event {
         t_ns: u64,
     },
     /// An aid rejected for `[aids] reset_after_s` while consistent reset the
-    /// states it observes: the reset as published and the tests' findings.
+    /// states it observes: the reset as published, the tests' findings, and
+    /// the bias model the process noise was widened to if this reset did.
     AidReset {
         stream: Stream,
         reset: crate::navigator::ResetRecord,
         verdict: crate::navigator::StreakVerdict,
+        widened: Option<crate::settings::BiasModel>,
     },
 }
 
@@ -1116,6 +1118,7 @@ impl Session {
                 stream: a.stream(),
                 reset: *n.last_reset(),
                 verdict: *verdict,
+                widened: n.last_aid_reset_widened().copied(),
             });
         }
         self.check_repairs(sink);

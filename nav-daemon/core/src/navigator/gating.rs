@@ -11,7 +11,7 @@ use crate::aids::{self, AidError, Measurement};
 use crate::error_model::idx;
 use crate::filter;
 use crate::mech::AnyNav;
-use crate::settings::{AidSet, AidSettings, SensorGrade};
+use crate::settings::{AidSet, AidSettings, BiasModel, SensorGrade};
 
 use super::recovery::{Streak, StreakVerdict};
 use super::{AidOutcome, InputRejection, Navigator, secs_to_ns};
@@ -33,6 +33,9 @@ pub(super) struct AidGate {
     /// Aid resets so far (SRS, CNS, baro) and the verdict of the last one.
     pub(super) resets: [u32; 3],
     pub(super) last_reset_verdict: Option<StreakVerdict>,
+    /// The bias model the last reset widened the process noise to (None if
+    /// it was already at least that wide).
+    pub(super) last_reset_widened: Option<BiasModel>,
     /// The state was reset to this aid (index) and it has not been fused since.
     pub(super) reset_pending_flag: Option<usize>,
 }
@@ -50,6 +53,7 @@ impl AidGate {
             reset_after_ns: secs_to_ns(a.reset_after_s),
             resets: [0; 3],
             last_reset_verdict: None,
+            last_reset_widened: None,
             reset_pending_flag: None,
         }
     }
@@ -262,7 +266,8 @@ impl Navigator {
             return;
         };
         self.feed_back(t_ns, &out.dx);
-        self.err.noise.widen_biases(&bound);
+        let widened = self.err.noise.widen_biases(&bound);
+        self.aids.last_reset_widened = widened.then_some(bound);
         let k = which.index();
         self.aids.resets[k] += 1;
         self.aids.last_reset_verdict = Some(*verdict);
