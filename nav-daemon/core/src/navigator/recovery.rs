@@ -52,11 +52,14 @@
 //!   keeps wandering, and the filter leaves the gate again (5–7 resets per
 //!   900 s flight before). So the reset also raises the bias Gauss–Markov
 //!   processes of the process noise to that widest model, for the rest of
-//!   the run (a re-initialization or restart goes back to the configured
-//!   model). The reset's evidence is what justifies it: a consistent aid
-//!   rejected for `reset_after_s`. A filter whose model is right never
-//!   resets, and an aid fault does not pass the tests above, so neither
-//!   ever gets the wider model.
+//!   the run (a re-initialization or a restart, also one resumed from a
+//!   checkpoint, goes back to the configured model). The reset's evidence
+//!   is what justifies it: a consistent aid rejected for `reset_after_s`.
+//!   The filter with the right preset does not reset on the MEMS flight
+//!   or in the consistency runs, and no fault of the fault campaign resets
+//!   (all tested), so none of them gets the wider model. A spurious reset
+//!   of a filter whose model was right would cost it a more cautious bias
+//!   model, not divergence.
 //!
 //! Fixed-size sums: nothing here allocates.
 
