@@ -116,12 +116,13 @@ pub fn log_event(log: &str, e: &Event) {
             stream,
             reset,
             verdict,
+            widened,
         } => {
             let norm = |d: &[f64; 3]| d.iter().map(|x| x * x).sum::<f64>().sqrt();
             tracing::warn!(
                 t_ns = reset.t_ns,
                 count = reset.count,
-                "{log}: {} rejected for {:.1} s ({} samples) while consistent (residual χ²/ν {:.2} ≤ {:.2}, step from last fused {}): reset to it, |Δr| {:.2} m, |Δv| {:.3} m/s, Δψ {:.4}°, covariance of the unobserved states ×{:.3e}",
+                "{log}: {} rejected for {:.1} s ({} samples) while consistent (residual χ²/ν {:.2} ≤ {:.2}, step from last fused {}): reset to it, |Δr| {:.2} m, |Δv| {:.3} m/s, Δψ {:.4}°, covariance of the unobserved states ×{:.3e}{}",
                 stream.name(),
                 verdict.duration_s,
                 verdict.samples,
@@ -134,7 +135,14 @@ pub fn log_event(log: &str, e: &Event) {
                 norm(&reset.delta_pos_e_m),
                 norm(&reset.delta_vel_e_mps),
                 reset.delta_heading_rad.to_degrees(),
-                verdict.covariance_inflation.min(1e8)
+                verdict.covariance_inflation.min(1e8),
+                widened.map_or(String::new(), |b| format!(
+                    "; bias process noise widened for the rest of the run to gyro {:.1} °/h, τ {:.0} s, accelerometer {:.0} µg, τ {:.0} s",
+                    b.gyro_sigma.to_degrees() * 3600.0,
+                    b.gyro_tau_s,
+                    b.accel_sigma / (1e-6 * polarnav::earth::G0),
+                    b.accel_tau_s
+                ))
             )
         }
     }

@@ -25,6 +25,24 @@ pub struct ProcessNoise {
 }
 
 impl ProcessNoise {
+    /// Widens the bias processes to at least `b`: σ raised to its σ and, where
+    /// raised, τ shortened to at most its τ (the process noise 2σ²/τ only
+    /// grows). True if anything changed.
+    pub fn widen_biases(&mut self, b: &crate::settings::BiasModel) -> bool {
+        let mut changed = false;
+        if self.gyro_bias_sigma < b.gyro_sigma {
+            self.gyro_bias_sigma = b.gyro_sigma;
+            self.gyro_bias_tau_s = self.gyro_bias_tau_s.min(b.gyro_tau_s);
+            changed = true;
+        }
+        if self.accel_bias_sigma < b.accel_sigma {
+            self.accel_bias_sigma = b.accel_sigma;
+            self.accel_bias_tau_s = self.accel_bias_tau_s.min(b.accel_tau_s);
+            changed = true;
+        }
+        changed
+    }
+
     /// Adds the bias Gauss–Markov decay −1/τ to F.
     pub fn add_bias_dynamics(&self, f: &mut Mat15) {
         for i in 0..3 {
@@ -341,5 +359,33 @@ mod tests {
         // The estimate's decay factor is the mean's: e^(−Δt/τ).
         assert!((nz.bias_decay(dt).0 - a).abs() < 1e-15);
         assert!((nz.bias_decay(dt).1 - 1.0).abs() < f64::EPSILON);
+    }
+
+    /// The widest bias model is the mems grade's (the widest preset), and
+    /// widening only ever grows the bias process noise: a navigation-grade
+    /// model takes its σ and τ, a constant-bias model (τ = ∞) gets a finite
+    /// τ, and a model already wider is left alone.
+    #[test]
+    #[allow(clippy::float_cmp)] // copies of the same values: exact
+    fn widening_the_biases_only_grows_the_process_noise() {
+        use crate::settings::SensorGrade;
+        let b = SensorGrade::widest_bias_model();
+        let dph = std::f64::consts::PI / 180.0 / 3600.0;
+        assert!((b.gyro_sigma - 50.0 * dph).abs() < 1e-18);
+        assert!((b.accel_sigma - 2000e-6 * crate::earth::G0).abs() < 1e-15);
+        assert_eq!((b.gyro_tau_s, b.accel_tau_s), (600.0, 600.0));
+        let mut n = noise();
+        let q0 = n.density();
+        assert!(n.widen_biases(&b));
+        let q1 = n.density();
+        assert_eq!(n.gyro_bias_sigma, b.gyro_sigma);
+        assert_eq!(n.accel_bias_tau_s, 600.0);
+        for i in 0..15 {
+            assert!(q1[i] >= q0[i], "state {i}: {} < {}", q1[i], q0[i]);
+        }
+        assert!(q1[idx::BA] > 0.0 && q0[idx::BA] == 0.0);
+        let wider = n;
+        assert!(!n.widen_biases(&b));
+        assert_eq!(n, wider);
     }
 }

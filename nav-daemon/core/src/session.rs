@@ -335,11 +335,13 @@ pub enum Event {
         status: AidStatus,
     },
     /// An aid rejected for `[aids] reset_after_s` while consistent reset the
-    /// states it observes: the reset as published and the tests' findings.
+    /// states it observes: the reset as published, the tests' findings, and
+    /// the bias model the process noise was widened to if this reset did.
     AidReset {
         stream: Stream,
         reset: crate::navigator::ResetRecord,
         verdict: crate::navigator::StreakVerdict,
+        widened: Option<crate::settings::BiasModel>,
     },
 }
 
@@ -1140,6 +1142,7 @@ impl Session {
                 stream: a.stream(),
                 reset: *n.last_reset(),
                 verdict: *verdict,
+                widened: n.last_aid_reset_widened().copied(),
             });
         }
         self.check_repairs(sink);

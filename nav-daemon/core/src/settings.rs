@@ -269,6 +269,34 @@ impl SensorGrade {
         ]
     }
 
+    /// The widest bias model of any grade: the largest bias-instability σ
+    /// and the shortest correlation time among the presets, as a Gauss–Markov
+    /// process in SI units (gyro rad/s, accelerometer m/s²). It bounds the
+    /// biases of every IMU the presets describe whatever preset was chosen;
+    /// an aid reset falls back to it (`navigator::recovery`).
+    pub fn widest_bias_model() -> BiasModel {
+        let dph = std::f64::consts::PI / 180.0 / 3600.0;
+        let ug = 1e-6 * crate::earth::G0;
+        let mut m = BiasModel {
+            gyro_sigma: 0.0,
+            gyro_tau_s: f64::INFINITY,
+            accel_sigma: 0.0,
+            accel_tau_s: f64::INFINITY,
+        };
+        for g in Self::ALL {
+            for (k, v) in g.values() {
+                match k {
+                    "gyro_bias_instability_dph" => m.gyro_sigma = m.gyro_sigma.max(v * dph),
+                    "gyro_bias_tau_s" => m.gyro_tau_s = m.gyro_tau_s.min(v),
+                    "accel_bias_instability_ug" => m.accel_sigma = m.accel_sigma.max(v * ug),
+                    "accel_bias_tau_s" => m.accel_tau_s = m.accel_tau_s.min(v),
+                    _ => {}
+                }
+            }
+        }
+        m
+    }
+
     /// `base` with this grade's noise model (other keys unchanged).
     pub fn apply(self, base: &FilterSettings) -> FilterSettings {
         let mut f = base.clone();
@@ -278,6 +306,16 @@ impl SensorGrade {
         f.preset = Some(self);
         f
     }
+}
+
+/// A bias model as first-order Gauss–Markov processes: stationary σ (gyro
+/// rad/s, accelerometer m/s²) and correlation time τ (s).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BiasModel {
+    pub gyro_sigma: f64,
+    pub gyro_tau_s: f64,
+    pub accel_sigma: f64,
+    pub accel_tau_s: f64,
 }
 
 impl std::fmt::Display for SensorGrade {

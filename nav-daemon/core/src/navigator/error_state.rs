@@ -27,7 +27,7 @@ pub(super) struct ErrorState {
     /// Time and body Δv accumulated since the last propagation.
     pub(super) acc_dt: f64,
     pub(super) acc_dv_b: Vector3<f64>,
-    noise: ProcessNoise,
+    pub(super) noise: ProcessNoise,
     interval_s: f64,
     bias_sigma: BiasSigma,
     /// Covariance repairs so far.

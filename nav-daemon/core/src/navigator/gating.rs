@@ -11,7 +11,7 @@ use crate::aids::{self, AidError, Measurement};
 use crate::error_model::idx;
 use crate::filter;
 use crate::mech::AnyNav;
-use crate::settings::{AidSet, AidSettings};
+use crate::settings::{AidSet, AidSettings, BiasModel, SensorGrade};
 
 use super::recovery::{Streak, StreakVerdict};
 use super::{AidOutcome, InputRejection, Navigator, secs_to_ns};
@@ -33,6 +33,9 @@ pub(super) struct AidGate {
     /// Aid resets so far (SRS, CNS, baro) and the verdict of the last one.
     pub(super) resets: [u32; 3],
     pub(super) last_reset_verdict: Option<StreakVerdict>,
+    /// The bias model the last reset widened the process noise to (None if
+    /// it was already at least that wide).
+    pub(super) last_reset_widened: Option<BiasModel>,
     /// The state was reset to this aid (index) and it has not been fused since.
     pub(super) reset_pending_flag: Option<usize>,
 }
@@ -50,6 +53,7 @@ impl AidGate {
             reset_after_ns: secs_to_ns(a.reset_after_s),
             resets: [0; 3],
             last_reset_verdict: None,
+            last_reset_widened: None,
             reset_pending_flag: None,
         }
     }
@@ -203,7 +207,12 @@ impl Navigator {
     /// Resets the states the aid observes to its measurement `m` with its σ:
     /// the covariance of the other states is scaled by the measured
     /// inflation κ of H P Hᵀ (P ← D P D, D = √κ off the observed block, which keeps P
-    /// positive definite), the observed states' is widened along the
+    /// positive definite), the bias variances are raised to at least the
+    /// stationary variance of the widest grade's bias model and the bias
+    /// process noise to that model for the rest of the run (see
+    /// [`super::recovery`]: κ cannot say how the misfit is shared among the
+    /// unobserved states, and a wrong bias model is not a one-time error),
+    /// the observed states' is widened along the
     /// measurement (Gᵀ Λ G with G = H on the observed block, Λ = 10⁴ (z² +
     /// S) per component, so their prior no longer counts), and the
     /// measurement is fused without a gate. The step is published as a
@@ -232,6 +241,15 @@ impl Navigator {
                 p[(i, j)] *= d[i] * d[j];
             }
         }
+        // Raising a diagonal element adds a positive semi-definite matrix:
+        // P stays positive definite, and the bias states' correlations with
+        // the rest shrink instead of carrying the wrong model's proportions.
+        let bound = SensorGrade::widest_bias_model();
+        for i in 0..3 {
+            let (bg, ba) = (idx::BG + i, idx::BA + i);
+            p[(bg, bg)] = p[(bg, bg)].max(bound.gyro_sigma.powi(2));
+            p[(ba, ba)] = p[(ba, ba)].max(bound.accel_sigma.powi(2));
+        }
         let mut g = SMatrix::<f64, M, 15>::zeros();
         g.fixed_view_mut::<M, 3>(0, o)
             .copy_from(&m.h.fixed_view::<M, 3>(0, o));
@@ -248,6 +266,8 @@ impl Navigator {
             return;
         };
         self.feed_back(t_ns, &out.dx);
+        let widened = self.err.noise.widen_biases(&bound);
+        self.aids.last_reset_widened = widened.then_some(bound);
         let k = which.index();
         self.aids.resets[k] += 1;
         self.aids.last_reset_verdict = Some(*verdict);

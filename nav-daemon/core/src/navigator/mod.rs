@@ -416,6 +416,12 @@ impl Navigator {
         self.aids.last_reset_verdict.as_ref()
     }
 
+    /// The bias model the last reset to an aid widened the process noise
+    /// to; None if it did not (no reset yet, or one before had already).
+    pub fn last_aid_reset_widened(&self) -> Option<&crate::settings::BiasModel> {
+        self.aids.last_reset_widened.as_ref()
+    }
+
     /// IMU gaps coasted and the sensor time coasted (ns).
     pub fn gaps(&self) -> (u64, u64) {
         (self.imu_gap_count, self.coasted_ns)

@@ -31,6 +31,36 @@
 //! be far larger. The reset scales the covariance of the states the aid
 //! does not observe by κ.
 //!
+//! κ alone does not recover a filter whose noise model is wrong, for two
+//! reasons, and the reset does two more things about them:
+//!
+//! - κ is one number for the aggregate of H P Hᵀ, which for a velocity aid
+//!   is mostly the velocity block itself; it cannot say how the misfit is
+//!   shared among attitude, gyro bias and accelerometer bias, and a
+//!   uniform scale keeps the wrong model's proportions. A navigation-grade
+//!   preset on a MEMS IMU under-states the gyro bias σ by 5000× (0.01 °/h
+//!   against 50 °/h) but the heading σ by far less: after a κ of 10–300 the
+//!   filter explained the tilt drift of the uncompensated gyro bias with
+//!   the heading, which it drove 1.2 rad off in cruise (seed 3 of the MEMS
+//!   flight; the first turn then made that a 15 m/s velocity error). So the
+//!   bias variances are raised to at least the stationary variance of the
+//!   widest bias model of any sensor grade
+//!   ([`crate::settings::SensorGrade::widest_bias_model`]): a bound that
+//!   does not depend on the preset that was just proven wrong.
+//! - A wrong bias model is not a one-time error. With the preset's bias
+//!   process noise P collapses again within a minute while the true bias
+//!   keeps wandering, and the filter leaves the gate again (5–7 resets per
+//!   900 s flight before). So the reset also raises the bias Gauss–Markov
+//!   processes of the process noise to that widest model, for the rest of
+//!   the run (a re-initialization or a restart, also one resumed from a
+//!   checkpoint, goes back to the configured model). The reset's evidence
+//!   is what justifies it: a consistent aid rejected for `reset_after_s`.
+//!   The filter with the right preset does not reset on the MEMS flight
+//!   or in the consistency runs, and no fault of the fault campaign resets
+//!   (all tested), so none of them gets the wider model. A spurious reset
+//!   of a filter whose model was right would cost it a more cautious bias
+//!   model, not divergence.
+//!
 //! Fixed-size sums: nothing here allocates.
 
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
