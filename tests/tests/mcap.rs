@@ -1,0 +1,134 @@
+//! MCAP from `batch` read by the reference reader (PyPI `mcap`): one
+//! `/solution` per row of the same run's CSV with every value equal, a
+//! schema on every channel, `foxglove.LocationFix` channels that decode, and
+//! the frame switch and aid updates present.
+
+use std::io::BufReader;
+use std::path::Path;
+use std::process::Command;
+
+use nav_daemon::batch::{self, BatchOptions, Output};
+use polarnav_config::ConfigFile;
+use polarnav_foxglove::{AidSource, McapFile};
+use polarnav_tests::{python, repo};
+use sensor_replay::scenario::Scenario;
+use sensor_replay::simulate::{SimOptions, simulate};
+
+#[test]
+fn batch_mcap_has_one_solution_per_csv_row_with_equal_values_and_every_schema() {
+    let dir = std::env::temp_dir().join(format!("polarnav-mcap-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("dir");
+    // paper-sim switches g -> G at 212 s; 260 s of it at 200 Hz.
+    let text = std::fs::read_to_string(repo("config/scenarios/paper-sim.toml"))
+        .expect("scenario")
+        .replace("duration_s = 600.0", "duration_s = 260.0");
+    let s = Scenario::parse(&text, "paper-sim (260 s)").expect("scenario");
+    let log = dir.join("paper.navlog");
+    simulate(
+        &s,
+        &text,
+        SimOptions::default(),
+        std::fs::File::create(&log).expect("create"),
+    )
+    .expect("simulate");
+    let open = || BufReader::new(std::fs::File::open(&log).expect("open"));
+    let csv = dir.join("paper.csv");
+    let a = batch::run(
+        open(),
+        "paper.navlog",
+        std::io::BufWriter::new(std::fs::File::create(&csv).expect("create")),
+        &ConfigFile::defaults(),
+        &BatchOptions::default(),
+    )
+    .expect("batch csv");
+    let mcap = dir.join("paper.mcap");
+    let b = batch::run_to::<_, std::io::Sink>(
+        open(),
+        "paper.navlog",
+        Output::Mcap(Box::new(
+            McapFile::create(&mcap, AidSource::Updates).expect("mcap"),
+        )),
+        &ConfigFile::defaults(),
+        &BatchOptions::default(),
+    )
+    .expect("batch mcap");
+    assert_eq!(a.rows, b.rows);
+    assert_eq!(b.switches.len(), 1);
+
+    let summary = check(
+        &mcap,
+        &csv,
+        &[
+            "/imu",
+            "/srs",
+            "/cns",
+            "/baro",
+            "/init",
+            "/solution",
+            "/solution/fix",
+            "/solution/pose",
+            "/status",
+            "/aid/srs",
+            "/aid/cns",
+            "/aid/baro",
+            "/events/switch",
+            "/truth",
+            "/truth/fix",
+        ],
+    );
+    let counts = &summary["counts"];
+    assert_eq!(summary["solutions_checked"].as_u64(), Some(a.rows));
+    assert_eq!(counts["/solution/fix"].as_u64(), Some(a.rows));
+    assert_eq!(counts["/events/switch"].as_u64(), Some(1));
+    // Every aid sample that reached the gate has its update: fused + gate-rejected.
+    let st = &b.status;
+    for (topic, c) in [
+        ("/aid/srs", &st.srs),
+        ("/aid/cns", &st.cns),
+        ("/aid/baro", &st.baro),
+    ] {
+        assert_eq!(
+            counts[topic].as_u64(),
+            Some(c.accepted + c.rejected_gate),
+            "{topic}: {c:?}"
+        );
+    }
+    // Status once per second of sensor time, and a last one at the end.
+    let status = counts["/status"].as_u64().expect("status");
+    assert!((260..=262).contains(&status), "{status} status messages");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+/// A file that is not MCAP is refused by the reader: the checker can fail.
+#[test]
+fn the_reference_reader_check_refuses_a_damaged_file() {
+    let dir = std::env::temp_dir().join(format!("polarnav-mcap-bad-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("dir");
+    let bad = dir.join("bad.mcap");
+    std::fs::write(&bad, b"\x89MCAP0\r\n not really").expect("write");
+    let out = Command::new(python())
+        .arg(repo("tests/python/check_mcap.py"))
+        .arg(&bad)
+        .output()
+        .expect("python");
+    assert!(!out.status.success());
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+fn check(mcap: &Path, csv: &Path, require: &[&str]) -> serde_json::Value {
+    let out = Command::new(python())
+        .arg(repo("tests/python/check_mcap.py"))
+        .arg(mcap)
+        .arg(csv)
+        .arg("--require")
+        .args(require)
+        .output()
+        .expect("python");
+    assert!(
+        out.status.success(),
+        "the reference reader refused {}: {}",
+        mcap.display(),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    serde_json::from_slice(&out.stdout).expect("summary")
+}
