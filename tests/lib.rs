@@ -112,6 +112,38 @@ pub fn python() -> PathBuf {
     py
 }
 
+/// Runs `tests/python/check_mcap.py` (the reference reader, PyPI `mcap`)
+/// on `mcap`, against the solution CSV `csv` when given, requiring the
+/// `require` topics; returns its summary (per-topic counts, solutions
+/// checked). Fails the test with the reader's message.
+pub fn check_mcap(mcap: &Path, csv: Option<&Path>, require: &[&str]) -> serde_json::Value {
+    let mut c = std::process::Command::new(python());
+    c.arg(repo("tests/python/check_mcap.py")).arg(mcap);
+    if let Some(csv) = csv {
+        c.arg(csv);
+    }
+    let out = c.arg("--require").args(require).output().expect("python");
+    assert!(
+        out.status.success(),
+        "the reference reader refused {}: {}",
+        mcap.display(),
+        String::from_utf8_lossy(&out.stderr)
+    );
+    serde_json::from_slice(&out.stdout).expect("check_mcap's summary")
+}
+
+/// Simulates the scenario `text` into the navlog file `path`.
+pub fn simulate_file(text: &str, name: &str, path: &Path) {
+    let s = Scenario::parse(text, name).expect("scenario");
+    simulate(
+        &s,
+        text,
+        SimOptions::default(),
+        std::fs::File::create(path).expect("create"),
+    )
+    .expect("simulate");
+}
+
 /// Path of a file in the repository.
 pub fn repo(rel: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("..").join(rel)

@@ -12,7 +12,7 @@ use polarnav::session;
 use polarnav::solution_csv;
 use polarnav_config::{CliOverrides, ConfigFile, effective};
 use polarnav_ipc::{TransportConfig, remove_isolated};
-use polarnav_tests::{bin, python, repo};
+use polarnav_tests::{bin, check_mcap, python, repo};
 use sensor_replay::scenario::Scenario;
 use sensor_replay::simulate::{SimOptions, simulate};
 
@@ -1784,24 +1784,6 @@ fn view_port(env: &Env, log: &str) -> u16 {
         .and_then(|p| p.split_whitespace().next())
         .and_then(|p| p.parse().ok())
         .unwrap_or_else(|| panic!("no port in {line:?}"))
-}
-
-/// Runs `tests/python/check_mcap.py` (the reference reader, PyPI `mcap`)
-/// on `mcap`, against `csv` when given; returns its per-topic counts.
-fn check_mcap(mcap: &Path, csv: Option<&Path>, require: &[&str]) -> serde_json::Value {
-    let mut c = Command::new(python());
-    c.arg(repo("tests/python/check_mcap.py")).arg(mcap);
-    if let Some(csv) = csv {
-        c.arg(csv);
-    }
-    let out = c.arg("--require").args(require).output().expect("python");
-    assert!(
-        out.status.success(),
-        "the reference reader refused {}: {}",
-        mcap.display(),
-        String::from_utf8_lossy(&out.stderr)
-    );
-    serde_json::from_slice(&out.stdout).expect("check_mcap's summary")
 }
 
 /// The live view serves the daemon's solutions over the Foxglove WebSocket

@@ -4,15 +4,12 @@
 //! the frame switch and aid updates present.
 
 use std::io::BufReader;
-use std::path::Path;
 use std::process::Command;
 
 use nav_daemon::batch::{self, BatchOptions, Output};
 use polarnav_config::ConfigFile;
 use polarnav_foxglove::{AidSource, McapFile};
-use polarnav_tests::{python, repo};
-use sensor_replay::scenario::Scenario;
-use sensor_replay::simulate::{SimOptions, simulate};
+use polarnav_tests::{check_mcap, python, repo, simulate_file};
 
 #[test]
 fn batch_mcap_has_one_solution_per_csv_row_with_equal_values_and_every_schema() {
@@ -22,15 +19,8 @@ fn batch_mcap_has_one_solution_per_csv_row_with_equal_values_and_every_schema() 
     let text = std::fs::read_to_string(repo("config/scenarios/paper-sim.toml"))
         .expect("scenario")
         .replace("duration_s = 600.0", "duration_s = 260.0");
-    let s = Scenario::parse(&text, "paper-sim (260 s)").expect("scenario");
     let log = dir.join("paper.navlog");
-    simulate(
-        &s,
-        &text,
-        SimOptions::default(),
-        std::fs::File::create(&log).expect("create"),
-    )
-    .expect("simulate");
+    simulate_file(&text, "paper-sim (260 s)", &log);
     let open = || BufReader::new(std::fs::File::open(&log).expect("open"));
     let csv = dir.join("paper.csv");
     let a = batch::run(
@@ -55,27 +45,8 @@ fn batch_mcap_has_one_solution_per_csv_row_with_equal_values_and_every_schema() 
     assert_eq!(a.rows, b.rows);
     assert_eq!(b.switches.len(), 1);
 
-    let summary = check(
-        &mcap,
-        &csv,
-        &[
-            "/imu",
-            "/srs",
-            "/cns",
-            "/baro",
-            "/init",
-            "/solution",
-            "/solution/fix",
-            "/solution/pose",
-            "/status",
-            "/aid/srs",
-            "/aid/cns",
-            "/aid/baro",
-            "/events/switch",
-            "/truth",
-            "/truth/fix",
-        ],
-    );
+    // Every channel of the mapping is in the file.
+    let summary = check_mcap(&mcap, Some(&csv), &polarnav_foxglove::TOPICS);
     let counts = &summary["counts"];
     assert_eq!(summary["solutions_checked"].as_u64(), Some(a.rows));
     assert_eq!(counts["/solution/fix"].as_u64(), Some(a.rows));
@@ -113,22 +84,4 @@ fn the_reference_reader_check_refuses_a_damaged_file() {
         .expect("python");
     assert!(!out.status.success());
     let _ = std::fs::remove_dir_all(&dir);
-}
-
-fn check(mcap: &Path, csv: &Path, require: &[&str]) -> serde_json::Value {
-    let out = Command::new(python())
-        .arg(repo("tests/python/check_mcap.py"))
-        .arg(mcap)
-        .arg(csv)
-        .arg("--require")
-        .args(require)
-        .output()
-        .expect("python");
-    assert!(
-        out.status.success(),
-        "the reference reader refused {}: {}",
-        mcap.display(),
-        String::from_utf8_lossy(&out.stderr)
-    );
-    serde_json::from_slice(&out.stdout).expect("summary")
 }

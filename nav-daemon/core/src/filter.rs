@@ -24,11 +24,21 @@ pub struct ProcessNoise {
     pub accel_bias_tau_s: f64,
 }
 
+/// A bias model as first-order Gauss–Markov processes: stationary σ (gyro
+/// rad/s, accelerometer m/s²) and correlation time τ (s).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct BiasModel {
+    pub gyro_sigma: f64,
+    pub gyro_tau_s: f64,
+    pub accel_sigma: f64,
+    pub accel_tau_s: f64,
+}
+
 impl ProcessNoise {
     /// Widens the bias processes to at least `b`: σ raised to its σ and, where
     /// raised, τ shortened to at most its τ (the process noise 2σ²/τ only
     /// grows). True if anything changed.
-    pub fn widen_biases(&mut self, b: &crate::settings::BiasModel) -> bool {
+    pub fn widen_biases(&mut self, b: &BiasModel) -> bool {
         let mut changed = false;
         if self.gyro_bias_sigma < b.gyro_sigma {
             self.gyro_bias_sigma = b.gyro_sigma;

@@ -308,15 +308,8 @@ impl SensorGrade {
     }
 }
 
-/// A bias model as first-order Gauss–Markov processes: stationary σ (gyro
-/// rad/s, accelerometer m/s²) and correlation time τ (s).
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct BiasModel {
-    pub gyro_sigma: f64,
-    pub gyro_tau_s: f64,
-    pub accel_sigma: f64,
-    pub accel_tau_s: f64,
-}
+/// The filter's bias model (defined with the process noise it shapes).
+pub use crate::filter::BiasModel;
 
 impl std::fmt::Display for SensorGrade {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
