@@ -831,10 +831,14 @@ fn python_ctypes_mirror_has_the_rust_layout() {
         exclusions, fused, fresh, _pad),
     );
     rust.extend(
-        offsets!(Status: t_ns, seq, imu, srs, cns, baro, srs_aid, cns_aid, baro_aid,
-        cycles, overruns, overruns_cpu, cycle_time_mean_ns, cycle_time_max_ns, last_switch_t_ns, imu_gap_count,
+        offsets!(Status: t_ns, seq, imu, srs, cns, baro, star, srs_aid, cns_aid, baro_aid,
+        star_aid, cycles, overruns, overruns_cpu, cycle_time_mean_ns, cycle_time_max_ns, last_switch_t_ns, imu_gap_count,
         coasted_ns, checkpoints_written, reinit_count, switch_count, reset_count, flags, frame,
         resumed, _pad),
+    );
+    rust.extend(
+        offsets!(StarSample: t_ns, seq, q_b_i, boresight_b, sigma_cross_arcsec,
+        sigma_boresight_arcsec),
     );
     assert_eq!(
         py_layout.len(),
@@ -1231,7 +1235,7 @@ fn looped_replay_reinitializes_and_keeps_every_stream_fused_and_accounted() {
     );
     // 20 SRS per pass; a few may fall to the gate, but never a whole pass.
     assert!(st.srs.accepted >= 54, "SRS fused {} of 60", st.srs.accepted);
-    sensor_replay::campaign::check_accounting(published, Some([0; 4]), &st).expect("accounting");
+    sensor_replay::campaign::check_accounting(published, Some([0; 5]), &st).expect("accounting");
 }
 
 /// papers/001 §5.1 live: the scenario's header moves the switch to 88°; the
