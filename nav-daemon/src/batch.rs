@@ -49,8 +49,8 @@ impl BatchReport {
     /// Aid samples fused, and refused (content, time or gate), over all aids.
     pub fn aid_totals(&self) -> (u64, u64) {
         let s = &self.status;
-        let fused = s.srs.accepted + s.cns.accepted + s.baro.accepted;
-        let rejected = [&s.srs, &s.cns, &s.baro]
+        let fused = s.srs.accepted + s.cns.accepted + s.baro.accepted + s.star.accepted;
+        let rejected = [&s.srs, &s.cns, &s.baro, &s.star]
             .iter()
             .map(|c| c.rejected_invalid + c.rejected_time + c.rejected_gate)
             .sum();
