@@ -268,7 +268,11 @@ fn row_state(r: &solution_csv::Row) -> [f64; 13] {
 }
 
 fn short_log(dir: &Path, seconds: f64) -> PathBuf {
-    let text = std::fs::read_to_string(repo("config/scenarios/transpolar.toml"))
+    short_log_of(dir, seconds, "config/scenarios/transpolar.toml")
+}
+
+fn short_log_of(dir: &Path, seconds: f64, scenario: &str) -> PathBuf {
+    let text = std::fs::read_to_string(repo(scenario))
         .expect("scenario")
         .replace("duration_s = 4480.0", &format!("duration_s = {seconds}"));
     let s = Scenario::parse(&text, "short").expect("scenario");
@@ -288,6 +292,30 @@ fn replay_daemon_recorder_equals_batch_row_for_row() {
     replay_equals_batch("eq", 0);
 }
 
+/// The star tracker stream end to end: `play` publishes it on
+/// `<prefix>/star`, the daemon fuses every sample, the recorder records
+/// them, and live still equals batch bit for bit.
+#[test]
+fn star_tracker_is_played_fused_live_and_recorded() {
+    let (records, last_status) =
+        replay_equals_batch_of("star", 0, "config/scenarios/transpolar-star.toml");
+    let recorded = records
+        .iter()
+        .filter(|r| matches!(r, Record::Star(_)))
+        .count() as u64;
+    eprintln!(
+        "star: {recorded} recorded; daemon received {}, fused {}, gate {}, seq gaps {}",
+        last_status.star.received,
+        last_status.star.accepted,
+        last_status.star.rejected_gate,
+        last_status.star.seq_gaps
+    );
+    assert_eq!(recorded, 60, "1 Hz over 60 s");
+    assert_eq!(last_status.star.received, 60);
+    assert!(last_status.star.accepted >= 58, "{:?}", last_status.star);
+    assert_eq!(last_status.star_aid.fresh, 1);
+}
+
 /// The same on a machine kept busy by two CPU-bound processes beside the
 /// three of the test, with the daemon stopped (SIGSTOP) for a second in the
 /// middle, long enough to fill its input buffers at 20x: the replay waits
@@ -301,12 +329,21 @@ fn on_a_busy_machine_no_input_is_lost_and_live_equals_batch() {
 }
 
 fn replay_equals_batch(tag: &str, burners: usize) {
+    replay_equals_batch_of(tag, burners, "config/scenarios/transpolar.toml");
+}
+
+/// Returns the recording and its last status.
+fn replay_equals_batch_of(
+    tag: &str,
+    burners: usize,
+    scenario: &str,
+) -> (Vec<Record>, msgs::Status) {
     let env = if burners > 0 {
         Env::alone(tag)
     } else {
         Env::new(tag)
     };
-    let log = short_log(&env.dir, 60.0);
+    let log = short_log_of(&env.dir, 60.0, scenario);
     let _burners: Vec<Proc> = (0..burners)
         .map(|_| {
             Command::new("sh")
@@ -447,6 +484,7 @@ fn replay_equals_batch(tag: &str, burners: usize) {
         live.len(),
         batch.len()
     );
+    (records, last_status)
 }
 
 /// The newest status seen within `deadline` that satisfies `pred`.
