@@ -51,7 +51,7 @@ enum Cmd {
         /// Never switch frames: stay in g throughout (the reference run of the switching experiments).
         #[arg(long, conflicts_with = "force_switch")]
         no_switch: bool,
-        /// Aids to fuse: a list of srs, cns, baro, or none (default: the
+        /// Aids to fuse: a list of srs, cns, baro, star, or none (default: the
         /// configuration's `[aids] fuse`, all of them).
         #[arg(long)]
         aids: Option<String>,
