@@ -117,6 +117,7 @@ def main() -> int:
                       f"srs={'fresh' if st.srs_aid.fresh else 'stale'} "
                       f"cns={'fresh' if st.cns_aid.fresh else 'stale'} "
                       f"baro={'fresh' if st.baro_aid.fresh else 'stale'} "
+                      f"star={'fresh' if st.star_aid.fresh else 'stale'} "
                       f"{'IMU_LOST ' if st.flags & FLAG_IMU_LOST else ''}"
                       f"overruns={st.overruns} solutions={received} gaps={gaps}", flush=True)
                 done = args.until_imu_accepted and st.imu.accepted >= args.until_imu_accepted

@@ -21,6 +21,7 @@ FLAG_IMU_LOST = 1 << 5
 FLAG_COASTING = 1 << 6
 FLAG_RESUMED = 1 << 7
 FLAG_AID_RESET = 1 << 8
+FLAG_STAR_FRESH = 1 << 9
 FLAG_SECOND_PUBLISHER = 1 << 10
 
 # WireFrame
@@ -89,7 +90,7 @@ class StreamCounters(ctypes.Structure):
 
 
 class AidStatus(ctypes.Structure):
-    """Status of one aid (SRS, CNS or barometer)."""
+    """Status of one aid (SRS, CNS, barometer or star tracker)."""
 
     _fields_ = [
         ("innovation", V3),
@@ -117,9 +118,11 @@ class Status(ctypes.Structure):
         ("srs", StreamCounters),
         ("cns", StreamCounters),
         ("baro", StreamCounters),
+        ("star", StreamCounters),
         ("srs_aid", AidStatus),
         ("cns_aid", AidStatus),
         ("baro_aid", AidStatus),
+        ("star_aid", AidStatus),
         ("cycles", ctypes.c_uint64),
         ("overruns", ctypes.c_uint64),
         ("overruns_cpu", ctypes.c_uint64),
@@ -140,13 +143,30 @@ class Status(ctypes.Structure):
 
     @staticmethod
     def type_name() -> str:
-        return "polarnav::Status_v3"
+        return "polarnav::Status_v4"
+
+
+class StarSample(ctypes.Structure):
+    """Star tracker attitude, body->inertial (`polarnav/star`), for a Python sensor driver."""
+
+    _fields_ = [
+        ("t_ns", ctypes.c_uint64),
+        ("seq", ctypes.c_uint64),
+        ("q_b_i", V4),
+        ("boresight_b", V3),
+        ("sigma_cross_arcsec", ctypes.c_double),
+        ("sigma_boresight_arcsec", ctypes.c_double),
+    ]
+
+    @staticmethod
+    def type_name() -> str:
+        return "polarnav::StarSample_v1"
 
 
 def layout() -> dict:
     """Sizes and field offsets, for the layout test."""
     out = {}
-    for t in (Solution, StreamCounters, AidStatus, Status):
+    for t in (Solution, StreamCounters, AidStatus, Status, StarSample):
         out[t.__name__] = ctypes.sizeof(t)
         for name, _ in t._fields_:
             out[f"{t.__name__}.{name}"] = getattr(t, name).offset

@@ -16,13 +16,16 @@ use std::io::{BufRead, Write};
 use serde::{Deserialize, Serialize};
 
 use crate::payloads::{
-    BaroSample, CnsFix, ImuSample, InitState, Solution, SrsSample, Status, TruthRecord,
+    BaroSample, CnsFix, ImuSample, InitState, Solution, SrsSample, StarSample, Status, TruthRecord,
 };
 
 /// First bytes of every navlog's header record.
 pub const MAGIC: [u8; 8] = *b"POLARNAV";
 /// Version of the record format; bump on any change of [`Record`].
-pub const FORMAT_VERSION: u16 = 2;
+/// 3: the star tracker record (appended last) and the `_v4` status record
+/// (star counters and aid status; a status record of version 2 no longer
+/// decodes and is skipped as incompatible, every other record still reads).
+pub const FORMAT_VERSION: u16 = 3;
 /// Frames longer than this are treated as corruption (the largest record is ~1 kB
 /// plus the header's scenario text).
 pub const MAX_FRAME_BYTES: usize = 1 << 20;
@@ -69,6 +72,9 @@ pub enum Record {
     Truth(TruthRecord),
     Solution(Box<Solution>),
     Status(Box<Status>),
+    /// Appended last, so the variant indices of the records before it (and
+    /// with them every file without star records) are unchanged.
+    Star(StarSample),
 }
 
 impl Record {
@@ -84,6 +90,7 @@ impl Record {
             Record::Truth(r) => Some(r.t_ns),
             Record::Solution(r) => Some(r.t_ns),
             Record::Status(r) => Some(r.t_ns),
+            Record::Star(r) => Some(r.t_ns),
         }
     }
 }
@@ -496,6 +503,14 @@ mod tests {
             }),
             Record::Solution(Box::new(sol)),
             Record::Status(Box::new(status)),
+            Record::Star(StarSample {
+                t_ns: 10,
+                seq: 6,
+                q_b_i: [0.5, 0.5, -0.5, 0.5],
+                boresight_b: [0.0, 0.0, 1.0],
+                sigma_cross_arcsec: 5.0,
+                sigma_boresight_arcsec: 40.0,
+            }),
         ]
     }
 

@@ -101,6 +101,30 @@ pub struct BaroSample {
     pub sigma_m: f64,
 }
 
+/// Star tracker: the body's attitude measured against the stars. The
+/// inertial frame is DESIGN's *i* (it coincides with ECEF at `t_ns = 0` of
+/// the time base and *e* then turns about z at ω_ie), so the receiver needs
+/// nothing but the time stamp to bring it into the Earth frame. The sensor's
+/// noise is a small rotation about its own axes: σ about the two axes across
+/// the boresight, and (larger, for a star tracker) about the boresight.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+#[cfg_attr(feature = "iceoryx2", derive(ZeroCopySend))]
+#[repr(C)]
+#[cfg_attr(feature = "iceoryx2", type_name("polarnav::StarSample_v1"))]
+pub struct StarSample {
+    pub t_ns: u64,
+    pub seq: u64,
+    /// Measured body→inertial attitude quaternion [w, x, y, z] (the sensor's
+    /// fixed mounting already applied by its driver).
+    pub q_b_i: [f64; 4],
+    /// The sensor's boresight, unit vector in body axes.
+    pub boresight_b: [f64; 3],
+    /// 1-σ of the attitude about each axis across the boresight (arcsec).
+    pub sigma_cross_arcsec: f64,
+    /// 1-σ of the attitude about the boresight (arcsec).
+    pub sigma_boresight_arcsec: f64,
+}
+
 /// Initial state handed to the navigator (transfer alignment from a host, or
 /// the truth plus a scenario's initial errors). Frame-free: valid at the pole.
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
@@ -173,6 +197,8 @@ pub mod solution_flags {
     /// `[aids] reset_after_s` while consistent (the step is in the reset
     /// block; cleared when that aid is next fused).
     pub const AID_RESET: u32 = 1 << 8;
+    /// The star tracker's attitude was fused within its timeout.
+    pub const STAR_FRESH: u32 = 1 << 9;
     /// A second publisher sent on an input service in the last status period:
     /// its samples were refused (`StreamCounters::refused_publisher`).
     pub const SECOND_PUBLISHER: u32 = 1 << 10;
@@ -268,7 +294,7 @@ pub struct StreamCounters {
     pub refused_publisher: u64,
 }
 
-/// The status record every aid reports (same shape for SRS, CNS and baro).
+/// The status record every aid reports (same shape for SRS, CNS, baro and star).
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
 #[cfg_attr(feature = "iceoryx2", derive(ZeroCopySend))]
 #[repr(C)]
@@ -296,7 +322,7 @@ pub struct AidStatus {
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
 #[cfg_attr(feature = "iceoryx2", derive(ZeroCopySend))]
 #[repr(C)]
-#[cfg_attr(feature = "iceoryx2", type_name("polarnav::Status_v3"))]
+#[cfg_attr(feature = "iceoryx2", type_name("polarnav::Status_v4"))]
 pub struct Status {
     pub t_ns: u64,
     pub seq: u64,
@@ -304,9 +330,11 @@ pub struct Status {
     pub srs: StreamCounters,
     pub cns: StreamCounters,
     pub baro: StreamCounters,
+    pub star: StreamCounters,
     pub srs_aid: AidStatus,
     pub cns_aid: AidStatus,
     pub baro_aid: AidStatus,
+    pub star_aid: AidStatus,
     /// Filter cycles run, and cycles that overran their period in wall-clock
     /// time (including time the thread was preempted).
     pub cycles: u64,
@@ -371,6 +399,7 @@ mod tests {
         );
         assert_eq!(size_of::<CnsFix>(), 5 * 8);
         assert_eq!(size_of::<BaroSample>(), 5 * 8);
+        assert_eq!(size_of::<StarSample>(), 16 + 32 + 24 + 16);
         assert_eq!(size_of::<InitState>(), 16 + 24 + 24 + 32 + 6 * 8);
         assert_eq!(
             size_of::<Solution>(),
@@ -397,7 +426,7 @@ mod tests {
         assert_eq!(size_of::<AidStatus>(), 48 + 8 + 8 + 8 + 8);
         assert_eq!(
             size_of::<Status>(),
-            16 + 4 * size_of::<StreamCounters>() + 3 * size_of::<AidStatus>() + 9 * 8 + 4 * 4 + 8
+            16 + 5 * size_of::<StreamCounters>() + 4 * size_of::<AidStatus>() + 9 * 8 + 4 * 4 + 8
         );
         for a in [
             align_of::<ImuSample>(),
@@ -419,6 +448,7 @@ mod tests {
                 SrsSample::type_name(),
                 CnsFix::type_name(),
                 BaroSample::type_name(),
+                StarSample::type_name(),
                 InitState::type_name(),
                 Solution::type_name(),
                 Status::type_name(),

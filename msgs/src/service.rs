@@ -47,6 +47,8 @@ pub enum Topic {
     Srs,
     Cns,
     Baro,
+    /// Star tracker attitude (`StarSample`), the optional fourth aid.
+    Star,
     Init,
     Solution,
     Status,
@@ -56,11 +58,12 @@ pub enum Topic {
 
 impl Topic {
     /// Every topic, in a fixed order.
-    pub const ALL: [Topic; 8] = [
+    pub const ALL: [Topic; 9] = [
         Topic::Imu,
         Topic::Srs,
         Topic::Cns,
         Topic::Baro,
+        Topic::Star,
         Topic::Init,
         Topic::Solution,
         Topic::Status,
@@ -74,6 +77,7 @@ impl Topic {
             Topic::Srs => "srs",
             Topic::Cns => "cns",
             Topic::Baro => "baro",
+            Topic::Star => "star",
             Topic::Init => "init",
             Topic::Solution => "solution",
             Topic::Status => "status",

@@ -20,12 +20,14 @@ fn c_header_layout_equals_the_rust_layout() {
 #define S(T) printf(#T " %zu\n", sizeof(T));
 #define O(T, f) printf(#T "." #f " %zu\n", offsetof(T, f));
 int main(void) {
-    S(ImuSample) S(SrsLine) S(SrsSample) S(CnsFix) S(BaroSample) S(InitState)
+    S(ImuSample) S(SrsLine) S(SrsSample) S(CnsFix) S(BaroSample) S(StarSample) S(InitState)
     S(Solution) S(StreamCounters) S(AidStatus) S(Status)
     O(ImuSample, d_v_mps) O(SrsLine, body_id) O(SrsSample, lines) O(InitState, sigma_heading_rad)
-    O(Solution, q_b_e) O(Solution, flags) O(Solution, frame) O(Status, baro_aid) O(Status, frame)
+    O(Solution, q_b_e) O(Solution, flags) O(Solution, frame) O(Status, baro_aid) O(Status, star_aid) O(Status, frame)
+    O(StarSample, boresight_b) O(StarSample, sigma_boresight_arcsec)
     printf("SRS_MAX_LINES %d\n", POLARNAV_SRS_MAX_LINES);
     printf("IMU_LOST %d\n", POLARNAV_FLAG_IMU_LOST);
+    printf("STAR_FRESH %d\n", POLARNAV_FLAG_STAR_FRESH);
     return 0;
 }
 "#;
@@ -58,6 +60,7 @@ int main(void) {
         ("SrsSample", size_of::<SrsSample>()),
         ("CnsFix", size_of::<CnsFix>()),
         ("BaroSample", size_of::<BaroSample>()),
+        ("StarSample", size_of::<StarSample>()),
         ("InitState", size_of::<InitState>()),
         ("Solution", size_of::<Solution>()),
         ("StreamCounters", size_of::<StreamCounters>()),
@@ -74,9 +77,19 @@ int main(void) {
         ("Solution.flags", offset_of!(Solution, flags)),
         ("Solution.frame", offset_of!(Solution, frame)),
         ("Status.baro_aid", offset_of!(Status, baro_aid)),
+        ("Status.star_aid", offset_of!(Status, star_aid)),
+        (
+            "StarSample.boresight_b",
+            offset_of!(StarSample, boresight_b),
+        ),
+        (
+            "StarSample.sigma_boresight_arcsec",
+            offset_of!(StarSample, sigma_boresight_arcsec),
+        ),
         ("Status.frame", offset_of!(Status, frame)),
         ("SRS_MAX_LINES", SRS_MAX_LINES),
         ("IMU_LOST", solution_flags::IMU_LOST as usize),
+        ("STAR_FRESH", solution_flags::STAR_FRESH as usize),
     ];
     for (name, value) in rust {
         assert_eq!(

@@ -65,8 +65,8 @@ impl BatchReport {
     /// Aid samples fused, and refused (content, time or gate), over all aids.
     pub fn aid_totals(&self) -> (u64, u64) {
         let s = &self.status;
-        let fused = s.srs.accepted + s.cns.accepted + s.baro.accepted;
-        let rejected = [&s.srs, &s.cns, &s.baro]
+        let fused = s.srs.accepted + s.cns.accepted + s.baro.accepted + s.star.accepted;
+        let rejected = [&s.srs, &s.cns, &s.baro, &s.star]
             .iter()
             .map(|c| c.rejected_invalid + c.rejected_time + c.rejected_gate)
             .sum();
@@ -209,6 +209,7 @@ impl<W: Write> Sink for CsvSink<'_, W> {
                     Stream::Srs => Some(AidTopic::Srs),
                     Stream::Cns => Some(AidTopic::Cns),
                     Stream::Baro => Some(AidTopic::Baro),
+                    Stream::Star => Some(AidTopic::Star),
                     Stream::Imu => None,
                 };
                 if let (Output::Mcap(m), Some(topic)) = (&mut self.out, topic) {

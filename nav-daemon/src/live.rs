@@ -24,8 +24,8 @@ use iceoryx2::prelude::*;
 use iceoryx2::waitset::WaitSetRunResult;
 use msgs::service::Topic;
 use msgs::{
-    BaroSample, CnsFix, EffectiveSettings, ImuSample, InitState, Solution, SrsSample, Status,
-    solution_flags,
+    BaroSample, CnsFix, EffectiveSettings, ImuSample, InitState, Solution, SrsSample, StarSample,
+    Status, solution_flags,
 };
 use polarnav::checkpoint::{self, Checkpoint};
 use polarnav::inbox::{Inbox, Received};
@@ -234,6 +234,7 @@ struct Ports {
     srs: TopicSubscriber<SrsSample>,
     cns: TopicSubscriber<CnsFix>,
     baro: TopicSubscriber<BaroSample>,
+    star: TopicSubscriber<StarSample>,
     init: TopicSubscriber<InitState>,
     solution: TopicPublisher<Solution>,
     status: TopicPublisher<Status>,
@@ -294,6 +295,7 @@ pub fn run(
         srs: TopicSubscriber::new(&node, transport_cfg, Topic::Srs)?,
         cns: TopicSubscriber::new(&node, transport_cfg, Topic::Cns)?,
         baro: TopicSubscriber::new(&node, transport_cfg, Topic::Baro)?,
+        star: TopicSubscriber::new(&node, transport_cfg, Topic::Star)?,
         solution: TopicPublisher::new(&node, transport_cfg, Topic::Solution)?,
         status: TopicPublisher::new(&node, transport_cfg, Topic::Status)?,
         settings: TopicPublisher::new(&node, transport_cfg, Topic::Settings)?,
@@ -443,11 +445,12 @@ pub fn status_line(s: &Status, lat_deg: Option<f64>) -> String {
     };
     let lat = lat_deg.map_or_else(|| "-".to_owned(), |l| format!("{l:.4}°"));
     format!(
-        "frame {frame}, lat {lat}, switches {}, imu {imu}, srs {}, cns {}, baro {}, cycles {}, overruns {} (CPU {})",
+        "frame {frame}, lat {lat}, switches {}, imu {imu}, srs {}, cns {}, baro {}, star {}, cycles {}, overruns {} (CPU {})",
         s.switch_count,
         fresh(&s.srs_aid),
         fresh(&s.cns_aid),
         fresh(&s.baro_aid),
+        fresh(&s.star_aid),
         s.cycles,
         s.overruns,
         s.overruns_cpu
@@ -551,10 +554,10 @@ struct LoopState {
     inbox: Inbox,
     checkpoint: Option<CheckpointWriter>,
     out: OutputState,
-    /// Owners of the init, IMU, SRS, CNS and baro services.
-    owners: [Owner; 5],
-    /// Freshness of SRS, CNS, baro in the last status (for transition events).
-    aid_fresh: [bool; 3],
+    /// Owners of the init, IMU, SRS, CNS, baro and star services.
+    owners: [Owner; 6],
+    /// Freshness of SRS, CNS, baro, star in the last status (for transition events).
+    aid_fresh: [bool; 4],
     last_imu_wall: Option<Instant>,
     imu_lost: bool,
     last_status: Instant,
@@ -575,7 +578,7 @@ impl LoopState {
             checkpoint: opts.checkpoint.as_ref().map(CheckpointWriter::start),
             out: OutputState::default(),
             owners: Default::default(),
-            aid_fresh: [false; 3],
+            aid_fresh: [false; 4],
             last_imu_wall: None,
             imu_lost: false,
             last_status: Instant::now(),
@@ -593,7 +596,7 @@ impl LoopState {
     fn cycle(&mut self, ports: &Ports) -> Result<(), LiveError> {
         self.report.cycles += 1;
         let mut imu_seen = false;
-        let [o_init, o_imu, o_srs, o_cns, o_baro] = &mut self.owners;
+        let [o_init, o_imu, o_srs, o_cns, o_baro, o_star] = &mut self.owners;
         let (inbox, session, gaps) = (&mut self.inbox, &mut self.session, &mut self.out.gaps);
         // Sequence gaps are noted in arrival order.
         let mut receive = |r: Received| {
@@ -611,9 +614,11 @@ impl LoopState {
         ports.drain_owned(&ports.srs, o_srs, "SRS", |x| receive(Received::Srs(x)))?;
         ports.drain_owned(&ports.cns, o_cns, "CNS", |x| receive(Received::Cns(x)))?;
         ports.drain_owned(&ports.baro, o_baro, "baro", |x| receive(Received::Baro(x)))?;
+        ports.drain_owned(&ports.star, o_star, "star", |x| receive(Received::Star(x)))?;
         ports.srs.clear_events();
         ports.cns.clear_events();
         ports.baro.clear_events();
+        ports.star.clear_events();
         ports.init.clear_events();
         if imu_seen {
             self.last_imu_wall = Some(Instant::now());
@@ -686,13 +691,14 @@ impl LoopState {
             .as_ref()
             .map_or(0, CheckpointWriter::written);
         s.cycles = self.report.cycles;
-        let [_, o_imu, o_srs, o_cns, o_baro] = &mut self.owners;
+        let [_, o_imu, o_srs, o_cns, o_baro, o_star] = &mut self.owners;
         let mut second = false;
         for (c, o) in [
             (&mut s.imu, o_imu),
             (&mut s.srs, o_srs),
             (&mut s.cns, o_cns),
             (&mut s.baro, o_baro),
+            (&mut s.star, o_star),
         ] {
             c.refused_publisher = o.refused;
             second |= o.refused > o.refused_at_status;
@@ -715,6 +721,7 @@ impl LoopState {
             ("SRS", &s.srs_aid),
             ("CNS", &s.cns_aid),
             ("baro", &s.baro_aid),
+            ("star", &s.star_aid),
         ]
         .into_iter()
         .enumerate()

@@ -54,7 +54,7 @@ enum Cmd {
         /// Never switch frames: stay in g throughout (the reference run of the switching experiments).
         #[arg(long, conflicts_with = "force_switch")]
         no_switch: bool,
-        /// Aids to fuse: a list of srs, cns, baro, or none (default: the
+        /// Aids to fuse: a list of srs, cns, baro, star, or none (default: the
         /// configuration's `[aids] fuse`, all of them).
         #[arg(long)]
         aids: Option<String>,
@@ -209,7 +209,8 @@ fn main() -> ExitCode {
                     let span = (r.last_t_ns.saturating_sub(r.first_t_ns)) as f64 * 1e-9;
                     let s = &r.status;
                     let (fused, rejected) = r.aid_totals();
-                    let not_used = s.srs.not_used + s.cns.not_used + s.baro.not_used;
+                    let not_used =
+                        s.srs.not_used + s.cns.not_used + s.baro.not_used + s.star.not_used;
                     eprintln!(
                         "batch: {} rows, {:.1} s of flight in {:.2} s ({:.0}x real time), {} frame switch(es), {} IMU rejected, {} IMU not used, {} time resync(s), {} covariance repair(s); aids: {} fused, {} rejected, {} not used, {} SRS line exclusions; inits: {} used, {} rejected, {} not used; log: {}",
                         r.rows,

@@ -44,9 +44,9 @@ pub fn scenario_files(dir: &Path) -> std::io::Result<Vec<std::path::PathBuf>> {
 
 /// One line per stream: published, received, sequence gaps and where every
 /// received sample went.
-pub fn accounting_lines(published: &[u64; 4], status: &Status) -> String {
+pub fn accounting_lines(published: &[u64; 5], status: &Status) -> String {
     let mut out = String::new();
-    for (name, (p, c)) in ["imu", "srs", "cns", "baro"]
+    for (name, (p, c)) in ["imu", "srs", "cns", "baro", "star"]
         .iter()
         .zip(published.iter().zip(streams(status)))
     {
@@ -64,24 +64,25 @@ pub fn accounting_lines(published: &[u64; 4], status: &Status) -> String {
     out
 }
 
-/// Records per stream (IMU, SRS, CNS, baro) in a log.
-pub fn published(records: &[Record]) -> [u64; 4] {
-    let mut n = [0u64; 4];
+/// Records per stream (IMU, SRS, CNS, baro, star) in a log.
+pub fn published(records: &[Record]) -> [u64; 5] {
+    let mut n = [0u64; 5];
     for r in records {
         match r {
             Record::Imu(_) => n[0] += 1,
             Record::Srs(_) => n[1] += 1,
             Record::Cns(_) => n[2] += 1,
             Record::Baro(_) => n[3] += 1,
+            Record::Star(_) => n[4] += 1,
             _ => {}
         }
     }
     n
 }
 
-/// The four stream counters of a status, in the order of [`published`].
-pub fn streams(s: &Status) -> [StreamCounters; 4] {
-    [s.imu, s.srs, s.cns, s.baro]
+/// The five stream counters of a status, in the order of [`published`].
+pub fn streams(s: &Status) -> [StreamCounters; 5] {
+    [s.imu, s.srs, s.cns, s.baro, s.star]
 }
 
 /// `received = accepted + rejected + not used` for every stream, and what
@@ -90,11 +91,11 @@ pub fn streams(s: &Status) -> [StreamCounters; 4] {
 /// upstream` where `upstream` are the samples the source never sent (an
 /// outage skips their sequence numbers). `Err` names the first mismatch.
 pub fn check_accounting(
-    published: [u64; 4],
-    upstream: Option<[u64; 4]>,
+    published: [u64; 5],
+    upstream: Option<[u64; 5]>,
     status: &Status,
 ) -> Result<(), String> {
-    for (k, (name, (p, c))) in ["imu", "srs", "cns", "baro"]
+    for (k, (name, (p, c))) in ["imu", "srs", "cns", "baro", "star"]
         .iter()
         .zip(published.iter().zip(streams(status)))
         .enumerate()
@@ -195,8 +196,8 @@ pub struct Window {
 }
 
 /// Samples per stream (IMU, SRS, CNS, baro) that the source never sent.
-pub fn upstream_missing(s: &Scenario, injected: &[u64]) -> [u64; 4] {
-    let mut n = [0u64; 4];
+pub fn upstream_missing(s: &Scenario, injected: &[u64]) -> [u64; 5] {
+    let mut n = [0u64; 5];
     for (e, k) in s.faults.iter().flat_map(|f| &f.events).zip(injected) {
         if e.kind == FaultKind::Outage {
             n[e.stream as usize] += k;
@@ -313,6 +314,7 @@ pub fn fault_lines(s: &Scenario, injected: &[u64], status: &Status) -> Vec<Fault
         Stream::Srs => status.srs,
         Stream::Cns => status.cns,
         Stream::Baro => status.baro,
+        Stream::Star => status.star,
     };
     // Events of the same kind on the same stream share a counter.
     let total = |kind: FaultKind, stream: Stream| -> u64 {
@@ -414,7 +416,7 @@ pub struct ScenarioResult {
     pub name: String,
     pub faults: Vec<FaultLine>,
     pub errors: ErrorJudgement,
-    pub published: [u64; 4],
+    pub published: [u64; 5],
     pub status: Status,
     pub accounting: Result<(), String>,
     /// The faulted flight (navlog bytes), for a live run of the same data.

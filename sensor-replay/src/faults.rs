@@ -5,8 +5,8 @@
 //! | kind        | effect on each sample in the window |
 //! |---|---|
 //! | `outage`    | not written (an IMU outage is a dropout: a gap in time) |
-//! | `outliers`  | gross error of `magnitude`: IMU m/s² on the z accelerometer, CNS metres north, baro metres up, SRS m/s on the first line's radial velocity |
-//! | `nan`       | a NaN in the sample (IMU Δv x, CNS latitude, baro pressure, first SRS line's wavelength) |
+//! | `outliers`  | gross error of `magnitude`: IMU m/s² on the z accelerometer, CNS metres north, baro metres up, SRS m/s on the first line's radial velocity, star arcsec about the body x axis (stray light) |
+//! | `nan`       | a NaN in the sample (IMU Δv x, CNS latitude, baro pressure, first SRS line's wavelength, star quaternion w) |
 //! | `time_jump` | time stamp moved back by `magnitude` seconds |
 //! | `duplicate` | written twice |
 //!
@@ -15,7 +15,7 @@
 //! the same samples everywhere outside the faulted ones, so it is the
 //! fault-free reference of the campaign.
 
-use msgs::{BaroSample, CnsFix, ImuSample, SrsSample};
+use msgs::{BaroSample, CnsFix, ImuSample, SrsSample, StarSample};
 use polarnav::earth::isa;
 use serde::Deserialize;
 
@@ -55,7 +55,7 @@ pub enum FaultKind {
     Duplicate,
 }
 
-/// A sensor stream, in the order IMU, SRS, CNS, baro (`as usize` indexes per-stream arrays).
+/// A sensor stream, in the order IMU, SRS, CNS, baro, star (`as usize` indexes per-stream arrays).
 #[derive(Debug, Clone, Copy, Deserialize, PartialEq, Eq)]
 #[serde(rename_all = "snake_case")]
 pub enum Stream {
@@ -63,6 +63,7 @@ pub enum Stream {
     Srs,
     Cns,
     Baro,
+    Star,
 }
 
 impl FaultEvent {
@@ -199,6 +200,30 @@ impl Injector {
                     s.pressure_pa = isa::pressure(h + e.magnitude);
                 }
                 FaultKind::Nan => s.pressure_pa = f64::NAN,
+                _ => {}
+            }
+        });
+        times
+    }
+
+    pub fn star(&mut self, s: &mut StarSample) -> u32 {
+        let mut times = 1;
+        let t = s.t_ns;
+        self.active(Stream::Star, t, |e| {
+            Self::common(e, &mut s.t_ns, &mut times);
+            match e.kind {
+                FaultKind::Outliers => {
+                    let [w, x, y, z] = s.q_b_i;
+                    let q = nalgebra::UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(
+                        w, x, y, z,
+                    ));
+                    let err = nalgebra::UnitQuaternion::from_scaled_axis(
+                        nalgebra::Vector3::x() * (e.magnitude * polarnav::aids::star::ARCSEC_RAD),
+                    );
+                    let q = (q * err).into_inner();
+                    s.q_b_i = [q.w, q.i, q.j, q.k];
+                }
+                FaultKind::Nan => s.q_b_i[0] = f64::NAN,
                 _ => {}
             }
         });

@@ -7,7 +7,8 @@ use std::time::{Duration, Instant};
 use msgs::navlog::{Header, NavlogWriter, Record};
 use msgs::service::Topic;
 use msgs::{
-    BaroSample, CnsFix, EffectiveSettings, ImuSample, InitState, Solution, SrsSample, Status,
+    BaroSample, CnsFix, EffectiveSettings, ImuSample, InitState, Solution, SrsSample, StarSample,
+    Status,
 };
 use polarnav_foxglove::McapFile;
 use polarnav_ipc::{TopicPublisher, TopicSubscriber, TransportConfig, TransportError};
@@ -18,8 +19,8 @@ use crate::logfile::{LogContents, SensorRef};
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct Pacing {
     pub published: u64,
-    /// Samples published per stream: IMU, SRS, CNS, baro.
-    pub per_stream: [u64; 4],
+    /// Samples published per stream: IMU, SRS, CNS, baro, star.
+    pub per_stream: [u64; 5],
     pub p50_us: f64,
     pub p99_us: f64,
     pub max_us: f64,
@@ -39,9 +40,9 @@ pub const REPLAY_MAX_WAIT: Duration = Duration::from_secs(2);
 impl Pacing {
     /// The one-line summary `play` prints when it ends.
     pub fn summary(&self) -> String {
-        let [imu, srs, cns, baro] = self.per_stream;
+        let [imu, srs, cns, baro, star] = self.per_stream;
         format!(
-            "play: {} samples published (imu {imu}, srs {srs}, cns {cns}, baro {baro}); pacing lateness p50 {:.1} µs, p99 {:.1} µs, max {:.1} µs; full input buffers: {} waits (longest {:.1} ms), {} samples lost",
+            "play: {} samples published (imu {imu}, srs {srs}, cns {cns}, baro {baro}, star {star}); pacing lateness p50 {:.1} µs, p99 {:.1} µs, max {:.1} µs; full input buffers: {} waits (longest {:.1} ms), {} samples lost",
             self.published,
             self.p50_us,
             self.p99_us,
@@ -52,9 +53,9 @@ impl Pacing {
         )
     }
 
-    /// The per-stream counts (IMU, SRS, CNS, baro) read back from text
+    /// The per-stream counts (IMU, SRS, CNS, baro, star) read back from text
     /// containing a [`Pacing::summary`] line (e.g. `play`'s captured stdout).
-    pub fn published_in(text: &str) -> Option<[u64; 4]> {
+    pub fn published_in(text: &str) -> Option<[u64; 5]> {
         let line = text.lines().find(|l| l.starts_with("play: "))?;
         let inner = line.split_once('(')?.1.split(')').next()?;
         let counts: Vec<u64> = inner
@@ -71,6 +72,7 @@ enum Sensor<'a> {
     Srs(&'a SrsSample),
     Cns(&'a CnsFix),
     Baro(&'a BaroSample),
+    Star(&'a StarSample),
 }
 
 fn sensor_t(s: &Sensor<'_>) -> u64 {
@@ -79,6 +81,7 @@ fn sensor_t(s: &Sensor<'_>) -> u64 {
         Sensor::Srs(x) => x.t_ns,
         Sensor::Cns(x) => x.t_ns,
         Sensor::Baro(x) => x.t_ns,
+        Sensor::Star(x) => x.t_ns,
     }
 }
 
@@ -113,6 +116,7 @@ fn in_log_order(log: &LogContents) -> Vec<Sensor<'_>> {
             SensorRef::Srs(k) => Sensor::Srs(&log.srs[k]),
             SensorRef::Cns(k) => Sensor::Cns(&log.cns[k]),
             SensorRef::Baro(k) => Sensor::Baro(&log.baro[k]),
+            SensorRef::Star(k) => Sensor::Star(&log.star[k]),
         })
         .collect();
     let mut k = 0;
@@ -151,6 +155,7 @@ pub fn play(
     let srs = TopicPublisher::<SrsSample>::with_delivery(&node, cfg, Topic::Srs, wait)?;
     let cns = TopicPublisher::<CnsFix>::with_delivery(&node, cfg, Topic::Cns, wait)?;
     let baro = TopicPublisher::<BaroSample>::with_delivery(&node, cfg, Topic::Baro, wait)?;
+    let star = TopicPublisher::<StarSample>::with_delivery(&node, cfg, Topic::Star, wait)?;
     let init_pub = TopicPublisher::<InitState>::new(&node, cfg, Topic::Init)?;
 
     let sensors = in_log_order(log);
@@ -166,7 +171,7 @@ pub fn play(
     let sidereal_ns = (std::f64::consts::TAU / polarnav::earth::OMEGA_IE * 1e9).round() as u64;
     let span_sidereal = span.div_ceil(sidereal_ns) * sidereal_ns;
     let mut lateness: Vec<u64> = Vec::with_capacity(sensors.len());
-    let mut per_stream = [0u64; 4];
+    let mut per_stream = [0u64; 5];
     let progress_every = (span / 10).max(1);
     let mut next_progress = progress_every;
     let start = Instant::now() + Duration::from_millis(100);
@@ -201,6 +206,7 @@ pub fn play(
                 Sensor::Srs(_) => 1,
                 Sensor::Cns(_) => 2,
                 Sensor::Baro(_) => 3,
+                Sensor::Star(_) => 4,
             }] += 1;
             // A daemon that subscribed after this pass's init went out gets
             // it now, from the init topic's history, before the IMU it needs.
@@ -220,6 +226,11 @@ pub fn play(
                     ..**x
                 })?,
                 Sensor::Baro(x) => baro.publish(&BaroSample {
+                    t_ns: x.t_ns + offset,
+                    ..**x
+                })?,
+                // Whole sidereal days later the inertial attitude is the same.
+                Sensor::Star(x) => star.publish(&StarSample {
                     t_ns: x.t_ns + offset,
                     ..**x
                 })?,
@@ -250,6 +261,7 @@ pub fn play(
         (srs.waits().0, srs.waits().1, srs.lost()),
         (cns.waits().0, cns.waits().1, cns.lost()),
         (baro.waits().0, baro.waits().1, baro.lost()),
+        (star.waits().0, star.waits().1, star.lost()),
     ] {
         waits += w;
         max_wait = max_wait.max(m);
@@ -344,6 +356,7 @@ pub fn record<W: Write>(
     let srs = TopicSubscriber::<SrsSample>::new(&node, cfg, Topic::Srs)?;
     let cns = TopicSubscriber::<CnsFix>::new(&node, cfg, Topic::Cns)?;
     let baro = TopicSubscriber::<BaroSample>::new(&node, cfg, Topic::Baro)?;
+    let star = TopicSubscriber::<StarSample>::new(&node, cfg, Topic::Star)?;
     let init = TopicSubscriber::<InitState>::new(&node, cfg, Topic::Init)?;
     let sol = TopicSubscriber::<Solution>::new(&node, cfg, Topic::Solution)?;
     let status = TopicSubscriber::<Status>::new(&node, cfg, Topic::Status)?;
@@ -404,6 +417,7 @@ pub fn record<W: Write>(
         srs.drain(|x| buf.push(Record::Srs(Box::new(x))))?;
         cns.drain(|x| buf.push(Record::Cns(x)))?;
         baro.drain(|x| buf.push(Record::Baro(x)))?;
+        star.drain(|x| buf.push(Record::Star(x)))?;
         sol.drain(|x| {
             n.solutions += 1;
             buf.push(Record::Solution(Box::new(x)));
@@ -438,6 +452,7 @@ pub fn record<W: Write>(
             srs.listener(),
             cns.listener(),
             baro.listener(),
+            star.listener(),
             init.listener(),
             sol.listener(),
             status.listener(),
@@ -487,8 +502,8 @@ mod tests {
     #[test]
     fn summary_counts_read_back() {
         let p = Pacing {
-            published: 1_234_567 + 89 + 1011 + 12_131,
-            per_stream: [1_234_567, 89, 1011, 12_131],
+            published: 1_234_567 + 89 + 1011 + 12_131 + 7,
+            per_stream: [1_234_567, 89, 1011, 12_131, 7],
             p50_us: 3.25,
             p99_us: 41.0,
             max_us: 1200.5,

@@ -5,7 +5,9 @@ use std::io::BufReader;
 use std::path::Path;
 
 use msgs::navlog::{Header, NavlogReader, ReadReport, Record};
-use msgs::{BaroSample, CnsFix, ImuSample, InitState, Solution, SrsSample, TruthRecord};
+use msgs::{
+    BaroSample, CnsFix, ImuSample, InitState, Solution, SrsSample, StarSample, TruthRecord,
+};
 
 /// Every intact record of a log, grouped by kind.
 #[derive(Debug, Default, Clone)]
@@ -16,6 +18,7 @@ pub struct LogContents {
     pub srs: Vec<SrsSample>,
     pub cns: Vec<CnsFix>,
     pub baro: Vec<BaroSample>,
+    pub star: Vec<StarSample>,
     pub truth: Vec<TruthRecord>,
     pub solution: Vec<Solution>,
     pub report: ReadReport,
@@ -31,6 +34,7 @@ pub enum SensorRef {
     Srs(usize),
     Cns(usize),
     Baro(usize),
+    Star(usize),
 }
 
 /// Errors that stop loading (damage inside the file does not).
@@ -79,6 +83,10 @@ pub fn load(path: &Path) -> Result<LogContents, LoadError> {
             Record::Baro(x) => {
                 c.order.push(SensorRef::Baro(c.baro.len()));
                 c.baro.push(x);
+            }
+            Record::Star(x) => {
+                c.order.push(SensorRef::Star(c.star.len()));
+                c.star.push(x);
             }
             Record::Truth(x) => c.truth.push(x),
             Record::Solution(x) => c.solution.push(*x),

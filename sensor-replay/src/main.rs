@@ -263,13 +263,14 @@ fn run(cli: Cli) -> Result<(), Fail> {
             )
             .map_err(|e| Fail(1, format!("{}: {e}", out.display())))?;
             eprintln!(
-                "simulate: wrote {} in {:.1} s: {} IMU, {} SRS, {} CNS, {} baro, {} truth records",
+                "simulate: wrote {} in {:.1} s: {} IMU, {} SRS, {} CNS, {} baro, {} star, {} truth records",
                 out.display(),
                 t0.elapsed().as_secs_f64(),
                 sum.imu,
                 sum.srs,
                 sum.cns,
                 sum.baro,
+                sum.star,
                 sum.truth
             );
             if let Some(f) = s.faults.as_ref().filter(|_| !no_faults) {

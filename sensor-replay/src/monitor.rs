@@ -46,11 +46,12 @@ pub fn render(sol: Option<&Solution>, st: Option<&Status>, solutions_per_s: f64)
                 x.roll_rad.to_degrees()
             ));
             s.push_str(&format!(
-                "flags: {} {} {} {} {} {} {} {} {}   resets {} (last Δr {:.2} m)\n",
+                "flags: {} {} {} {} {} {} {} {} {} {}   resets {} (last Δr {:.2} m)\n",
                 flag(solution_flags::ALIGNED, "aligned"),
                 flag(solution_flags::SRS_FRESH, "srs"),
                 flag(solution_flags::CNS_FRESH, "cns"),
                 flag(solution_flags::BARO_FRESH, "baro"),
+                flag(solution_flags::STAR_FRESH, "star"),
                 flag(solution_flags::IMU_LOST, "imu-lost"),
                 flag(solution_flags::LAST_INNOVATION_REJECTED, "rejected"),
                 flag(solution_flags::COASTING, "coasting"),
@@ -87,6 +88,7 @@ pub fn render(sol: Option<&Solution>, st: Option<&Status>, solutions_per_s: f64)
                 ("srs ", &x.srs, Some(&x.srs_aid)),
                 ("cns ", &x.cns, Some(&x.cns_aid)),
                 ("baro", &x.baro, Some(&x.baro_aid)),
+                ("star", &x.star, Some(&x.star_aid)),
             ] {
                 s.push_str(&format!(
                     "  {name} rx {:8} ok {:8} bad {:4} time {:4} gate {:4} unused {:4} gaps {:4}",

@@ -22,6 +22,8 @@ pub struct Scenario {
     pub cns: Option<CnsSpec>,
     pub baro: Option<BaroSpec>,
     pub srs: Option<SrsSpec>,
+    /// Star tracker (`[star]`): body→inertial attitude.
+    pub star: Option<StarSpec>,
     #[serde(default)]
     pub init_error: InitErrorSpec,
     /// Navigator settings this scenario needs (e.g. the paper's 88° switch);
@@ -139,6 +141,37 @@ pub struct BaroSpec {
     pub rate_hz: f64,
     /// Altitude 1-σ (m).
     pub sigma_m: f64,
+}
+
+/// `[star]`: a star tracker fixed to the body.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StarSpec {
+    pub rate_hz: f64,
+    /// 1-σ about each axis across the boresight (arcsec).
+    pub sigma_arcsec: f64,
+    /// 1-σ about the boresight (arcsec); default 8 × `sigma_arcsec`, the
+    /// usual ratio of a star tracker's roll to its cross-boresight accuracy.
+    pub boresight_sigma_arcsec: Option<f64>,
+    /// The boresight in body axes (normalized; default up, [0, 0, 1]).
+    #[serde(default = "default_boresight")]
+    pub boresight_b: [f64; 3],
+    /// A mounting misalignment the sensor's driver does not know: a fixed
+    /// small rotation about body x, y, z (arcsec) in every sample.
+    #[serde(default)]
+    pub misalignment_arcsec: [f64; 3],
+}
+
+fn default_boresight() -> [f64; 3] {
+    [0.0, 0.0, 1.0]
+}
+
+impl StarSpec {
+    /// The stated σ about the boresight (arcsec).
+    pub fn boresight_sigma(&self) -> f64 {
+        self.boresight_sigma_arcsec
+            .unwrap_or(8.0 * self.sigma_arcsec)
+    }
 }
 
 #[derive(Debug, Clone, Deserialize)]
@@ -338,6 +371,26 @@ impl Scenario {
         if let Some(b) = &self.baro {
             finite_pos("baro.rate_hz", b.rate_hz)?;
             finite_pos("baro.sigma_m", b.sigma_m)?;
+        }
+        if let Some(st) = &self.star {
+            finite_pos("star.rate_hz", st.rate_hz)?;
+            finite_pos("star.sigma_arcsec", st.sigma_arcsec)?;
+            finite_pos("star.boresight_sigma_arcsec", st.boresight_sigma())?;
+            let n = st.boresight_b.iter().map(|x| x * x).sum::<f64>().sqrt();
+            if !(n.is_finite() && n > 0.0) {
+                return Err(bad(
+                    "star.boresight_b",
+                    format!("expected a non-zero direction, got {:?}", st.boresight_b),
+                ));
+            }
+            for (i, m) in st.misalignment_arcsec.iter().enumerate() {
+                if !(m.is_finite() && m.abs() <= 3600.0) {
+                    return Err(bad(
+                        &format!("star.misalignment_arcsec[{i}]"),
+                        format!("expected a finite angle of at most 3600 arcsec, got {m}"),
+                    ));
+                }
+            }
         }
         if let Some(s) = &self.srs {
             finite_pos("srs.rate_hz", s.rate_hz)?;

@@ -1,7 +1,7 @@
 //! Sensor models: IMU errors and aid synthesis from the truth.
 
-use msgs::{BaroSample, CnsFix, SRS_MAX_LINES, SrsLine, SrsSample};
-use nalgebra::{Rotation3, Vector3};
+use msgs::{BaroSample, CnsFix, SRS_MAX_LINES, SrsLine, SrsSample, StarSample};
+use nalgebra::{Rotation3, UnitQuaternion, Vector3};
 use polarnav::earth::{self, isa};
 use polarnav::frames;
 use rand::Rng;
@@ -171,6 +171,50 @@ pub fn baro_sample(
         pressure_pa: isa::pressure(hgp),
         temperature_k: isa::temperature(hgp),
         sigma_m,
+    }
+}
+
+/// One arcsecond (rad).
+const ARCSEC: f64 = std::f64::consts::PI / (180.0 * 3600.0);
+
+/// Star tracker: the true body→inertial attitude C_b^i = C_e^i(t) C_b^e,
+/// turned by the mounting misalignment μ and the sensor noise ν, both small
+/// rotations about body axes (C_b^i,meas = C_b^i R(μ) R(ν)); ν has σ across
+/// the boresight on the two axes normal to it and σ about it.
+pub fn star_sample(
+    rng: &mut ChaCha20Rng,
+    t_ns: u64,
+    seq: u64,
+    q_b_e: &UnitQuaternion<f64>,
+    spec: &crate::scenario::StarSpec,
+    noisy: bool,
+) -> StarSample {
+    let b = Vector3::from(spec.boresight_b).normalize();
+    let (sc, sb) = (spec.sigma_arcsec, spec.boresight_sigma());
+    let q_e_i = UnitQuaternion::from_rotation_matrix(&c_e_i(t_ns as f64 * 1e-9));
+    let mut q = q_e_i * q_b_e;
+    if noisy {
+        let mu = Vector3::from(spec.misalignment_arcsec) * ARCSEC;
+        // Two axes across the boresight.
+        let a = if b.x.abs() < 0.9 {
+            Vector3::x()
+        } else {
+            Vector3::y()
+        };
+        let c1 = b.cross(&a).normalize();
+        let c2 = b.cross(&c1);
+        let nu =
+            (c1 * (sc * normal(rng)) + c2 * (sc * normal(rng)) + b * (sb * normal(rng))) * ARCSEC;
+        q = q * UnitQuaternion::from_scaled_axis(mu) * UnitQuaternion::from_scaled_axis(nu);
+    }
+    let q = q.into_inner();
+    StarSample {
+        t_ns,
+        seq,
+        q_b_i: [q.w, q.i, q.j, q.k],
+        boresight_b: b.into(),
+        sigma_cross_arcsec: sc,
+        sigma_boresight_arcsec: sb,
     }
 }
 

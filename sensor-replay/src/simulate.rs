@@ -44,6 +44,7 @@ pub struct SimSummary {
     pub srs: u64,
     pub cns: u64,
     pub baro: u64,
+    pub star: u64,
     pub truth: u64,
     pub duration_ns: u64,
     /// Samples affected by each `[[faults.event]]`, in order.
@@ -209,6 +210,11 @@ pub fn simulate<W: Write>(
     let mut cns_sched = s.cns.as_ref().map(|c| Schedule::new(c.rate_hz));
     let mut baro_sched = s.baro.as_ref().map(|b| Schedule::new(b.rate_hz));
     let mut srs_sched = s.srs.as_ref().map(|x| Schedule::new(x.rate_hz));
+    let mut star_sched = s.star.as_ref().map(|x| Schedule::new(x.rate_hz));
+    // The star tracker draws from its own generator, so a scenario with
+    // `[star]` has every other sample exactly as the same scenario without.
+    let mut star_rng = ChaCha20Rng::seed_from_u64(opts.seed);
+    star_rng.set_stream(5);
     let mut sum = SimSummary::default();
     let noisy = !opts.perfect;
     let mut inject = crate::faults::Injector::new(s.faults.as_ref().filter(|_| opts.faults));
@@ -274,6 +280,14 @@ pub fn simulate<W: Write>(
             let mut b = sensors::baro_sample(&mut rng, t_ns, sch.seq - 1, h, spec.sigma_m, noisy);
             let times = inject.baro(&mut b);
             sum.baro += put(&mut w, Record::Baro(b), times)?;
+        }
+        if let (Some(sch), Some(spec)) = (star_sched.as_mut(), s.star.as_ref())
+            && sch.due(t_ns)
+        {
+            let mut x =
+                sensors::star_sample(&mut star_rng, t_ns, sch.seq - 1, &truth.q_b_e, spec, noisy);
+            let times = inject.star(&mut x);
+            sum.star += put(&mut w, Record::Star(x), times)?;
         }
         if truth_sched.due(t_ns) || k == n {
             w.write(&Record::Truth(truth_record(t_ns, &truth)))?;

@@ -188,3 +188,57 @@ fn gauss_markov_biases_with_the_matching_preset_are_consistent() {
     eprintln!("GM biases, tactical preset: RMS tilt error / RMS tilt σ = {ratio:.3} (bound 1.2)");
     assert!(ratio <= 1.2, "tilt error {ratio}× the covariance limit");
 }
+
+/// Issue 13: the pole window with the star tracker on (1 Hz, 5″ across,
+/// 40″ about the boresight), 300 s, 30 seeds: the average NEES of
+/// attitude (and of position and velocity) inside the 95 % band. The star
+/// tracker is the most precise aid (attitude σ falls from arcminutes to
+/// arcseconds within a minute), so a wrong R or H shows here first.
+#[test]
+fn thirty_seed_average_nees_with_the_star_tracker_is_inside_the_95_percent_chi2_band() {
+    let text = format!(
+        "{}\n[star]\nrate_hz = 1.0\nsigma_arcsec = 5.0\nboresight_sigma_arcsec = 40.0\n",
+        WINDOW.replace("duration_s = 900.0", "duration_s = 300.0")
+    );
+    let per_seed: Vec<Vec<[f64; 3]>> = std::thread::scope(|scope| {
+        let handles: Vec<_> = (0..2u64)
+            .map(|k| {
+                let text = &text;
+                scope.spawn(move || {
+                    (0..RUNS)
+                        .filter(|s| s % 2 == k)
+                        .map(|seed| {
+                            let records = simulate_records(text, 700 + seed);
+                            assert!(
+                                records
+                                    .iter()
+                                    .any(|r| matches!(r, msgs::navlog::Record::Star(_)))
+                            );
+                            nees(&run(&records, &NavigatorConfig::default(), None))
+                        })
+                        .collect::<Vec<_>>()
+                })
+            })
+            .collect();
+        handles
+            .into_iter()
+            .flat_map(|h| h.join().expect("thread"))
+            .collect()
+    });
+    let epochs = per_seed[0].len();
+    for (i, name) in ["position", "velocity", "attitude"].iter().enumerate() {
+        let anees: Vec<f64> = (0..epochs)
+            .map(|k| per_seed.iter().map(|r| r[k][i]).sum::<f64>() / RUNS as f64)
+            .collect();
+        let mean = anees.iter().sum::<f64>() / epochs as f64;
+        let inside = anees.iter().filter(|a| (LO..=HI).contains(*a)).count() as f64 / epochs as f64;
+        eprintln!(
+            "star tracker on: {name} average NEES {mean:.3} (band [{LO:.3}, {HI:.3}], ideal 3); epochs with ANEES inside the band {:.1} %",
+            100.0 * inside
+        );
+        assert!(
+            (LO..=HI).contains(&mean),
+            "star tracker on: {name} average NEES {mean} outside [{LO}, {HI}]"
+        );
+    }
+}

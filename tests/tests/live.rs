@@ -252,7 +252,11 @@ fn row_state(r: &solution_csv::Row) -> [f64; 13] {
 }
 
 fn short_log(dir: &Path, seconds: f64) -> PathBuf {
-    let text = std::fs::read_to_string(repo("config/scenarios/transpolar.toml"))
+    short_log_of(dir, seconds, "config/scenarios/transpolar.toml")
+}
+
+fn short_log_of(dir: &Path, seconds: f64, scenario: &str) -> PathBuf {
+    let text = std::fs::read_to_string(repo(scenario))
         .expect("scenario")
         .replace("duration_s = 4480.0", &format!("duration_s = {seconds}"));
     let s = Scenario::parse(&text, "short").expect("scenario");
@@ -272,6 +276,30 @@ fn replay_daemon_recorder_equals_batch_row_for_row() {
     replay_equals_batch("eq", 0);
 }
 
+/// The star tracker stream end to end: `play` publishes it on
+/// `<prefix>/star`, the daemon fuses every sample, the recorder records
+/// them, and live still equals batch bit for bit.
+#[test]
+fn star_tracker_is_played_fused_live_and_recorded() {
+    let (records, last_status) =
+        replay_equals_batch_of("star", 0, "config/scenarios/transpolar-star.toml");
+    let recorded = records
+        .iter()
+        .filter(|r| matches!(r, Record::Star(_)))
+        .count() as u64;
+    eprintln!(
+        "star: {recorded} recorded; daemon received {}, fused {}, gate {}, seq gaps {}",
+        last_status.star.received,
+        last_status.star.accepted,
+        last_status.star.rejected_gate,
+        last_status.star.seq_gaps
+    );
+    assert_eq!(recorded, 60, "1 Hz over 60 s");
+    assert_eq!(last_status.star.received, 60);
+    assert!(last_status.star.accepted >= 58, "{:?}", last_status.star);
+    assert_eq!(last_status.star_aid.fresh, 1);
+}
+
 /// The same on a machine kept busy by two CPU-bound processes beside the
 /// three of the test, with the daemon stopped (SIGSTOP) for a second in the
 /// middle, long enough to fill its input buffers at 20x: the replay waits
@@ -285,12 +313,21 @@ fn on_a_busy_machine_no_input_is_lost_and_live_equals_batch() {
 }
 
 fn replay_equals_batch(tag: &str, burners: usize) {
+    replay_equals_batch_of(tag, burners, "config/scenarios/transpolar.toml");
+}
+
+/// Returns the recording and its last status.
+fn replay_equals_batch_of(
+    tag: &str,
+    burners: usize,
+    scenario: &str,
+) -> (Vec<Record>, msgs::Status) {
     let env = if burners > 0 {
         Env::alone(tag)
     } else {
         Env::new(tag)
     };
-    let log = short_log(&env.dir, 60.0);
+    let log = short_log_of(&env.dir, 60.0, scenario);
     let _burners: Vec<Proc> = (0..burners)
         .map(|_| {
             Command::new("sh")
@@ -431,6 +468,7 @@ fn replay_equals_batch(tag: &str, burners: usize) {
         live.len(),
         batch.len()
     );
+    (records, last_status)
 }
 
 /// The newest status seen within `deadline` that satisfies `pred`.
@@ -770,10 +808,14 @@ fn python_ctypes_mirror_has_the_rust_layout() {
         exclusions, fused, fresh, _pad),
     );
     rust.extend(
-        offsets!(Status: t_ns, seq, imu, srs, cns, baro, srs_aid, cns_aid, baro_aid,
-        cycles, overruns, overruns_cpu, cycle_time_mean_ns, cycle_time_max_ns, last_switch_t_ns, imu_gap_count,
+        offsets!(Status: t_ns, seq, imu, srs, cns, baro, star, srs_aid, cns_aid, baro_aid,
+        star_aid, cycles, overruns, overruns_cpu, cycle_time_mean_ns, cycle_time_max_ns, last_switch_t_ns, imu_gap_count,
         coasted_ns, checkpoints_written, reinit_count, switch_count, reset_count, flags, frame,
         resumed, _pad),
+    );
+    rust.extend(
+        offsets!(StarSample: t_ns, seq, q_b_i, boresight_b, sigma_cross_arcsec,
+        sigma_boresight_arcsec),
     );
     assert_eq!(
         py_layout.len(),
@@ -1170,7 +1212,7 @@ fn looped_replay_reinitializes_and_keeps_every_stream_fused_and_accounted() {
     );
     // 20 SRS per pass; a few may fall to the gate, but never a whole pass.
     assert!(st.srs.accepted >= 54, "SRS fused {} of 60", st.srs.accepted);
-    sensor_replay::campaign::check_accounting(published, Some([0; 4]), &st).expect("accounting");
+    sensor_replay::campaign::check_accounting(published, Some([0; 5]), &st).expect("accounting");
 }
 
 /// papers/001 §5.1 live: the scenario's header moves the switch to 88°; the

@@ -15,10 +15,15 @@ use polarnav_tests::{check_mcap, python, repo, simulate_file};
 fn batch_mcap_has_one_solution_per_csv_row_with_equal_values_and_every_schema() {
     let dir = std::env::temp_dir().join(format!("polarnav-mcap-{}", std::process::id()));
     std::fs::create_dir_all(&dir).expect("dir");
-    // paper-sim switches g -> G at 212 s; 260 s of it at 200 Hz.
+    // paper-sim switches g -> G at 212 s; 260 s of it at 200 Hz, with a
+    // star tracker so that every stream has its channel.
     let text = std::fs::read_to_string(repo("config/scenarios/paper-sim.toml"))
         .expect("scenario")
-        .replace("duration_s = 600.0", "duration_s = 260.0");
+        .replace("duration_s = 600.0", "duration_s = 260.0")
+        .replace(
+            "[init_error]",
+            "[star]\nrate_hz = 1.0\nsigma_arcsec = 5.0\n\n[init_error]",
+        );
     let log = dir.join("paper.navlog");
     simulate_file(&text, "paper-sim (260 s)", &log);
     let open = || BufReader::new(std::fs::File::open(&log).expect("open"));
@@ -57,6 +62,7 @@ fn batch_mcap_has_one_solution_per_csv_row_with_equal_values_and_every_schema() 
         ("/aid/srs", &st.srs),
         ("/aid/cns", &st.cns),
         ("/aid/baro", &st.baro),
+        ("/aid/star", &st.star),
     ] {
         assert_eq!(
             counts[topic].as_u64(),

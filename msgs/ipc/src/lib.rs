@@ -211,7 +211,7 @@ pub fn qos(topic: Topic) -> Qos {
             history: 0,
             safe_overflow: false,
         },
-        Topic::Srs | Topic::Cns | Topic::Baro => Qos {
+        Topic::Srs | Topic::Cns | Topic::Baro | Topic::Star => Qos {
             buffer: samples_for(INPUT_BUFFER_S, MAX_AID_RATE_HZ),
             history: 0,
             safe_overflow: false,
@@ -547,7 +547,7 @@ pub fn remove_isolated(cfg: &TransportConfig) {
 mod tests {
     use super::*;
     use core::time::Duration;
-    use msgs::{BaroSample, CnsFix, ImuSample, InitState, Solution, SrsSample, Status};
+    use msgs::{BaroSample, CnsFix, ImuSample, InitState, Solution, SrsSample, StarSample, Status};
 
     fn round_trip<T: Debug + ZeroCopySend + Copy + PartialEq + 'static>(topic: Topic, value: T) {
         let cfg = TransportConfig::isolated("rt");
@@ -644,6 +644,17 @@ mod tests {
                 pressure_pa: 7000.0,
                 temperature_k: 216.65,
                 sigma_m: 10.0,
+            },
+        );
+        round_trip(
+            Topic::Star,
+            StarSample {
+                t_ns: 9,
+                seq: 4,
+                q_b_i: [0.5, 0.5, -0.5, 0.5],
+                boresight_b: [0.0, 0.0, 1.0],
+                sigma_cross_arcsec: 5.0,
+                sigma_boresight_arcsec: 40.0,
             },
         );
         round_trip(

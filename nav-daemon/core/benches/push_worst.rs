@@ -62,6 +62,15 @@ impl Owned {
                 "baro t_ns={} seq={} p={:e} T={:e} sigma_m={:e}",
                 b.t_ns, b.seq, b.pressure_pa, b.temperature_k, b.sigma_m
             ),
+            Owned::Star(s) => format!(
+                "star t_ns={} seq={} q={:?} boresight={:?} sigma={:e}/{:e}",
+                s.t_ns,
+                s.seq,
+                s.q_b_i,
+                s.boresight_b,
+                s.sigma_cross_arcsec,
+                s.sigma_boresight_arcsec
+            ),
             Owned::Init(i) => format!(
                 "init t_ns={} seq={} r_e={:?} v_e={:?} q={:?} sigmas=[{:e}, {:e}, {:e}, {:e}, {:e}, {:e}]",
                 i.t_ns,

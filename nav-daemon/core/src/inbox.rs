@@ -2,10 +2,10 @@
 //! before the session sees it, so that live equals `batch` bit for bit.
 //!
 //! A live cycle drains its topics one after the other — init, IMU, SRS,
-//! CNS, baro — while the publishers go on. Two things would otherwise make
+//! CNS, baro, star — while the publishers go on. Two things would otherwise make
 //! the session see the inputs in another order than a navlog has them:
 //! - within a cycle, topics arrive grouped, not interleaved: the inbox
-//!   sorts a cycle by (time, init < IMU < SRS < CNS < baro), as a navlog is;
+//!   sorts a cycle by (time, init < IMU < SRS < CNS < baro < star), as a navlog is;
 //! - an input drained after the IMU topic may be stamped after IMU samples
 //!   that were published before it but after the IMU topic was drained:
 //!   the inbox keeps it (at most [`CARRY_MAX`] inputs) until an IMU sample
@@ -17,7 +17,7 @@
 //! is handed on at once. The buffer is allocated once; a cycle moves inputs
 //! without allocating.
 
-use msgs::{BaroSample, CnsFix, ImuSample, InitState, SrsSample};
+use msgs::{BaroSample, CnsFix, ImuSample, InitState, SrsSample, StarSample};
 
 use crate::session::{Event, Input, Session, Sink};
 
@@ -35,6 +35,7 @@ pub enum Received {
     Srs(SrsSample),
     Cns(CnsFix),
     Baro(BaroSample),
+    Star(StarSample),
 }
 
 impl Received {
@@ -46,6 +47,7 @@ impl Received {
             Received::Srs(x) => (x.t_ns, 2),
             Received::Cns(x) => (x.t_ns, 3),
             Received::Baro(x) => (x.t_ns, 4),
+            Received::Star(x) => (x.t_ns, 5),
         }
     }
 
@@ -56,6 +58,7 @@ impl Received {
             Received::Srs(x) => Input::Srs(x),
             Received::Cns(x) => Input::Cns(x),
             Received::Baro(x) => Input::Baro(x),
+            Received::Star(x) => Input::Star(x),
         }
     }
 }

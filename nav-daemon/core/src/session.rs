@@ -43,7 +43,7 @@
 //! driver's [`Sink`], which logs them as it sees fit.
 
 use msgs::{
-    AidStatus, BaroSample, CnsFix, ImuSample, InitState, Solution, SrsSample, Status,
+    AidStatus, BaroSample, CnsFix, ImuSample, InitState, Solution, SrsSample, StarSample, Status,
     StreamCounters,
 };
 
@@ -72,10 +72,17 @@ pub enum Stream {
     Srs,
     Cns,
     Baro,
+    Star,
 }
 
 impl Stream {
-    pub const ALL: [Stream; 4] = [Stream::Imu, Stream::Srs, Stream::Cns, Stream::Baro];
+    pub const ALL: [Stream; 5] = [
+        Stream::Imu,
+        Stream::Srs,
+        Stream::Cns,
+        Stream::Baro,
+        Stream::Star,
+    ];
 
     pub fn name(self) -> &'static str {
         match self {
@@ -83,6 +90,7 @@ impl Stream {
             Stream::Srs => "srs",
             Stream::Cns => "cns",
             Stream::Baro => "baro",
+            Stream::Star => "star",
         }
     }
 }
@@ -94,6 +102,7 @@ pub struct PerStream<T> {
     pub srs: T,
     pub cns: T,
     pub baro: T,
+    pub star: T,
 }
 
 impl<T> PerStream<T> {
@@ -103,6 +112,7 @@ impl<T> PerStream<T> {
             Stream::Srs => &self.srs,
             Stream::Cns => &self.cns,
             Stream::Baro => &self.baro,
+            Stream::Star => &self.star,
         }
     }
     pub fn get_mut(&mut self, s: Stream) -> &mut T {
@@ -111,6 +121,7 @@ impl<T> PerStream<T> {
             Stream::Srs => &mut self.srs,
             Stream::Cns => &mut self.cns,
             Stream::Baro => &mut self.baro,
+            Stream::Star => &mut self.star,
         }
     }
 }
@@ -122,6 +133,7 @@ pub enum Input<'a> {
     Srs(&'a SrsSample),
     Cns(&'a CnsFix),
     Baro(&'a BaroSample),
+    Star(&'a StarSample),
     Init(&'a InitState),
 }
 
@@ -134,6 +146,7 @@ impl<'a> Input<'a> {
             Record::Srs(x) => Some(Input::Srs(x)),
             Record::Cns(x) => Some(Input::Cns(x)),
             Record::Baro(x) => Some(Input::Baro(x)),
+            Record::Star(x) => Some(Input::Star(x)),
             Record::Init(x) => Some(Input::Init(x)),
             Record::Header(_) | Record::Truth(_) | Record::Solution(_) | Record::Status(_) => None,
         }
@@ -145,6 +158,7 @@ impl<'a> Input<'a> {
             Input::Srs(x) => x.t_ns,
             Input::Cns(x) => x.t_ns,
             Input::Baro(x) => x.t_ns,
+            Input::Star(x) => x.t_ns,
             Input::Init(x) => x.t_ns,
         }
     }
@@ -158,6 +172,7 @@ enum Aid {
     Srs(SrsSample),
     Cns(CnsFix),
     Baro(BaroSample),
+    Star(StarSample),
 }
 
 impl Aid {
@@ -166,6 +181,7 @@ impl Aid {
             Aid::Srs(x) => x.t_ns,
             Aid::Cns(x) => x.t_ns,
             Aid::Baro(x) => x.t_ns,
+            Aid::Star(x) => x.t_ns,
         }
     }
     fn stream(&self) -> Stream {
@@ -173,6 +189,7 @@ impl Aid {
             Aid::Srs(_) => Stream::Srs,
             Aid::Cns(_) => Stream::Cns,
             Aid::Baro(_) => Stream::Baro,
+            Aid::Star(_) => Stream::Star,
         }
     }
     fn seq(&self) -> u64 {
@@ -180,6 +197,7 @@ impl Aid {
             Aid::Srs(x) => x.seq,
             Aid::Cns(x) => x.seq,
             Aid::Baro(x) => x.seq,
+            Aid::Star(x) => x.seq,
         }
     }
     fn offer(&self, nav: &mut Navigator) -> Result<AidOutcome, InputRejection> {
@@ -187,6 +205,7 @@ impl Aid {
             Aid::Srs(x) => nav.on_srs(x),
             Aid::Cns(x) => nav.on_cns(x),
             Aid::Baro(x) => nav.on_baro(x),
+            Aid::Star(x) => nav.on_star(x),
         }
     }
 }
@@ -563,6 +582,7 @@ impl Session {
             Input::Srs(x) => (Stream::Srs, x.seq),
             Input::Cns(x) => (Stream::Cns, x.seq),
             Input::Baro(x) => (Stream::Baro, x.seq),
+            Input::Star(x) => (Stream::Star, x.seq),
             Input::Init(_) => return None,
         };
         self.seq
@@ -582,6 +602,7 @@ impl Session {
             Input::Srs(x) => self.push_aid(Aid::Srs(*x), sink),
             Input::Cns(x) => self.push_aid(Aid::Cns(*x), sink),
             Input::Baro(x) => self.push_aid(Aid::Baro(*x), sink),
+            Input::Star(x) => self.push_aid(Aid::Star(*x), sink),
             Input::Init(i) => self.push_init(i, sink),
         }
     }
@@ -632,6 +653,7 @@ impl Session {
             (&mut s.srs, Stream::Srs),
             (&mut s.cns, Stream::Cns),
             (&mut s.baro, Stream::Baro),
+            (&mut s.star, Stream::Star),
         ] {
             let o = self.outside.get(k);
             c.received += o.received;
@@ -649,6 +671,7 @@ impl Session {
             let c = match a.stream() {
                 Stream::Srs => &mut s.srs,
                 Stream::Cns => &mut s.cns,
+                Stream::Star => &mut s.star,
                 _ => &mut s.baro,
             };
             c.received += 1;
@@ -659,8 +682,13 @@ impl Session {
         if self.imu_lost {
             use msgs::solution_flags as f;
             s.flags |= f::IMU_LOST;
-            s.flags &= !(f::SRS_FRESH | f::CNS_FRESH | f::BARO_FRESH);
-            for a in [&mut s.srs_aid, &mut s.cns_aid, &mut s.baro_aid] {
+            s.flags &= !(f::SRS_FRESH | f::CNS_FRESH | f::BARO_FRESH | f::STAR_FRESH);
+            for a in [
+                &mut s.srs_aid,
+                &mut s.cns_aid,
+                &mut s.baro_aid,
+                &mut s.star_aid,
+            ] {
                 a.fresh = 0;
             }
         }
@@ -1121,6 +1149,7 @@ impl Session {
                     Aid::Srs(_) => st.srs_aid,
                     Aid::Cns(_) => st.cns_aid,
                     Aid::Baro(_) => st.baro_aid,
+                    Aid::Star(_) => st.star_aid,
                 };
                 sink.event(&Event::AidUpdate {
                     stream: a.stream(),

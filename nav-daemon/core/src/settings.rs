@@ -36,6 +36,9 @@ pub struct AidSet {
     pub srs: bool,
     pub cns: bool,
     pub baro: bool,
+    /// The star tracker's attitude (fused whenever a log or the transport
+    /// has it: a flight without a star tracker simply has no samples).
+    pub star: bool,
 }
 
 impl Default for AidSet {
@@ -44,6 +47,7 @@ impl Default for AidSet {
             srs: true,
             cns: true,
             baro: true,
+            star: true,
         }
     }
 }
@@ -53,9 +57,10 @@ impl AidSet {
         srs: false,
         cns: false,
         baro: false,
+        star: false,
     };
 
-    /// Parses `srs,cns,baro` (any subset) or `none`.
+    /// Parses `srs,cns,baro,star` (any subset) or `none`.
     pub fn parse(s: &str) -> Result<Self, String> {
         if s.trim() == "none" {
             return Ok(Self::NONE);
@@ -66,9 +71,10 @@ impl AidSet {
                 "srs" => a.srs = true,
                 "cns" => a.cns = true,
                 "baro" => a.baro = true,
+                "star" => a.star = true,
                 other => {
                     return Err(format!(
-                        "unknown aid {other:?}: expected a list of srs, cns, baro, or none"
+                        "unknown aid {other:?}: expected a list of srs, cns, baro, star, or none"
                     ));
                 }
             }
@@ -92,10 +98,15 @@ impl From<AidSet> for String {
 
 impl std::fmt::Display for AidSet {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        let names: Vec<&str> = [(self.srs, "srs"), (self.cns, "cns"), (self.baro, "baro")]
-            .into_iter()
-            .filter_map(|(on, n)| on.then_some(n))
-            .collect();
+        let names: Vec<&str> = [
+            (self.srs, "srs"),
+            (self.cns, "cns"),
+            (self.baro, "baro"),
+            (self.star, "star"),
+        ]
+        .into_iter()
+        .filter_map(|(on, n)| on.then_some(n))
+        .collect();
         if names.is_empty() {
             f.write_str("none")
         } else {
@@ -390,12 +401,14 @@ pub struct AidSettings {
     pub srs_gate: f64,
     pub cns_gate: f64,
     pub baro_gate: f64,
+    pub star_gate: f64,
     pub srs_timeout_s: f64,
     pub cns_timeout_s: f64,
     pub baro_timeout_s: f64,
+    pub star_timeout_s: f64,
     /// Aids older than this relative to the newest IMU sample are rejected as late (s).
     pub max_latency_s: f64,
-    /// The aids to fuse: a list of `srs`, `cns`, `baro`, or `none`
+    /// The aids to fuse: a list of `srs`, `cns`, `baro`, `star`, or `none`
     /// (received samples of the others are counted as not used).
     pub fuse: AidSet,
     /// An aid rejected at the gate continuously for this long (s) while its
@@ -411,9 +424,11 @@ impl Default for AidSettings {
             srs_gate: 16.266,
             cns_gate: 13.816,
             baro_gate: 10.828,
+            star_gate: 16.266,
             srs_timeout_s: 3.0,
             cns_timeout_s: 3.0,
             baro_timeout_s: 1.0,
+            star_timeout_s: 3.0,
             max_latency_s: 0.1,
             fuse: AidSet::default(),
             reset_after_s: 5.0,
@@ -594,6 +609,7 @@ impl AidSettings {
             ("aids.srs_gate", self.srs_gate),
             ("aids.cns_gate", self.cns_gate),
             ("aids.baro_gate", self.baro_gate),
+            ("aids.star_gate", self.star_gate),
         ] {
             check(origin, k, v, v > 0.0, "a positive χ² threshold")?;
         }
@@ -601,6 +617,7 @@ impl AidSettings {
             ("aids.srs_timeout_s", self.srs_timeout_s),
             ("aids.cns_timeout_s", self.cns_timeout_s),
             ("aids.baro_timeout_s", self.baro_timeout_s),
+            ("aids.star_timeout_s", self.star_timeout_s),
             ("aids.max_latency_s", self.max_latency_s),
         ] {
             check(origin, k, v, v > 0.0, "a positive time in seconds")?;

@@ -1,5 +1,5 @@
 //! The steady-state filter loop performs no heap allocation: a counting
-//! global allocator around IMU steps, every aid update (SRS, CNS, baro),
+//! global allocator around IMU steps, every aid update (SRS, CNS, baro, star),
 //! solution and status assembly, after a warm-up: first the navigator
 //! alone, then the session that every driver feeds (ordering, the aid
 //! queue, accounting, solution emission). Only allocations of the test's
@@ -9,7 +9,7 @@
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
 
-use msgs::{BaroSample, CnsFix, ImuSample, InitState, SrsLine, SrsSample};
+use msgs::{BaroSample, CnsFix, ImuSample, InitState, SrsLine, SrsSample, StarSample};
 use nalgebra::{Rotation3, UnitQuaternion, Vector3};
 use polarnav::earth::{self, Geodetic, isa};
 use polarnav::frames;
@@ -121,6 +121,20 @@ fn steady_state_loop_does_not_allocate() {
         s
     };
     let p = isa::pressure(isa::geopotential_from_geometric(geo.h_m));
+    // Body axes = ENU, so C_b^i = C_e^i(t) C_g^e.
+    let star_at = |t_ns: u64| {
+        let c_e_i =
+            Rotation3::from_axis_angle(&Vector3::z_axis(), earth::OMEGA_IE * t_ns as f64 * 1e-9);
+        let q = UnitQuaternion::from_matrix(&(c_e_i.matrix() * c_e_g.transpose()));
+        StarSample {
+            t_ns,
+            seq: t_ns / 5_000_000,
+            q_b_i: [q.w, q.i, q.j, q.k],
+            boresight_b: [0.0, 0.0, 1.0],
+            sigma_cross_arcsec: 5.0,
+            sigma_boresight_arcsec: 40.0,
+        }
+    };
     let run = |from: u64, to: u64, nav: &mut Navigator| {
         let mut checksum = 0.0;
         for k in from..to {
@@ -151,6 +165,7 @@ fn steady_state_loop_does_not_allocate() {
                     sigma_h_m: 20.0,
                 });
                 let _ = nav.on_srs(&srs_at(t_ns));
+                let _ = nav.on_star(&star_at(t_ns));
             }
             checksum += nav.solution().h_m;
             if k % 200 == 0 {
@@ -173,11 +188,15 @@ fn steady_state_loop_does_not_allocate() {
     // Every aid path ran and fused inside the counted window.
     let st = nav.status();
     assert!(
-        st.srs.accepted >= 50 && st.cns.accepted >= 50 && st.baro.accepted >= 500,
-        "srs {} cns {} baro {}",
+        st.srs.accepted >= 50
+            && st.cns.accepted >= 50
+            && st.baro.accepted >= 500
+            && st.star.accepted >= 50,
+        "srs {} cns {} baro {} star {}",
         st.srs.accepted,
         st.cns.accepted,
-        st.baro.accepted
+        st.baro.accepted,
+        st.star.accepted
     );
     assert_eq!(
         allocations, 0,
@@ -225,6 +244,7 @@ fn steady_state_loop_does_not_allocate() {
                 };
                 inbox.receive(session, Received::Cns(cns));
                 inbox.receive(session, Received::Srs(srs_at(t_ns)));
+                inbox.receive(session, Received::Star(star_at(t_ns)));
                 checksum += session.status().cycles as f64;
             }
             inbox.deliver(session, false, &mut Discard);
@@ -238,11 +258,15 @@ fn steady_state_loop_does_not_allocate() {
     let st = session.status();
     assert!(st.imu.accepted >= 11_999, "{:?}", st.imu);
     assert!(
-        st.srs.accepted >= 50 && st.cns.accepted >= 50 && st.baro.accepted >= 500,
-        "srs {} cns {} baro {}",
+        st.srs.accepted >= 50
+            && st.cns.accepted >= 50
+            && st.baro.accepted >= 500
+            && st.star.accepted >= 50,
+        "srs {} cns {} baro {} star {}",
         st.srs.accepted,
         st.cns.accepted,
-        st.baro.accepted
+        st.baro.accepted,
+        st.star.accepted
     );
     assert_eq!(
         allocations, 0,

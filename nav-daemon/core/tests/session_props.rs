@@ -145,8 +145,8 @@ struct Harness {
     session: Session,
     sink: Checker,
     truth: Truth,
-    /// Inputs pushed per stream: imu, srs, cns, baro.
-    pushed: [u64; 4],
+    /// Inputs pushed per stream: imu, srs, cns, baro, star.
+    pushed: [u64; 5],
     inits: u64,
     /// Newest genuine IMU time and the count of genuine samples.
     t_gen: u64,
@@ -170,7 +170,7 @@ impl Harness {
             session: Session::new(SessionSettings::default()),
             sink: Checker::default(),
             truth,
-            pushed: [0; 4],
+            pushed: [0; 5],
             inits: 0,
             t_gen: T0_NS,
             stamp_offset: 0,
@@ -194,6 +194,7 @@ impl Harness {
             Owned::Srs(_) => self.pushed[1] += 1,
             Owned::Cns(_) => self.pushed[2] += 1,
             Owned::Baro(_) => self.pushed[3] += 1,
+            Owned::Star(_) => self.pushed[4] += 1,
             Owned::Init(_) => self.inits += 1,
         }
         self.last = Some(o);
@@ -215,6 +216,7 @@ impl Harness {
             ("srs", st.srs),
             ("cns", st.cns),
             ("baro", st.baro),
+            ("star", st.star),
         ]
         .iter()
         .zip(self.pushed)
@@ -282,7 +284,7 @@ impl Harness {
     }
 
     /// `n` genuine IMU samples continuing the genuine time line, with aids
-    /// (baro at 20 Hz, CNS and SRS at 5 Hz, slightly late).
+    /// (baro at 20 Hz, CNS, SRS and star at 5 Hz, slightly late).
     fn genuine(&mut self, n: u64) -> Result<(), String> {
         for _ in 0..n {
             self.t_gen += DT_NS;
@@ -301,6 +303,11 @@ impl Harness {
             }
             if k % 40 == 20 {
                 self.push(Owned::Srs(self.truth.srs_at(t - DT_NS + off, k, t - DT_NS)))?;
+            }
+            if k % 40 == 30 {
+                let mut s = self.truth.star(t - DT_NS, k);
+                s.t_ns += off;
+                self.push(Owned::Star(s))?;
             }
         }
         Ok(())
@@ -428,6 +435,16 @@ struct BaroSpec {
 }
 
 #[derive(Debug, Clone)]
+struct StarSpec {
+    stamp: Stamp,
+    seq: Option<u64>,
+    q: [Option<f64>; 4],
+    boresight: Option<f64>,
+    sigma_cross: Option<f64>,
+    sigma_boresight: Option<f64>,
+}
+
+#[derive(Debug, Clone)]
 struct SrsSpec {
     stamp: Stamp,
     seq: Option<u64>,
@@ -466,6 +483,7 @@ enum InputOp {
     Srs(SrsSpec),
     Cns(CnsSpec),
     Baro(BaroSpec),
+    Star(StarSpec),
     Init(InitSpec),
 }
 
@@ -580,12 +598,34 @@ fn init_spec() -> impl Strategy<Value = InitSpec> {
     })
 }
 
+fn star_spec() -> impl Strategy<Value = StarSpec> {
+    (
+        stamp(),
+        seq(),
+        [field(), field(), field(), field()],
+        field(),
+        sigma_field(),
+        sigma_field(),
+    )
+        .prop_map(
+            |(stamp, seq, q, boresight, sigma_cross, sigma_boresight)| StarSpec {
+                stamp,
+                seq,
+                q,
+                boresight,
+                sigma_cross,
+                sigma_boresight,
+            },
+        )
+}
+
 fn input_op() -> impl Strategy<Value = InputOp> {
     prop_oneof![
         4 => imu_spec().prop_map(InputOp::Imu),
         1 => srs_spec().prop_map(InputOp::Srs),
         1 => cns_spec().prop_map(InputOp::Cns),
         1 => baro_spec().prop_map(InputOp::Baro),
+        1 => star_spec().prop_map(InputOp::Star),
         2 => init_spec().prop_map(InputOp::Init),
     ]
 }
@@ -670,6 +710,17 @@ impl Harness {
                 x.temperature_k = or(s.temp, x.temperature_k);
                 x.sigma_m = or(s.sigma, x.sigma_m);
                 Owned::Baro(x)
+            }
+            InputOp::Star(s) => {
+                let mut x = tr.star(tg, s.seq.unwrap_or(k));
+                x.t_ns = self.resolve(s.stamp);
+                for (q, f) in x.q_b_i.iter_mut().zip(s.q) {
+                    *q = or(f, *q);
+                }
+                x.boresight_b[2] = or(s.boresight, x.boresight_b[2]);
+                x.sigma_cross_arcsec = or(s.sigma_cross, x.sigma_cross_arcsec);
+                x.sigma_boresight_arcsec = or(s.sigma_boresight, x.sigma_boresight_arcsec);
+                Owned::Star(x)
             }
             InputOp::Srs(s) => {
                 let mut x = tr.srs(tg, s.seq.unwrap_or(k));
@@ -1031,6 +1082,9 @@ fn aid_with_sigma_1e160_is_rejected() {
     for l in &mut s.lines {
         l.sigma_mps = 1e160;
     }
+    let mut star = h.truth.star(t, 1);
+    star.sigma_cross_arcsec = 1e160;
+    ok(h.push(Owned::Star(star)));
     ok(h.push(Owned::Cns(c)));
     ok(h.push(Owned::Baro(b)));
     ok(h.push(Owned::Srs(s)));
@@ -1040,6 +1094,7 @@ fn aid_with_sigma_1e160_is_rejected() {
     assert_eq!(st.cns.rejected_invalid, st0.cns.rejected_invalid + 1);
     assert_eq!(st.baro.rejected_invalid, st0.baro.rejected_invalid + 1);
     assert_eq!(st.srs.rejected_invalid, st0.srs.rejected_invalid + 1);
+    assert_eq!(st.star.rejected_invalid, st0.star.rejected_invalid + 1);
     let n = h.session.navigator().expect("navigating");
     assert!(n.covariance().iter().all(|x| x.is_finite()));
     assert!((0..15).all(|i| n.covariance()[(i, i)] > 0.0));

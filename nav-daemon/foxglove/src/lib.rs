@@ -9,12 +9,12 @@
 //!
 //! | topic | schema | from |
 //! |---|---|---|
-//! | `/imu`, `/srs`, `/cns`, `/baro`, `/init` | JSON, the wire payload | input records |
+//! | `/imu`, `/srs`, `/cns`, `/baro`, `/star`, `/init` | JSON, the wire payload | input records |
 //! | `/solution` | JSON, every field of `Solution` | solutions |
 //! | `/solution/fix` | `foxglove.LocationFix` (ENU covariance from σ) | solutions |
 //! | `/solution/pose` | `foxglove.FrameTransform` `ecef` → `body` | solutions |
 //! | `/status` | JSON, every field of `Status` | status records |
-//! | `/aid/srs`, `/aid/cns`, `/aid/baro` | JSON [`AidUpdate`] | each gated update, or status |
+//! | `/aid/srs`, `/aid/cns`, `/aid/baro`, `/aid/star` | JSON [`AidUpdate`] | each gated update, or status |
 //! | `/events/switch` | JSON [`SwitchNote`] | a frame change between solutions |
 //! | `/truth`, `/truth/fix` | JSON truth with geodetic position; `foxglove.LocationFix` | truth records |
 //!
@@ -49,7 +49,8 @@ pub struct AidUpdate {
     pub t_ns: u64,
     /// Innovation, up to 3 components, in the aid's measurement space: SRS
     /// velocity (m/s, nav-frame axes); CNS in g Δlatitude, Δlongitude
-    /// (rad), in G grid-horizontal position (m); baro height (m). Divided
+    /// (rad), in G grid-horizontal position (m); baro height (m); star
+    /// tracker attitude (rad, nav-frame axes). Divided
     /// by the square root of its variance it is unit-free in every frame.
     pub innovation: [f64; 3],
     /// Its variance (diagonal of S).
@@ -126,6 +127,8 @@ pub enum AidTopic {
     Cns,
     /// `/aid/baro`
     Baro,
+    /// `/aid/star`
+    Star,
 }
 
 /// Why writing an MCAP file failed.
@@ -199,10 +202,11 @@ pub struct FlightChannels {
     srs: JsonChannel,
     cns: JsonChannel,
     baro: JsonChannel,
+    star: JsonChannel,
     init: JsonChannel,
     solution: JsonChannel,
     status: JsonChannel,
-    aid: [JsonChannel; 3],
+    aid: [JsonChannel; 4],
     switch: JsonChannel,
     truth: JsonChannel,
     fix: Channel<LocationFix>,
@@ -213,11 +217,12 @@ pub struct FlightChannels {
 }
 
 /// Every topic this mapping writes, in a fixed order.
-pub const TOPICS: [&str; 15] = [
+pub const TOPICS: [&str; 17] = [
     "/imu",
     "/srs",
     "/cns",
     "/baro",
+    "/star",
     "/init",
     "/solution",
     "/solution/fix",
@@ -226,6 +231,7 @@ pub const TOPICS: [&str; 15] = [
     "/aid/srs",
     "/aid/cns",
     "/aid/baro",
+    "/aid/star",
     "/events/switch",
     "/truth",
     "/truth/fix",
@@ -268,6 +274,12 @@ impl FlightChannels {
                 "polarnav.BaroSample",
                 &msgs::BaroSample::default(),
             ),
+            star: JsonChannel::new(
+                ctx,
+                "/star",
+                "polarnav.StarSample",
+                &msgs::StarSample::default(),
+            ),
             init: JsonChannel::new(
                 ctx,
                 "/init",
@@ -280,6 +292,7 @@ impl FlightChannels {
                 aid("/aid/srs", "polarnav.AidUpdate"),
                 aid("/aid/cns", "polarnav.AidUpdate"),
                 aid("/aid/baro", "polarnav.AidUpdate"),
+                aid("/aid/star", "polarnav.AidUpdate"),
             ],
             switch: JsonChannel::new(
                 ctx,
@@ -313,6 +326,7 @@ impl FlightChannels {
             Record::Srs(x) => self.srs.log(x.t_ns, x.as_ref()),
             Record::Cns(x) => self.cns.log(x.t_ns, x),
             Record::Baro(x) => self.baro.log(x.t_ns, x),
+            Record::Star(x) => self.star.log(x.t_ns, x),
             Record::Truth(x) => self.truth(x),
             Record::Solution(x) => self.solution(x),
             Record::Status(x) => self.status(x),
@@ -392,6 +406,7 @@ impl FlightChannels {
                 (AidTopic::Srs, &st.srs_aid, &st.srs),
                 (AidTopic::Cns, &st.cns_aid, &st.cns),
                 (AidTopic::Baro, &st.baro_aid, &st.baro),
+                (AidTopic::Star, &st.star_aid, &st.star),
             ] {
                 if c.accepted + c.rejected_gate > 0 {
                     self.aid[topic as usize].log(st.t_ns, &AidUpdate::from_status(st.t_ns, a));

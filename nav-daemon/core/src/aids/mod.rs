@@ -9,6 +9,7 @@ pub mod baro;
 pub mod cns;
 pub mod control;
 pub mod srs;
+pub mod star;
 
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 
@@ -24,12 +25,13 @@ pub struct Measurement<const M: usize> {
 }
 
 /// Physical range of an aid's stated 1-σ (m for CNS and baro, m/s for an
-/// SRS line). Below the lower bound no real sensor measures (and R would
+/// SRS line, rad for the star tracker: 0.01″ to 1 rad). Below the lower bound no real sensor measures (and R would
 /// make the update numerically singular); above the upper bound the sample
 /// carries no information and R² would overflow the innovation covariance.
 pub const SIGMA_RANGE_CNS_M: (f64, f64) = (1e-3, 1e6);
 pub const SIGMA_RANGE_BARO_M: (f64, f64) = (1e-3, 1e5);
 pub const SIGMA_RANGE_SRS_MPS: (f64, f64) = (1e-4, 1e5);
+pub const SIGMA_RANGE_STAR_RAD: (f64, f64) = (0.01 * star::ARCSEC_RAD, 1.0);
 
 /// Checks a stated σ against its physical range.
 pub fn check_sigma(what: &'static str, sigma: f64, range: (f64, f64)) -> Result<(), AidError> {

@@ -3,7 +3,7 @@
 //! χ² gate and the closed-loop feedback of a fused correction. The
 //! measurement models are `crate::aids`.
 
-use msgs::{BaroSample, CnsFix, SrsSample};
+use msgs::{BaroSample, CnsFix, SrsSample, StarSample};
 use nalgebra::{SMatrix, SVector, Vector3};
 
 use crate::aids::control::AidControl;
@@ -22,16 +22,17 @@ pub(super) struct AidGate {
     pub(super) srs: AidControl,
     pub(super) cns: AidControl,
     pub(super) baro: AidControl,
+    pub(super) star: AidControl,
     pub(super) enabled: AidSet,
     pub(super) max_latency_ns: u64,
     /// The last gated innovation was rejected (solution flag).
     pub(super) last_rejected: bool,
-    /// Rejection streaks (SRS, CNS, baro) and the time after which a
+    /// Rejection streaks (SRS, CNS, baro, star) and the time after which a
     /// healthy aid's streak resets the filter to it (0 = never).
-    pub(super) streaks: [Streak; 3],
+    pub(super) streaks: [Streak; 4],
     pub(super) reset_after_ns: u64,
-    /// Aid resets so far (SRS, CNS, baro) and the verdict of the last one.
-    pub(super) resets: [u32; 3],
+    /// Aid resets so far (SRS, CNS, baro, star) and the verdict of the last one.
+    pub(super) resets: [u32; 4],
     pub(super) last_reset_verdict: Option<StreakVerdict>,
     /// The bias model the last reset widened the process noise to (None if
     /// it was already at least that wide).
@@ -46,12 +47,13 @@ impl AidGate {
             srs: AidControl::new(a.srs_gate, secs_to_ns(a.srs_timeout_s)),
             cns: AidControl::new(a.cns_gate, secs_to_ns(a.cns_timeout_s)),
             baro: AidControl::new(a.baro_gate, secs_to_ns(a.baro_timeout_s)),
+            star: AidControl::new(a.star_gate, secs_to_ns(a.star_timeout_s)),
             enabled,
             max_latency_ns: secs_to_ns(a.max_latency_s),
             last_rejected: false,
-            streaks: [Streak::default(); 3],
+            streaks: [Streak::default(); 4],
             reset_after_ns: secs_to_ns(a.reset_after_s),
-            resets: [0; 3],
+            resets: [0; 4],
             last_reset_verdict: None,
             last_reset_widened: None,
             reset_pending_flag: None,
@@ -71,6 +73,7 @@ pub(super) enum AidKind {
     Srs,
     Cns,
     Baro,
+    Star,
 }
 
 impl AidKind {
@@ -79,14 +82,16 @@ impl AidKind {
             AidKind::Srs => 0,
             AidKind::Cns => 1,
             AidKind::Baro => 2,
+            AidKind::Star => 3,
         }
     }
 
     /// The block of states the aid observes: velocity for SRS, position for
-    /// CNS and baro.
+    /// CNS and baro, attitude for the star tracker.
     fn observed_block(self) -> usize {
         match self {
             AidKind::Srs => idx::DV,
+            AidKind::Star => idx::PHI,
             AidKind::Cns | AidKind::Baro => idx::DP,
         }
     }
@@ -281,6 +286,7 @@ impl Navigator {
             AidKind::Srs => &self.aids.srs,
             AidKind::Cns => &self.aids.cns,
             AidKind::Baro => &self.aids.baro,
+            AidKind::Star => &self.aids.star,
         }
     }
     fn control_mut(&mut self, which: AidKind) -> &mut AidControl {
@@ -288,6 +294,7 @@ impl Navigator {
             AidKind::Srs => &mut self.aids.srs,
             AidKind::Cns => &mut self.aids.cns,
             AidKind::Baro => &mut self.aids.baro,
+            AidKind::Star => &mut self.aids.star,
         }
     }
 
@@ -303,6 +310,7 @@ impl Navigator {
             AidKind::Srs => self.aids.enabled.srs,
             AidKind::Cns => self.aids.enabled.cns,
             AidKind::Baro => self.aids.enabled.baro,
+            AidKind::Star => self.aids.enabled.star,
         };
         if !enabled {
             self.control_mut(which).counters.not_used += 1;
@@ -358,6 +366,11 @@ impl Navigator {
     pub fn on_baro(&mut self, b: &BaroSample) -> Result<AidOutcome, InputRejection> {
         self.on_aid(AidKind::Baro, b.t_ns, |n| {
             aids::baro::measurement(n, b).map(|m| (m, None))
+        })
+    }
+    pub fn on_star(&mut self, s: &StarSample) -> Result<AidOutcome, InputRejection> {
+        self.on_aid(AidKind::Star, s.t_ns, |n| {
+            aids::star::measurement(n, s).map(|m| (m, None))
         })
     }
 }

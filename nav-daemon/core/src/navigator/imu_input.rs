@@ -158,7 +158,12 @@ impl Navigator {
         self.propagate_covariance();
         self.t_ns = t_ns;
         self.history.clear();
-        for c in [&mut self.aids.srs, &mut self.aids.cns, &mut self.aids.baro] {
+        for c in [
+            &mut self.aids.srs,
+            &mut self.aids.cns,
+            &mut self.aids.baro,
+            &mut self.aids.star,
+        ] {
             c.counters.last_t_ns = 0;
         }
         self.coast(self.limits.max_coast_s);

@@ -294,6 +294,7 @@ impl Navigator {
             (&mut fresh.aids.srs, &self.aids.srs),
             (&mut fresh.aids.cns, &self.aids.cns),
             (&mut fresh.aids.baro, &self.aids.baro),
+            (&mut fresh.aids.star, &self.aids.star),
         ] {
             n.counters = o.counters;
             n.counters.last_t_ns = 0;
@@ -406,8 +407,8 @@ impl Navigator {
         &self.reset
     }
 
-    /// Resets to an aid so far: (SRS, CNS, baro).
-    pub fn aid_resets(&self) -> [u32; 3] {
+    /// Resets to an aid so far: (SRS, CNS, baro, star).
+    pub fn aid_resets(&self) -> [u32; 4] {
         self.aids.resets
     }
 

@@ -61,6 +61,9 @@ impl Navigator {
         if self.aids.baro.fresh(self.t_ns) {
             f |= solution_flags::BARO_FRESH;
         }
+        if self.aids.star.fresh(self.t_ns) {
+            f |= solution_flags::STAR_FRESH;
+        }
         if self.aids.last_rejected {
             f |= solution_flags::LAST_INNOVATION_REJECTED;
         }
@@ -151,15 +154,18 @@ impl Navigator {
         let (srs, srs_aid) = aid(&self.aids.srs);
         let (cns, cns_aid) = aid(&self.aids.cns);
         let (baro, baro_aid) = aid(&self.aids.baro);
+        let (star, star_aid) = aid(&self.aids.star);
         Status {
             t_ns: self.t_ns,
             imu: self.imu,
             srs,
             cns,
             baro,
+            star,
             srs_aid,
             cns_aid,
             baro_aid,
+            star_aid,
             last_switch_t_ns: self.last_switch_t_ns,
             switch_count: self.switch_count,
             imu_gap_count: self.imu_gap_count,

@@ -4,7 +4,7 @@
 //! the state it describes). Included by both with `#[path]`.
 #![allow(dead_code)] // each includer uses part of it
 
-use msgs::{BaroSample, CnsFix, ImuSample, InitState, SrsLine, SrsSample};
+use msgs::{BaroSample, CnsFix, ImuSample, InitState, SrsLine, SrsSample, StarSample};
 use nalgebra::{UnitQuaternion, Vector3};
 use polarnav::earth::{self, Geodetic, isa};
 use polarnav::frames;
@@ -115,6 +115,28 @@ impl Truth {
         }
     }
 
+    /// The star tracker sample stamped `t_ns` of the vehicle's attitude at
+    /// `content_t_ns` (body axes = local east/north/up; C_e^i = R_z(ω_ie t)).
+    pub fn star_at(&self, t_ns: u64, seq: u64, content_t_ns: u64) -> StarSample {
+        let g = self.geo(content_t_ns);
+        let c_b_e = frames::c_e_g(g.lat_rad, g.lon_rad).transpose();
+        let a = earth::OMEGA_IE * t_ns as f64 * 1e-9;
+        let c_e_i = nalgebra::Rotation3::from_axis_angle(&Vector3::z_axis(), a);
+        let q = UnitQuaternion::from_matrix(&(c_e_i.matrix() * c_b_e));
+        StarSample {
+            t_ns,
+            seq,
+            q_b_i: [q.w, q.i, q.j, q.k],
+            boresight_b: [0.0, 0.0, 1.0],
+            sigma_cross_arcsec: 5.0,
+            sigma_boresight_arcsec: 40.0,
+        }
+    }
+
+    pub fn star(&self, t_ns: u64, seq: u64) -> StarSample {
+        self.star_at(t_ns, seq, t_ns)
+    }
+
     pub fn srs(&self, t_ns: u64, seq: u64) -> SrsSample {
         self.srs_at(t_ns, seq, t_ns)
     }
@@ -210,6 +232,7 @@ pub enum Owned {
     Srs(SrsSample),
     Cns(CnsFix),
     Baro(BaroSample),
+    Star(StarSample),
     Init(InitState),
 }
 
@@ -220,6 +243,7 @@ impl Owned {
             Owned::Srs(x) => Input::Srs(x),
             Owned::Cns(x) => Input::Cns(x),
             Owned::Baro(x) => Input::Baro(x),
+            Owned::Star(x) => Input::Star(x),
             Owned::Init(x) => Input::Init(x),
         }
     }
@@ -229,6 +253,7 @@ impl Owned {
             Owned::Srs(x) => &mut x.t_ns,
             Owned::Cns(x) => &mut x.t_ns,
             Owned::Baro(x) => &mut x.t_ns,
+            Owned::Star(x) => &mut x.t_ns,
             Owned::Init(x) => &mut x.t_ns,
         }
     }
