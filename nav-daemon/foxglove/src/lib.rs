@@ -16,6 +16,7 @@
 //! | `/status` | JSON, every field of `Status` | status records |
 //! | `/aid/srs`, `/aid/cns`, `/aid/baro`, `/aid/star` | JSON [`AidUpdate`] | each gated update, or status |
 //! | `/events/switch` | JSON [`SwitchNote`] | a frame change between solutions |
+//! | `/events` | `foxglove.Log` | the same switch as a line for Foxglove's Log panel |
 //! | `/truth`, `/truth/fix` | JSON truth with geodetic position; `foxglove.LocationFix` | truth records |
 //!
 //! Every message's log time is its sensor time stamp `t_ns`. JSON channels
@@ -32,7 +33,7 @@ use std::io::BufWriter;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-use foxglove::messages::{FrameTransform, LocationFix, Quaternion, Timestamp, Vector3};
+use foxglove::messages::{FrameTransform, LocationFix, Log, Quaternion, Timestamp, Vector3};
 use foxglove::{Channel, Context, McapWriterHandle, PartialMetadata, RawChannel, Schema};
 use msgs::navlog::{Header, Record};
 use msgs::{AidStatus, Solution, Status, TruthRecord, WireFrame};
@@ -212,12 +213,13 @@ pub struct FlightChannels {
     fix: Channel<LocationFix>,
     truth_fix: Channel<LocationFix>,
     pose: Channel<FrameTransform>,
+    log: Channel<Log>,
     aid_source: AidSource,
     last_frame: Option<u8>,
 }
 
 /// Every topic this mapping writes, in a fixed order.
-pub const TOPICS: [&str; 17] = [
+pub const TOPICS: [&str; 18] = [
     "/imu",
     "/srs",
     "/cns",
@@ -233,6 +235,7 @@ pub const TOPICS: [&str; 17] = [
     "/aid/baro",
     "/aid/star",
     "/events/switch",
+    "/events",
     "/truth",
     "/truth/fix",
 ];
@@ -311,6 +314,7 @@ impl FlightChannels {
             fix: ctx.channel_builder("/solution/fix").build(),
             truth_fix: ctx.channel_builder("/truth/fix").build(),
             pose: ctx.channel_builder("/solution/pose").build(),
+            log: ctx.channel_builder("/events").build(),
             aid_source,
             last_frame: None,
         }
@@ -349,6 +353,19 @@ impl FlightChannels {
                 switch_count: s.switch_count,
                 lat_deg,
             };
+            if self.log.has_sinks() {
+                self.log.log_with_time(
+                    &Log {
+                        timestamp: Some(stamp(s.t_ns)),
+                        // INFO
+                        level: 2,
+                        message: format!("frame switch {}", note.label),
+                        name: "polarnav".into(),
+                        ..Default::default()
+                    },
+                    s.t_ns,
+                );
+            }
             self.switch.log(s.t_ns, &note);
         }
         self.last_frame = Some(s.frame);
