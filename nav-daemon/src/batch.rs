@@ -13,7 +13,7 @@ use std::io::{BufRead, Write};
 use msgs::navlog::{NavlogReader, ReadReport, Record};
 use polarnav::align::{AlignError, Alignment};
 use polarnav::navigator::SwitchEvent;
-use polarnav::session::{Event, InitCounters, Input, Session, Sink, Stream};
+use polarnav::session::{Event, InitCounters, Input, PerStream, Session, Sink};
 
 use crate::events::log_event;
 use polarnav::solution_csv;
@@ -132,8 +132,8 @@ struct CsvSink<'a, W: Write> {
     next_progress_ns: u64,
     switches: Vec<SwitchEvent>,
     align_error: Option<AlignError>,
-    rejections_logged: [u32; 4],
-    gaps_logged: [u32; 4],
+    rejections_logged: PerStream<u32>,
+    gaps_logged: PerStream<u32>,
 }
 
 /// Rejections logged per stream before the rest are only counted (status).
@@ -177,9 +177,9 @@ impl<W: Write> Sink for CsvSink<'_, W> {
                 seq,
                 reason,
             } => {
-                let k = Stream::ALL.iter().position(|s| s == stream).unwrap_or(0);
-                self.rejections_logged[k] += 1;
-                if self.rejections_logged[k] <= REJECTIONS_LOGGED {
+                let n = self.rejections_logged.get_mut(*stream);
+                *n += 1;
+                if *n <= REJECTIONS_LOGGED {
                     tracing::warn!(
                         t_ns,
                         seq,
@@ -193,9 +193,9 @@ impl<W: Write> Sink for CsvSink<'_, W> {
                 self.switches.push(*sw);
             }
             Event::SequenceGap { stream, .. } => {
-                let k = Stream::ALL.iter().position(|s| s == stream).unwrap_or(0);
-                self.gaps_logged[k] += 1;
-                if self.gaps_logged[k] <= REJECTIONS_LOGGED {
+                let n = self.gaps_logged.get_mut(*stream);
+                *n += 1;
+                if *n <= REJECTIONS_LOGGED {
                     log_event(log, e);
                 }
             }
@@ -266,8 +266,8 @@ pub fn run_to<R: BufRead, W: Write>(
         next_progress_ns: 0,
         switches: Vec::new(),
         align_error: None,
-        rejections_logged: [0; 4],
-        gaps_logged: [0; 4],
+        rejections_logged: PerStream::default(),
+        gaps_logged: PerStream::default(),
     };
     match &mut sink.out {
         Output::Csv(w) => writeln!(w, "{}", solution_csv::HEADER)?,

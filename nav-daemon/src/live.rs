@@ -29,7 +29,7 @@ use msgs::{
 };
 use polarnav::checkpoint::{self, Checkpoint};
 use polarnav::inbox::{Inbox, Received};
-use polarnav::session::{Event, Session, Sink, Stream};
+use polarnav::session::{Event, PerStream, Session, Sink};
 use polarnav_config::Effective;
 use polarnav_ipc::{TopicPublisher, TopicSubscriber, TransportConfig, TransportError};
 
@@ -473,7 +473,7 @@ struct OutputState {
     /// A second publisher was refused in the last status period: flagged
     /// in every solution until a period passes without one.
     second_publisher: bool,
-    rejections: [RateLimit; 4],
+    rejections: PerStream<RateLimit>,
     gaps: RateLimit,
 }
 
@@ -532,8 +532,7 @@ impl Sink for PublishSink<'_> {
             reason,
         } = e
         {
-            let k = Stream::ALL.iter().position(|s| s == stream).unwrap_or(0);
-            if let Some(suppressed) = self.out.rejections[k].due() {
+            if let Some(suppressed) = self.out.rejections.get_mut(*stream).due() {
                 tracing::warn!(
                     t_s = crate::events::secs(*t_ns),
                     seq,

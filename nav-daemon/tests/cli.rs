@@ -268,3 +268,52 @@ fn a_bad_prefix_is_refused_alike_from_the_file_and_the_command_line() {
     );
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// A refused star tracker sample is logged and counted, and batch goes on
+/// (the per-stream log limits once had no entry for the fifth stream).
+#[test]
+fn batch_logs_and_counts_a_refused_star_sample_and_goes_on() {
+    let geo = Geodetic::from_deg(45.0, 7.0, 300.0);
+    let c_e_g = frames::c_e_g(geo.lat_rad, geo.lon_rad);
+    let q_b_e = UnitQuaternion::from_matrix(&c_e_g.transpose());
+    let bytes = stationary_log(500, true);
+    let (records, _) = msgs::navlog::read_all(&bytes);
+    let mut w =
+        NavlogWriter::new(Vec::new(), Header::new("test", "stationary", 0, "")).expect("header");
+    for r in records.iter().filter(|r| !matches!(r, Record::Header(_))) {
+        w.write(r).expect("record");
+        if let Record::Imu(s) = r
+            && s.t_ns % 1_000_000_000 == 0
+            && s.t_ns < 5_000_000_000
+        {
+            let c_e_i = nalgebra::Rotation3::from_axis_angle(
+                &Vector3::z_axis(),
+                earth::OMEGA_IE * s.t_ns as f64 * 1e-9,
+            );
+            let q = (UnitQuaternion::from_rotation_matrix(&c_e_i) * q_b_e).into_inner();
+            let mut star = msgs::StarSample {
+                t_ns: s.t_ns,
+                seq: s.t_ns / 1_000_000_000,
+                q_b_i: [q.w, q.i, q.j, q.k],
+                boresight_b: [0.0, 0.0, 1.0],
+                sigma_cross_arcsec: 5.0,
+                sigma_boresight_arcsec: 40.0,
+            };
+            if s.t_ns == 2_000_000_000 {
+                star.q_b_i[0] = f64::NAN;
+            }
+            w.write(&Record::Star(star)).expect("star");
+        }
+    }
+    let log = w.finish().expect("finish");
+    let dir = temp_dir("star");
+    let (code, err, rows) = run_batch(&dir, &log, &["--aids", "star"]);
+    assert_eq!(code, 0, "{err}");
+    assert_eq!(rows.len(), 501);
+    assert!(
+        err.contains("star sample rejected: non-finite value in star"),
+        "{err}"
+    );
+    assert!(err.contains("aids: 3 fused, 1 rejected"), "{err}");
+    std::fs::remove_dir_all(&dir).ok();
+}

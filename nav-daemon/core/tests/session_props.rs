@@ -22,7 +22,7 @@
 //! (2048 cases; measured with `SESSION_PROPS_TOLERATE_KNOWN=1`, below).
 //! `SESSION_PROPS_CASES=n` changes the number of cases.
 
-use msgs::{ImuSample, InitState, Solution};
+use msgs::{ImuSample, InitState, Solution, StarSample};
 use nalgebra::{UnitQuaternion, Vector3};
 use polarnav::earth::{self, Geodetic};
 use polarnav::frames;
@@ -1098,6 +1098,81 @@ fn aid_with_sigma_1e160_is_rejected() {
     let n = h.session.navigator().expect("navigating");
     assert!(n.covariance().iter().all(|x| x.is_finite()));
     assert!((0..15).all(|i| n.covariance()[(i, i)] > 0.0));
+    ok(h.genuine(40));
+    ok(h.finish());
+}
+
+/// The star tracker's impossible content (NaN and ±Inf in the quaternion or
+/// a σ, a quaternion or boresight off unit norm, σ of 1e-300 or 1e300) is
+/// refused and counted as invalid, once each; the state stays finite and a
+/// genuine sample of the same time is fused after them.
+#[test]
+fn star_tracker_impossible_content_is_refused_and_counted() {
+    let mut h = started(250.0);
+    ok(h.genuine(1));
+    let t = h.t_gen;
+    let st0 = h.session.status();
+    let good = h.truth.star(t, 1);
+    let q = good.q_b_i;
+    let bad = [
+        StarSample {
+            q_b_i: [f64::NAN, q[1], q[2], q[3]],
+            ..good
+        },
+        StarSample {
+            q_b_i: [q[0], f64::INFINITY, q[2], q[3]],
+            ..good
+        },
+        StarSample {
+            q_b_i: [q[0], q[1], f64::NEG_INFINITY, q[3]],
+            ..good
+        },
+        StarSample {
+            q_b_i: q.map(|x| x * 1.001),
+            ..good
+        },
+        StarSample {
+            q_b_i: [0.0; 4],
+            ..good
+        },
+        StarSample {
+            boresight_b: [0.0, 0.0, 2.0],
+            ..good
+        },
+        StarSample {
+            sigma_cross_arcsec: 1e-300,
+            ..good
+        },
+        StarSample {
+            sigma_boresight_arcsec: 1e300,
+            ..good
+        },
+        StarSample {
+            sigma_cross_arcsec: f64::NAN,
+            ..good
+        },
+        StarSample {
+            sigma_boresight_arcsec: f64::INFINITY,
+            ..good
+        },
+    ];
+    for b in bad {
+        ok(h.push(Owned::Star(b)));
+    }
+    h.session.flush(&mut h.sink);
+    let st = h.session.status();
+    assert_eq!(
+        st.star.rejected_invalid,
+        st0.star.rejected_invalid + bad.len() as u64,
+        "{:?}",
+        st.star
+    );
+    assert_eq!(st.star.accepted, st0.star.accepted);
+    ok(h.push(Owned::Star(good)));
+    h.session.flush(&mut h.sink);
+    assert_eq!(h.session.status().star.accepted, st0.star.accepted + 1);
+    let n = h.session.navigator().expect("navigating");
+    assert!(n.covariance().iter().all(|x| x.is_finite()));
     ok(h.genuine(40));
     ok(h.finish());
 }
