@@ -13,7 +13,7 @@ use std::io::{BufRead, Write};
 use msgs::navlog::{NavlogReader, ReadReport, Record};
 use polarnav::align::{AlignError, Alignment};
 use polarnav::navigator::SwitchEvent;
-use polarnav::session::{Event, InitCounters, Input, PerStream, Session, Sink};
+use polarnav::session::{Event, InitCounters, Input, PerStream, Session, Sink, Stream};
 
 use crate::events::log_event;
 use polarnav::solution_csv;
