@@ -22,7 +22,9 @@ use crate::payloads::{
 /// First bytes of every navlog's header record.
 pub const MAGIC: [u8; 8] = *b"POLARNAV";
 /// Version of the record format; bump on any change of [`Record`].
-pub const FORMAT_VERSION: u16 = 2;
+/// 3: [`Record::TruthBias`] appended (a version-2 reader skips those
+/// frames as undecodable and reads the rest).
+pub const FORMAT_VERSION: u16 = 3;
 /// Frames longer than this are treated as corruption (the largest record is ~1 kB
 /// plus the header's scenario text).
 pub const MAX_FRAME_BYTES: usize = 1 << 20;
@@ -69,6 +71,19 @@ pub enum Record {
     Truth(TruthRecord),
     Solution(Box<Solution>),
     Status(Box<Status>),
+    /// The simulated IMU bias at a truth epoch (constant draw plus
+    /// Gauss–Markov part), body axes. Appended last: older files decode.
+    TruthBias(TruthBias),
+}
+
+/// True IMU bias of a simulated flight at `t_ns`, body axes.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct TruthBias {
+    pub t_ns: u64,
+    /// Gyro bias (rad/s).
+    pub gyro_bias_rps: [f64; 3],
+    /// Accelerometer bias (m/s²).
+    pub accel_bias_mps2: [f64; 3],
 }
 
 impl Record {
@@ -84,6 +99,7 @@ impl Record {
             Record::Truth(r) => Some(r.t_ns),
             Record::Solution(r) => Some(r.t_ns),
             Record::Status(r) => Some(r.t_ns),
+            Record::TruthBias(r) => Some(r.t_ns),
         }
     }
 }
@@ -496,6 +512,11 @@ mod tests {
             }),
             Record::Solution(Box::new(sol)),
             Record::Status(Box::new(status)),
+            Record::TruthBias(TruthBias {
+                t_ns: 7,
+                gyro_bias_rps: [4.8e-8, -1e-9, 0.0],
+                accel_bias_mps2: [1e-3, -9.8e-4, 2e-5],
+            }),
         ]
     }
 

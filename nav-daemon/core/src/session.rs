@@ -135,7 +135,11 @@ impl<'a> Input<'a> {
             Record::Cns(x) => Some(Input::Cns(x)),
             Record::Baro(x) => Some(Input::Baro(x)),
             Record::Init(x) => Some(Input::Init(x)),
-            Record::Header(_) | Record::Truth(_) | Record::Solution(_) | Record::Status(_) => None,
+            Record::Header(_)
+            | Record::Truth(_)
+            | Record::TruthBias(_)
+            | Record::Solution(_)
+            | Record::Status(_) => None,
         }
     }
 

@@ -17,6 +17,7 @@
 //! | `/aid/srs`, `/aid/cns`, `/aid/baro` | JSON [`AidUpdate`] | each gated update, or status |
 //! | `/events/switch` | JSON [`SwitchNote`] | a frame change between solutions |
 //! | `/truth`, `/truth/fix` | JSON truth with geodetic position; `foxglove.LocationFix` | truth records |
+//! | `/truth/bias` | JSON, the simulated IMU bias (`msgs::navlog::TruthBias`) | truth-bias records |
 //!
 //! Every message's log time is its sensor time stamp `t_ns`. JSON channels
 //! carry a JSON Schema derived from the payload's own serialization (field
@@ -205,6 +206,7 @@ pub struct FlightChannels {
     aid: [JsonChannel; 3],
     switch: JsonChannel,
     truth: JsonChannel,
+    truth_bias: JsonChannel,
     fix: Channel<LocationFix>,
     truth_fix: Channel<LocationFix>,
     pose: Channel<FrameTransform>,
@@ -213,7 +215,7 @@ pub struct FlightChannels {
 }
 
 /// Every topic this mapping writes, in a fixed order.
-pub const TOPICS: [&str; 15] = [
+pub const TOPICS: [&str; 16] = [
     "/imu",
     "/srs",
     "/cns",
@@ -229,6 +231,7 @@ pub const TOPICS: [&str; 15] = [
     "/events/switch",
     "/truth",
     "/truth/fix",
+    "/truth/bias",
 ];
 
 /// A well-known message's time stamp (seconds saturate at `u32::MAX`, year 2106).
@@ -295,6 +298,12 @@ impl FlightChannels {
                 },
             ),
             truth: JsonChannel::new(ctx, "/truth", "polarnav.Truth", &TruthOut::default()),
+            truth_bias: JsonChannel::new(
+                ctx,
+                "/truth/bias",
+                "polarnav.TruthBias",
+                &msgs::navlog::TruthBias::default(),
+            ),
             fix: ctx.channel_builder("/solution/fix").build(),
             truth_fix: ctx.channel_builder("/truth/fix").build(),
             pose: ctx.channel_builder("/solution/pose").build(),
@@ -316,6 +325,7 @@ impl FlightChannels {
             Record::Truth(x) => self.truth(x),
             Record::Solution(x) => self.solution(x),
             Record::Status(x) => self.status(x),
+            Record::TruthBias(x) => self.truth_bias.log(x.t_ns, x),
         }
     }
 
