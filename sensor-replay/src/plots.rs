@@ -462,10 +462,10 @@ fn time_panel<DB: DrawingBackend>(
     sw: &[Switch],
 ) -> Result<(), String> {
     let (lo, hi0) = p.y_range();
-    let hi = if sw.is_empty() {
-        hi0
-    } else {
-        hi0 + (hi0 - lo) * 0.16
+    let hi = match sw.len() {
+        0 => hi0,
+        1 => hi0 + (hi0 - lo) * 0.16,
+        _ => hi0 + (hi0 - lo) * 0.26,
     };
     let mut chart = ChartBuilder::on(area)
         .caption(&p.title, ("sans-serif", 19))
@@ -545,17 +545,22 @@ fn time_panel<DB: DrawingBackend>(
             )
             .map_err(s)?;
     }
-    for w in sw {
+    for (k, w) in sw.iter().enumerate() {
         chart
             .draw_series(LineSeries::new(
                 [(w.t_s, lo), (w.t_s, hi)],
                 BLACK.mix(0.6).stroke_width(2),
             ))
             .map_err(s)?;
+        // Right of the line, or left of it near the right edge; successive
+        // labels alternate between two rows so that close switches stay legible.
+        let width = 9 * w.label.chars().count() as i32;
+        let dx = if w.t_s > 0.8 * t_max { -width - 6 } else { 6 };
+        let dy = if k % 2 == 0 { 4 } else { 22 };
         chart
             .draw_series(std::iter::once(
                 EmptyElement::at((w.t_s, hi))
-                    + Text::new(w.label.clone(), (6, 4), ("sans-serif", 16).into_font()),
+                    + Text::new(w.label.clone(), (dx, dy), ("sans-serif", 16).into_font()),
             ))
             .map_err(s)?;
     }
@@ -567,7 +572,10 @@ fn layout<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
     title: &str,
 ) -> Result<(Area<DB>, Area<DB>), String> {
-    let root = root.titled(title, ("sans-serif", 24)).map_err(s)?;
+    let root = root
+        .margin(6, 0, 0, 0)
+        .titled(title, ("sans-serif", 24))
+        .map_err(s)?;
     let (w, _) = root.dim_in_pixel();
     let (main, side) = root.split_horizontally(w.saturating_sub(LEGEND_W));
     Ok((main, side))
