@@ -2,7 +2,12 @@
 //! `nav-daemon batch --out F.mcap`, whose `/solution` messages give the
 //! same rows and whose `/aid/*` messages give the innovations.
 
+use std::collections::HashMap;
+use std::io::Read;
 use std::path::Path;
+
+use mcap::records::Record;
+use mcap::sans_io::linear_reader::{LinearReadEvent, LinearReader};
 
 use msgs::Solution;
 use polarnav::solution_csv::{self, Row};
@@ -58,29 +63,49 @@ pub fn load(path: &Path) -> Result<Loaded, String> {
             .map_err(|e| e.to_string());
     }
     let p = path.display();
-    let bytes = std::fs::read(path).map_err(|e| format!("{p}: {e}"))?;
+    let mut file = std::fs::File::open(path).map_err(|e| format!("{p}: {e}"))?;
     let mut rows = Vec::new();
     let mut aids = Aids::default();
-    let stream = mcap::MessageStream::new(&bytes).map_err(|e| format!("{p}: MCAP: {e}"))?;
-    for m in stream {
-        let m = m.map_err(|e| format!("{p}: MCAP: {e}"))?;
-        let topic = m.channel.topic.as_str();
-        let aid = match topic {
-            "/solution" => {
-                rows.push(Row::from_solution(&solution_of_json(&m.data).map_err(
-                    |e| format!("{p}: /solution message {}: {e}", m.sequence),
-                )?));
-                continue;
+    // Streamed record by record (chunks decompressed one at a time): memory
+    // holds the rows, not the file, which carries every IMU sample too.
+    let mut topic_of: HashMap<u16, String> = HashMap::new();
+    let mut reader = LinearReader::new();
+    while let Some(event) = reader.next_event() {
+        match event.map_err(|e| format!("{p}: MCAP: {e}"))? {
+            LinearReadEvent::ReadRequest(need) => {
+                let n = file
+                    .read(reader.insert(need))
+                    .map_err(|e| format!("{p}: {e}"))?;
+                reader.notify_read(n);
             }
-            "/aid/srs" => &mut aids.srs,
-            "/aid/cns" => &mut aids.cns,
-            "/aid/baro" => &mut aids.baro,
-            _ => continue,
-        };
-        aid.push(
-            serde_json::from_slice(&m.data)
-                .map_err(|e| format!("{p}: {topic} message {}: {e}", m.sequence))?,
-        );
+            LinearReadEvent::Record { opcode, data } => {
+                match mcap::parse_record(opcode, data).map_err(|e| format!("{p}: MCAP: {e}"))? {
+                    Record::Channel(c) => {
+                        topic_of.insert(c.id, c.topic);
+                    }
+                    Record::Message { header, data } => {
+                        let topic = topic_of.get(&header.channel_id).map_or("", String::as_str);
+                        let aid = match topic {
+                            "/solution" => {
+                                let s = solution_of_json(&data).map_err(|e| {
+                                    format!("{p}: /solution message {}: {e}", header.sequence)
+                                })?;
+                                rows.push(Row::from_solution(&s));
+                                continue;
+                            }
+                            "/aid/srs" => &mut aids.srs,
+                            "/aid/cns" => &mut aids.cns,
+                            "/aid/baro" => &mut aids.baro,
+                            _ => continue,
+                        };
+                        aid.push(serde_json::from_slice(&data).map_err(|e| {
+                            format!("{p}: {topic} message {}: {e}", header.sequence)
+                        })?);
+                    }
+                    _ => {}
+                }
+            }
+        }
     }
     if rows.is_empty() {
         return Err(format!(
