@@ -25,6 +25,8 @@ pub const MAGIC: [u8; 8] = *b"POLARNAV";
 /// 3: the star tracker record (appended last) and the `_v4` status record
 /// (star counters and aid status; a status record of version 2 no longer
 /// decodes and is skipped as incompatible, every other record still reads).
+///    and [`Record::TruthBias`] appended (a version-2 reader skips those
+/// frames as undecodable and reads the rest).
 pub const FORMAT_VERSION: u16 = 3;
 /// Frames longer than this are treated as corruption (the largest record is ~1 kB
 /// plus the header's scenario text).
@@ -75,6 +77,19 @@ pub enum Record {
     /// Appended last, so the variant indices of the records before it (and
     /// with them every file without star records) are unchanged.
     Star(StarSample),
+    /// The simulated IMU bias at a truth epoch (constant draw plus
+    /// Gauss–Markov part), body axes. Appended last: older files decode.
+    TruthBias(TruthBias),
+}
+
+/// True IMU bias of a simulated flight at `t_ns`, body axes.
+#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
+pub struct TruthBias {
+    pub t_ns: u64,
+    /// Gyro bias (rad/s).
+    pub gyro_bias_rps: [f64; 3],
+    /// Accelerometer bias (m/s²).
+    pub accel_bias_mps2: [f64; 3],
 }
 
 impl Record {
@@ -91,6 +106,7 @@ impl Record {
             Record::Solution(r) => Some(r.t_ns),
             Record::Status(r) => Some(r.t_ns),
             Record::Star(r) => Some(r.t_ns),
+            Record::TruthBias(r) => Some(r.t_ns),
         }
     }
 }
@@ -510,6 +526,11 @@ mod tests {
                 boresight_b: [0.0, 0.0, 1.0],
                 sigma_cross_arcsec: 5.0,
                 sigma_boresight_arcsec: 40.0,
+            }),
+            Record::TruthBias(TruthBias {
+                t_ns: 7,
+                gyro_bias_rps: [4.8e-8, -1e-9, 0.0],
+                accel_bias_mps2: [1e-3, -9.8e-4, 2e-5],
             }),
         ]
     }

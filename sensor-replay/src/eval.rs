@@ -20,6 +20,12 @@ pub struct Epoch {
     pub vel_enu: Vector3<f64>,
     /// Attitude error angles about east/north/up (rad): tilt = (E, N), heading = U.
     pub att_enu: Vector3<f64>,
+    /// Velocity error in the axes of the row's navigation frame (g: E, N, U;
+    /// G: grid east, grid north, up), the axes of its σ columns (m/s).
+    pub vel_nav: Vector3<f64>,
+    /// Attitude error φ in the axes of the row's navigation frame (rad), the
+    /// axes of its σ columns; z (up) is the same axis in g and G.
+    pub att_nav: Vector3<f64>,
     pub frame: char,
 }
 
@@ -86,12 +92,23 @@ pub fn epochs(rows: &[Row], truth: &[TruthRecord]) -> Vec<Epoch> {
         let dv = c_e_g * (Vector3::from(r.v_e_mps) - Vector3::from(t.v_e_mps));
         // C_b^c = (I − φ×) C_b^n  ⇒  φ = −rotvec(q_sol · q_trueᶜ).
         let d = quat(&r.q_b_e) * quat(&t.q_b_e).inverse();
-        let att = c_e_g * (-d.scaled_axis());
+        let phi_e = -d.scaled_axis();
+        let att = c_e_g * phi_e;
+        // The nav axes at the true position (the filter's own differ by its
+        // position error, metres against the kilometres the axes turn over).
+        let c_e_n = if r.frame == 'G' {
+            frames::c_e_grid(g.lat_rad, g.lon_rad)
+        } else {
+            c_e_g
+        };
+        let dv_e = Vector3::from(r.v_e_mps) - Vector3::from(t.v_e_mps);
         out.push(Epoch {
             t_s: r.t_s,
             pos_enu: dp,
             vel_enu: dv,
             att_enu: att,
+            vel_nav: c_e_n * dv_e,
+            att_nav: c_e_n * phi_e,
             frame: r.frame,
         });
     }

@@ -12,5 +12,6 @@ pub mod plots;
 pub mod scenario;
 pub mod sensors;
 pub mod simulate;
+pub mod solution_file;
 pub mod trajectory;
 pub mod view;

@@ -4,7 +4,7 @@ use std::fs::File;
 use std::io::BufReader;
 use std::path::Path;
 
-use msgs::navlog::{Header, NavlogReader, ReadReport, Record};
+use msgs::navlog::{Header, NavlogReader, ReadReport, Record, TruthBias};
 use msgs::{
     BaroSample, CnsFix, ImuSample, InitState, Solution, SrsSample, StarSample, TruthRecord,
 };
@@ -20,6 +20,8 @@ pub struct LogContents {
     pub baro: Vec<BaroSample>,
     pub star: Vec<StarSample>,
     pub truth: Vec<TruthRecord>,
+    /// The simulated IMU bias at the truth epochs (simulated logs only).
+    pub truth_bias: Vec<TruthBias>,
     pub solution: Vec<Solution>,
     pub report: ReadReport,
     /// The sensor records in log order (the order they arrived or were
@@ -91,6 +93,7 @@ pub fn load(path: &Path) -> Result<LogContents, LoadError> {
             Record::Truth(x) => c.truth.push(x),
             Record::Solution(x) => c.solution.push(*x),
             Record::Status(_) => {}
+            Record::TruthBias(x) => c.truth_bias.push(x),
         }
     }
     c.report = r.report().clone();

@@ -136,16 +136,18 @@ enum Cmd {
         #[command(flatten)]
         aids: AidArgs,
     },
-    /// Accuracy of a solution CSV against the log's truth.
+    /// Accuracy of a solution against the log's truth, with figures.
     Eval {
         #[arg(long)]
         log: PathBuf,
+        /// The solution CSV, or the MCAP file of `nav-daemon batch --out F.mcap`
+        /// (which also gives the innovations figure).
         #[arg(long)]
         solution: PathBuf,
-        /// A second solution to compare (e.g. --conversion none).
+        /// A second solution to compare (e.g. --conversion none), CSV or MCAP.
         #[arg(long)]
         compare: Option<PathBuf>,
-        /// Directory for summary.md.
+        /// Directory for summary.md and the figures.
         #[arg(long)]
         out: Option<PathBuf>,
     },
@@ -507,10 +509,15 @@ fn run(cli: Cli) -> Result<(), Fail> {
                 .map_or("solution".to_owned(), |h| h.scenario.clone());
             let mut md = String::new();
             let mut loaded = Vec::new();
+            let mut aids = None;
             for (label, path) in std::iter::once(("solution", &solution))
                 .chain(compare.as_ref().map(|p| ("compare", p)))
             {
-                let rows = polarnav::solution_csv::read(path).map_err(|e| bad(e.to_string()))?;
+                let l = sensor_replay::solution_file::load(path).map_err(bad)?;
+                if label == "solution" {
+                    aids = l.aids;
+                }
+                let rows = l.rows;
                 let ep = eval::epochs(&rows, &c.truth);
                 if ep.is_empty() {
                     return Err(bad(format!(
@@ -544,14 +551,36 @@ fn run(cli: Cli) -> Result<(), Fail> {
                         epochs: e,
                     })
                     .collect();
-                let files = sensor_replay::plots::write_all(dir, &series)
-                    .map_err(|e| Fail(1, e.to_string()))?;
+                let files = sensor_replay::plots::write_all(
+                    dir,
+                    &sensor_replay::plots::Inputs {
+                        runs: &series,
+                        truth: &c.truth,
+                        truth_bias: &c.truth_bias,
+                        aids: aids.as_ref(),
+                    },
+                )
+                .map_err(|e| Fail(1, e.to_string()))?;
                 md.push_str("### Figures\n\n");
                 for f in &files {
                     let n = f
+                        .path
                         .file_name()
                         .map_or_else(String::new, |x| x.to_string_lossy().into_owned());
-                    md.push_str(&format!("![{n}]({n})\n"));
+                    md.push_str(&format!("- `{n}`: {}\n\n  ![{n}]({n})\n", f.what));
+                }
+                if aids.is_none() {
+                    md.push_str(
+                        "- no `innovations` figure: a solution CSV has no innovations; \
+                         write the run as MCAP (`nav-daemon batch --log LOG --out run.mcap`) \
+                         and pass `--solution run.mcap`\n",
+                    );
+                }
+                if c.truth_bias.is_empty() {
+                    md.push_str(
+                        "- `imu_biases` shows the estimates only: the log has no truth-bias \
+                         records (logs simulated before navlog format 3, or imported)\n",
+                    );
                 }
                 md.push('\n');
             }

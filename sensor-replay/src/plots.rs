@@ -1,14 +1,23 @@
-//! Figures of `sensor-replay eval`: error curves with ±3σ envelopes and an
-//! optional comparison run (papers/001 Fig. 4), cumulative horizontal RMSE
-//! (Figs. 5 and 9) and the ground track. PNG when a TrueType font is found
-//! (DejaVu Sans, or $POLARNAV_FONT), otherwise SVG, whose text needs no font file.
+//! Figures of `sensor-replay eval`, as a navigation engineer reads a flight:
+//! position, velocity and attitude errors against truth with ±3σ envelopes,
+//! IMU bias estimates against the simulated truth, normalized innovations
+//! and test ratios per aid with the gate, the difference of a comparison
+//! run, cumulative horizontal RMSE (papers/001 Figs. 5 and 9) and the track
+//! in a polar stereographic projection. Every time plot marks the frame
+//! switches with a labelled line; legends sit in a strip right of the
+//! panels, never over data. PNG when a TrueType font is found (DejaVu Sans,
+//! or $POLARNAV_FONT), otherwise SVG, whose text needs no font file.
 
+use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
+use msgs::TruthRecord;
+use msgs::navlog::TruthBias;
 use plotters::coord::Shift;
 use plotters::prelude::*;
 
 use crate::eval::Epoch;
+use crate::solution_file::{AidPoint, Aids};
 use polarnav::solution_csv::Row;
 
 /// One run to draw.
@@ -17,6 +26,24 @@ pub struct Series<'a> {
     pub label: &'a str,
     pub rows: &'a [Row],
     pub epochs: &'a [Epoch],
+}
+
+/// Everything the figures draw: the runs (the first is the solution, a
+/// second the comparison), the log's truth and truth bias, and the aid
+/// updates when the solution came as MCAP.
+#[derive(Debug, Clone, Copy)]
+pub struct Inputs<'a> {
+    pub runs: &'a [Series<'a>],
+    pub truth: &'a [TruthRecord],
+    pub truth_bias: &'a [TruthBias],
+    pub aids: Option<&'a Aids>,
+}
+
+/// A written figure and what it shows.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Figure {
+    pub path: PathBuf,
+    pub what: &'static str,
 }
 
 /// Output format chosen from font availability.
@@ -73,67 +100,502 @@ fn err(path: &Path, e: impl std::fmt::Display) -> PlotError {
     }
 }
 
-const COLORS: [RGBColor; 2] = [RGBColor(0, 90, 180), RGBColor(210, 60, 30)];
-const ARCMIN: f64 = 60.0 * 180.0 / std::f64::consts::PI;
+fn s<E: std::fmt::Display>(e: E) -> String {
+    e.to_string()
+}
 
-/// Draws every figure into `dir`; returns the files written.
-pub fn write_all(dir: &Path, runs: &[Series<'_>]) -> Result<Vec<PathBuf>, PlotError> {
+const BLUE: RGBColor = RGBColor(0, 90, 180);
+const ORANGE: RGBColor = RGBColor(220, 110, 0);
+const GREEN: RGBColor = RGBColor(0, 140, 60);
+const RED_: RGBColor = RGBColor(200, 30, 30);
+const GREY: RGBColor = RGBColor(110, 110, 110);
+const AXIS_COLORS: [RGBColor; 3] = [BLUE, ORANGE, GREEN];
+const ARCMIN: f64 = 60.0 * 180.0 / std::f64::consts::PI;
+const DEG_PER_H: f64 = 180.0 / std::f64::consts::PI * 3600.0;
+const MICRO_G: f64 = 1e6 / 9.80665;
+/// Width of the legend strip right of the panels (px).
+const LEGEND_W: u32 = 290;
+/// At most this many points per curve (decimated by a fixed step).
+const MAX_POINTS: usize = 5000;
+
+/// The figures `write_all` can produce, in order.
+pub const FIGURES: [&str; 8] = [
+    "position_errors",
+    "velocity_errors",
+    "attitude_errors",
+    "imu_biases",
+    "innovations",
+    "compare_difference",
+    "horizontal_rmse",
+    "track",
+];
+
+/// Draws every figure that the inputs allow into `dir`: the innovations
+/// need aid updates (an MCAP solution), the difference a comparison run.
+pub fn write_all(dir: &Path, inp: &Inputs<'_>) -> Result<Vec<Figure>, PlotError> {
     let fmt = init_fonts();
     let mut out = Vec::new();
-    for name in ["error_curves", "horizontal_rmse", "track"] {
+    let Some(first) = inp.runs.first() else {
+        return Ok(out);
+    };
+    let switches = switches(first.rows);
+    for name in FIGURES {
+        let (size, what) = match name {
+            "position_errors" => ((1500, 1100), "position error east/north/up (m) with ±3σ"),
+            "velocity_errors" => (
+                (1500, 1100),
+                "velocity error in nav-frame axes (m/s) with ±3σ",
+            ),
+            "attitude_errors" => (
+                (1500, 1100),
+                "attitude error: tilt about nav x/y and heading (arcmin) with ±3σ",
+            ),
+            "imu_biases" => (
+                (1700, 1000),
+                "gyro (°/h) and accelerometer (µg) bias estimates against the simulated truth",
+            ),
+            "innovations" if inp.aids.is_some() => (
+                (1700, 1250),
+                "normalized innovations and test ratios per aid with the gate",
+            ),
+            "compare_difference" if inp.runs.len() > 1 => (
+                (1500, 1200),
+                "compare − solution: position, velocity and heading differences",
+            ),
+            "horizontal_rmse" => ((1500, 700), "cumulative horizontal position RMSE (m)"),
+            "track" => (
+                (1400, 1150),
+                "track in polar stereographic projection: truth, solution, start, end, switches",
+            ),
+            _ => continue,
+        };
         let path = dir.join(format!("{name}.{}", fmt.ext()));
-        let size = (1400, if name == "error_curves" { 1500 } else { 800 });
         match fmt {
             Format::Png => draw(
                 BitMapBackend::new(&path, size).into_drawing_area(),
-                runs,
+                inp,
+                &switches,
                 name,
             ),
-            Format::Svg => draw(SVGBackend::new(&path, size).into_drawing_area(), runs, name),
+            Format::Svg => draw(
+                SVGBackend::new(&path, size).into_drawing_area(),
+                inp,
+                &switches,
+                name,
+            ),
         }
         .map_err(|e| err(&path, e))?;
-        out.push(path);
+        out.push(Figure { path, what });
     }
     Ok(out)
 }
 
 fn draw<DB: DrawingBackend>(
     root: DrawingArea<DB, Shift>,
-    runs: &[Series<'_>],
+    inp: &Inputs<'_>,
+    sw: &[Switch],
     name: &str,
 ) -> Result<(), String> {
-    root.fill(&WHITE).map_err(|e| e.to_string())?;
-    dispatch(&root, runs, name)?;
-    root.present().map_err(|e| e.to_string())
-}
-
-fn dispatch<DB: DrawingBackend>(
-    root: &DrawingArea<DB, Shift>,
-    runs: &[Series<'_>],
-    name: &str,
-) -> Result<(), String> {
+    root.fill(&WHITE).map_err(s)?;
     match name {
-        "error_curves" => error_curves(root, runs),
-        "horizontal_rmse" => cumulative_rmse(root, runs),
-        _ => track(root, runs),
+        "position_errors" => position_errors(&root, inp, sw),
+        "velocity_errors" => velocity_errors(&root, inp, sw),
+        "attitude_errors" => attitude_errors(&root, inp, sw),
+        "imu_biases" => biases(&root, inp, sw),
+        "innovations" => innovations(&root, inp, sw),
+        "compare_difference" => compare_difference(&root, inp, sw),
+        "horizontal_rmse" => cumulative_rmse(&root, inp, sw),
+        _ => track(&root, inp, sw),
+    }?;
+    root.present().map_err(s)
+}
+
+/// A frame switch of the solution.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Switch {
+    pub t_s: f64,
+    pub lat_deg: f64,
+    pub r_e_m: [f64; 3],
+    /// e.g. `g→G 88.0°N`.
+    pub label: String,
+}
+
+/// The frame changes between consecutive rows.
+pub fn switches(rows: &[Row]) -> Vec<Switch> {
+    rows.windows(2)
+        .filter(|w| w[0].frame != w[1].frame)
+        .map(|w| Switch {
+            t_s: w[1].t_s,
+            lat_deg: w[1].lat_deg,
+            r_e_m: w[1].r_e_m,
+            label: format!(
+                "{}→{} {:.1}°{}",
+                w[0].frame,
+                w[1].frame,
+                w[1].lat_deg.abs(),
+                if w[1].lat_deg >= 0.0 { 'N' } else { 'S' }
+            ),
+        })
+        .collect()
+}
+
+/// Tick labels with as many decimals as the axis span needs (never cut:
+/// the label areas are sized for 9 characters).
+fn tick(v: f64, span: f64) -> String {
+    let d = if span > 0.0 && span.is_finite() {
+        (1.0 - span.log10().floor()).clamp(0.0, 6.0) as usize
+    } else {
+        2
+    };
+    if span > 0.0 && span < 1e-3 {
+        return if v.abs() < span * 1e-6 {
+            "0".to_owned()
+        } else {
+            format!("{v:.1e}")
+        };
+    }
+    let t = format!("{v:.d$}");
+    if t.trim_start_matches('-')
+        .chars()
+        .all(|c| c == '0' || c == '.')
+    {
+        "0".to_owned()
+    } else {
+        t
     }
 }
 
-fn range(values: impl Iterator<Item = f64>) -> (f64, f64) {
-    let (lo, hi) = values
-        .filter(|v| v.is_finite())
-        .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
-            (a.min(v), b.max(v))
-        });
-    if !lo.is_finite() {
-        return (-1.0, 1.0);
-    }
-    let pad = ((hi - lo) * 0.05).max(1e-9);
-    (lo - pad, hi + pad)
+fn decimate<T: Copy>(v: &[T]) -> impl Iterator<Item = T> + '_ {
+    v.iter().step_by((v.len() / MAX_POINTS).max(1)).copied()
 }
 
-/// σ columns of the row at each epoch's time (rows and epochs are both time-ordered).
-fn sigmas_at(rows: &[Row], epochs: &[Epoch]) -> Vec<[f64; 3]> {
+/// The value at `q` (0..1) of the finite magnitudes.
+fn quantile_abs(values: impl Iterator<Item = f64>, q: f64) -> f64 {
+    let mut v: Vec<f64> = values.filter(|x| x.is_finite()).map(f64::abs).collect();
+    if v.is_empty() {
+        return f64::NAN;
+    }
+    v.sort_by(f64::total_cmp);
+    v[((v.len() - 1) as f64 * q).round() as usize]
+}
+
+/// How a legend entry is drawn.
+#[derive(Debug, Clone, Copy)]
+enum Mark {
+    Line(RGBColor, u32),
+    Band(RGBColor),
+    Dot(RGBColor),
+    Cross(RGBColor),
+    Square(RGBColor),
+    Triangle,
+    Switch,
+}
+
+/// The legend in the strip right of the panels.
+fn legend<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    title: &str,
+    entries: &[(String, Mark)],
+    notes: &[String],
+) -> Result<(), String> {
+    let font = ("sans-serif", 17).into_font();
+    let mut y = 60;
+    area.draw(&Text::new(
+        title.to_owned(),
+        (10, y - 30),
+        ("sans-serif", 18).into_font().style(FontStyle::Bold),
+    ))
+    .map_err(s)?;
+    for (label, mark) in entries {
+        let (x0, x1) = (12, 48);
+        match *mark {
+            Mark::Line(c, w) => area
+                .draw(&PathElement::new([(x0, y), (x1, y)], c.stroke_width(w)))
+                .map_err(s)?,
+            Mark::Band(c) => area
+                .draw(&Rectangle::new(
+                    [(x0, y - 7), (x1, y + 7)],
+                    c.mix(0.25).filled(),
+                ))
+                .map_err(s)?,
+            Mark::Dot(c) => area
+                .draw(&Circle::new(((x0 + x1) / 2, y), 4, c.filled()))
+                .map_err(s)?,
+            Mark::Cross(c) => area
+                .draw(&Cross::new(((x0 + x1) / 2, y), 5, c.stroke_width(2)))
+                .map_err(s)?,
+            Mark::Square(c) => area
+                .draw(&Rectangle::new(
+                    [((x0 + x1) / 2 - 6, y - 6), ((x0 + x1) / 2 + 6, y + 6)],
+                    c.filled(),
+                ))
+                .map_err(s)?,
+            Mark::Triangle => area
+                .draw(&TriangleMarker::new(((x0 + x1) / 2, y), 9, BLACK.filled()))
+                .map_err(s)?,
+            Mark::Switch => area
+                .draw(&PathElement::new(
+                    [((x0 + x1) / 2, y - 10), ((x0 + x1) / 2, y + 10)],
+                    BLACK.mix(0.6).stroke_width(2),
+                ))
+                .map_err(s)?,
+        }
+        let mut yy = y - 9;
+        for part in wrap(label, 24) {
+            area.draw(&Text::new(part, (x1 + 10, yy), font.clone()))
+                .map_err(s)?;
+            yy += 20;
+        }
+        y = yy + 16;
+    }
+    y += 10;
+    for n in notes {
+        for part in wrap(n, 30) {
+            area.draw(&Text::new(
+                part,
+                (10, y),
+                ("sans-serif", 15).into_font().color(&GREY),
+            ))
+            .map_err(s)?;
+            y += 19;
+        }
+        y += 8;
+    }
+    Ok(())
+}
+
+/// Greedy word wrap at `width` characters.
+fn wrap(text: &str, width: usize) -> Vec<String> {
+    let mut out: Vec<String> = Vec::new();
+    for word in text.split(' ') {
+        match out.last_mut() {
+            Some(l) if l.chars().count() + 1 + word.chars().count() <= width => {
+                l.push(' ');
+                l.push_str(word);
+            }
+            _ => out.push(word.to_owned()),
+        }
+    }
+    out
+}
+
+/// A curve: points, colour, stroke width.
+type Line = (Vec<(f64, f64)>, RGBColor, u32);
+/// An envelope: (t, lo, hi) points and its colour.
+type Band = (Vec<(f64, f64, f64)>, RGBColor);
+/// A drawing area of a figure.
+type Area<DB> = DrawingArea<DB, Shift>;
+
+/// One time-series panel.
+#[derive(Default)]
+struct Panel {
+    title: String,
+    /// (t, lo, hi) filled.
+    bands: Vec<Band>,
+    lines: Vec<Line>,
+    dots: Vec<(Vec<(f64, f64)>, RGBColor)>,
+    crosses: Vec<(Vec<(f64, f64)>, RGBColor)>,
+    hlines: Vec<(f64, RGBColor)>,
+    /// Fixed y range (otherwise from the data, symmetric when `symmetric`).
+    y: Option<(f64, f64)>,
+    symmetric: bool,
+    /// Tick label of a y value (default: decimals from the span).
+    y_fmt: Option<fn(f64) -> String>,
+}
+
+impl std::fmt::Debug for Panel {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(&self.title)
+    }
+}
+
+impl Panel {
+    fn y_range(&self) -> (f64, f64) {
+        if let Some(r) = self.y {
+            return r;
+        }
+        let data = self
+            .lines
+            .iter()
+            .flat_map(|l| l.0.iter().map(|p| p.1))
+            .chain(self.dots.iter().flat_map(|l| l.0.iter().map(|p| p.1)))
+            .chain(self.crosses.iter().flat_map(|l| l.0.iter().map(|p| p.1)));
+        // Envelopes: the 99th percentile, so that the first seconds of a
+        // wide initial σ do not flatten the converged part.
+        let band_hi = quantile_abs(
+            self.bands
+                .iter()
+                .flat_map(|b| b.0.iter().flat_map(|p| [p.1, p.2])),
+            0.99,
+        );
+        let (mut lo, mut hi) = data
+            .filter(|v| v.is_finite())
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+                (a.min(v), b.max(v))
+            });
+        if band_hi.is_finite() {
+            lo = lo.min(-band_hi);
+            hi = hi.max(band_hi);
+        }
+        for (h, _) in &self.hlines {
+            lo = lo.min(*h);
+            hi = hi.max(*h);
+        }
+        if !lo.is_finite() || !hi.is_finite() {
+            return (-1.0, 1.0);
+        }
+        if self.symmetric {
+            let m = lo.abs().max(hi.abs());
+            (lo, hi) = (-m, m);
+        }
+        let pad = ((hi - lo) * 0.05).max(1e-12);
+        (lo - pad, hi + pad)
+    }
+}
+
+/// Draws a time panel with the switch lines and their labels in a band
+/// kept free of data above the curves.
+fn time_panel<DB: DrawingBackend>(
+    area: &DrawingArea<DB, Shift>,
+    p: &Panel,
+    t_max: f64,
+    sw: &[Switch],
+) -> Result<(), String> {
+    let (lo, hi0) = p.y_range();
+    let hi = match sw.len() {
+        0 => hi0,
+        1 => hi0 + (hi0 - lo) * 0.16,
+        _ => hi0 + (hi0 - lo) * 0.26,
+    };
+    let mut chart = ChartBuilder::on(area)
+        .caption(&p.title, ("sans-serif", 19))
+        .margin_left(10)
+        .margin_right(25)
+        .margin_top(6)
+        .margin_bottom(4)
+        .x_label_area_size(42)
+        .y_label_area_size(95)
+        .build_cartesian_2d(0.0..t_max, lo..hi)
+        .map_err(s)?;
+    let span = hi - lo;
+    let yf = p.y_fmt;
+    chart
+        .configure_mesh()
+        .x_desc("t (s)")
+        .x_label_formatter(&|v| format!("{v:.0}"))
+        .y_label_formatter(&|v| yf.map_or_else(|| tick(*v, span), |f| f(*v)))
+        .label_style(("sans-serif", 15))
+        .axis_desc_style(("sans-serif", 15))
+        .light_line_style(WHITE.mix(0.0))
+        .bold_line_style(BLACK.mix(0.08))
+        .draw()
+        .map_err(s)?;
+    for (h, c) in &p.hlines {
+        chart
+            .draw_series(LineSeries::new([(0.0, *h), (t_max, *h)], c.stroke_width(1)))
+            .map_err(s)?;
+    }
+    for (b, c) in &p.bands {
+        let pts: Vec<(f64, f64, f64)> = decimate(b)
+            .filter(|x| x.1.is_finite() && x.2.is_finite())
+            .collect();
+        let poly: Vec<(f64, f64)> = pts
+            .iter()
+            .map(|x| (x.0, x.2.min(hi0)))
+            .chain(pts.iter().rev().map(|x| (x.0, x.1.max(lo))))
+            .collect();
+        if poly.len() > 2 {
+            chart
+                .draw_series(std::iter::once(Polygon::new(poly, c.mix(0.18).filled())))
+                .map_err(s)?;
+            for k in [1, 2] {
+                chart
+                    .draw_series(LineSeries::new(
+                        pts.iter()
+                            .map(|x| (x.0, if k == 1 { x.1.max(lo) } else { x.2.min(hi0) })),
+                        c.mix(0.5).stroke_width(1),
+                    ))
+                    .map_err(s)?;
+            }
+        }
+    }
+    for (l, c, w) in &p.lines {
+        chart
+            .draw_series(LineSeries::new(
+                decimate(l).filter(|x| x.1.is_finite()),
+                c.stroke_width(*w),
+            ))
+            .map_err(s)?;
+    }
+    for (d, c) in &p.dots {
+        chart
+            .draw_series(
+                decimate(d)
+                    .filter(|x| x.1.is_finite())
+                    .map(|x| Circle::new(x, 2, c.filled())),
+            )
+            .map_err(s)?;
+    }
+    for (d, c) in &p.crosses {
+        chart
+            .draw_series(
+                d.iter()
+                    .filter(|x| x.1.is_finite())
+                    .map(|x| Cross::new(*x, 5, c.stroke_width(2))),
+            )
+            .map_err(s)?;
+    }
+    for (k, w) in sw.iter().enumerate() {
+        chart
+            .draw_series(LineSeries::new(
+                [(w.t_s, lo), (w.t_s, hi)],
+                BLACK.mix(0.6).stroke_width(2),
+            ))
+            .map_err(s)?;
+        // Right of the line, or left of it near the right edge; successive
+        // labels alternate between two rows so that close switches stay legible.
+        let width = 9 * w.label.chars().count() as i32;
+        let dx = if w.t_s > 0.8 * t_max { -width - 6 } else { 6 };
+        let dy = if k % 2 == 0 { 4 } else { 22 };
+        chart
+            .draw_series(std::iter::once(
+                EmptyElement::at((w.t_s, hi))
+                    + Text::new(w.label.clone(), (dx, dy), ("sans-serif", 16).into_font()),
+            ))
+            .map_err(s)?;
+    }
+    Ok(())
+}
+
+/// Splits the figure into a title, the panel column and the legend strip.
+fn layout<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    title: &str,
+) -> Result<(Area<DB>, Area<DB>), String> {
+    let root = root
+        .margin(6, 0, 0, 0)
+        .titled(title, ("sans-serif", 24))
+        .map_err(s)?;
+    let (w, _) = root.dim_in_pixel();
+    let (main, side) = root.split_horizontally(w.saturating_sub(LEGEND_W));
+    Ok((main, side))
+}
+
+fn t_max(inp: &Inputs<'_>) -> f64 {
+    inp.runs
+        .iter()
+        .flat_map(|r| {
+            r.rows
+                .last()
+                .map(|x| x.t_s)
+                .into_iter()
+                .chain(r.epochs.last().map(|e| e.t_s))
+        })
+        .fold(1.0, f64::max)
+}
+
+/// The row of each epoch's time (rows and epochs both time-ordered).
+fn rows_at<'a>(rows: &'a [Row], epochs: &[Epoch]) -> Vec<Option<&'a Row>> {
     let mut k = 0;
     epochs
         .iter()
@@ -141,244 +603,625 @@ fn sigmas_at(rows: &[Row], epochs: &[Epoch]) -> Vec<[f64; 3]> {
             while k + 1 < rows.len() && rows[k].t_s < e.t_s - 1e-7 {
                 k += 1;
             }
-            rows.get(k).map_or([f64::NAN; 3], |r| r.sigma_enu_m)
+            rows.get(k).filter(|r| (r.t_s - e.t_s).abs() < 1e-6)
         })
         .collect()
 }
 
-fn switch_times(rows: &[Row]) -> Vec<f64> {
-    rows.windows(2)
-        .filter(|w| w[0].frame != w[1].frame)
-        .map(|w| w[1].t_s)
+fn switch_notes(sw: &[Switch]) -> Vec<String> {
+    sw.iter()
+        .map(|w| format!("switch {} at t = {:.1} s", w.label, w.t_s))
         .collect()
 }
 
-type Quantity = (
-    &'static str,
-    fn(&Epoch) -> f64,
-    Option<fn(&[f64; 3]) -> f64>,
-);
-
-fn error_curves<DB: DrawingBackend>(
+/// An error figure of the first run: three components with their ±3σ.
+#[allow(clippy::type_complexity)]
+fn error_figure<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
-    runs: &[Series<'_>],
+    inp: &Inputs<'_>,
+    sw: &[Switch],
+    title: &str,
+    comps: [(&str, fn(&Epoch) -> f64, fn(&Row) -> f64); 3],
+    notes: &[&str],
 ) -> Result<(), String> {
-    let quantities: [Quantity; 5] = [
-        ("east position error (m)", |e| e.pos_enu.x, Some(|s| s[0])),
-        ("north position error (m)", |e| e.pos_enu.y, Some(|s| s[1])),
-        (
-            "vertical position error (m)",
-            |e| e.pos_enu.z,
-            Some(|s| s[2]),
-        ),
-        ("velocity error magnitude (m/s)", |e| e.vel_enu.norm(), None),
-        ("heading error (arcmin)", |e| e.att_enu.z * ARCMIN, None),
-    ];
-    let panels = root.split_evenly((quantities.len(), 1));
-    let t_max = runs
-        .iter()
-        .flat_map(|r| r.epochs.last())
-        .map(|e| e.t_s)
-        .fold(1.0, f64::max);
-    let switches = runs
-        .first()
-        .map(|r| switch_times(r.rows))
-        .unwrap_or_default();
-    for (panel, (title, f, sig)) in panels.iter().zip(quantities) {
-        let sigmas: Vec<Vec<[f64; 3]>> = runs.iter().map(|r| sigmas_at(r.rows, r.epochs)).collect();
-        let mut vals: Vec<f64> = runs.iter().flat_map(|r| r.epochs.iter().map(f)).collect();
-        if let Some(s) = sig {
-            vals.extend(
-                sigmas
-                    .iter()
-                    .flatten()
-                    .map(|x| 3.0 * s(x))
-                    .filter(|v| v.is_finite()),
-            );
-            vals.extend(
-                sigmas
-                    .iter()
-                    .flatten()
-                    .map(|x| -3.0 * s(x))
-                    .filter(|v| v.is_finite()),
-            );
-        }
-        let (lo, hi) = range(vals.into_iter());
-        let mut chart = ChartBuilder::on(panel)
-            .caption(title, ("sans-serif", 20))
-            .margin(8)
-            .x_label_area_size(30)
-            .y_label_area_size(70)
-            .build_cartesian_2d(0.0..t_max, lo..hi)
-            .map_err(|e| e.to_string())?;
-        chart
-            .configure_mesh()
-            .x_desc("t (s)")
-            .light_line_style(WHITE.mix(0.0))
-            .draw()
-            .map_err(|e| e.to_string())?;
-        for t in &switches {
-            chart
-                .draw_series(LineSeries::new(
-                    [(*t, lo), (*t, hi)],
-                    BLACK.mix(0.4).stroke_width(1),
-                ))
-                .map_err(|e| e.to_string())?;
-        }
-        for (k, run) in runs.iter().enumerate() {
-            let c = COLORS[k % COLORS.len()];
-            if let Some(s) = sig {
-                for sign in [3.0, -3.0] {
-                    let env = run
-                        .epochs
-                        .iter()
-                        .zip(&sigmas[k])
-                        .map(|(e, x)| (e.t_s, sign * s(x)))
-                        .filter(|p| p.1.is_finite());
-                    chart
-                        .draw_series(LineSeries::new(env, c.mix(0.45).stroke_width(1)))
-                        .map_err(|e| e.to_string())?;
-                }
-            }
-            chart
-                .draw_series(LineSeries::new(
-                    run.epochs.iter().map(|e| (e.t_s, f(e))),
-                    c.stroke_width(2),
-                ))
-                .map_err(|e| e.to_string())?
-                .label(if sig.is_some() {
-                    format!("{} (±3σ thin)", run.label)
-                } else {
-                    run.label.to_owned()
-                })
-                .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], c.stroke_width(2)));
-        }
-        chart
-            .configure_series_labels()
-            .background_style(WHITE.mix(0.85))
-            .border_style(BLACK)
-            .position(SeriesLabelPosition::UpperRight)
-            .draw()
-            .map_err(|e| e.to_string())?;
+    let run = &inp.runs[0];
+    let (main, side) = layout(root, title)?;
+    let at = rows_at(run.rows, run.epochs);
+    let tm = t_max(inp);
+    for (k, (area, (name, f, sig))) in main.split_evenly((3, 1)).iter().zip(comps).enumerate() {
+        let c = AXIS_COLORS[k];
+        let err: Vec<(f64, f64)> = run.epochs.iter().map(|e| (e.t_s, f(e))).collect();
+        let band: Vec<(f64, f64, f64)> = run
+            .epochs
+            .iter()
+            .zip(&at)
+            .filter_map(|(e, r)| r.map(|r| (e.t_s, -3.0 * sig(r), 3.0 * sig(r))))
+            .collect();
+        let inside = err
+            .iter()
+            .zip(&band)
+            .filter(|(e, b)| e.1 >= b.1 && e.1 <= b.2)
+            .count();
+        let rms = (err.iter().map(|e| e.1 * e.1).sum::<f64>() / err.len().max(1) as f64).sqrt();
+        let p = Panel {
+            title: format!(
+                "{name}   (RMS {}, inside ±3σ {:.1} %)",
+                tick(rms, rms),
+                100.0 * inside as f64 / band.len().max(1) as f64
+            ),
+            bands: vec![(band, c)],
+            lines: vec![(err, c, 2)],
+            hlines: vec![(0.0, GREY)],
+            symmetric: true,
+            ..Default::default()
+        };
+        time_panel(area, &p, tm, sw)?;
     }
-    Ok(())
+    let mut n: Vec<String> = notes.iter().map(|x| (*x).to_owned()).collect();
+    n.extend(switch_notes(sw));
+    if inp.runs.len() > 1 {
+        n.push("the compare run is drawn in compare_difference".into());
+    }
+    legend(
+        &side,
+        run.label,
+        &[
+            ("error (solution − truth)".into(), Mark::Line(BLUE, 2)),
+            ("±3σ of the solution".into(), Mark::Band(BLUE)),
+            ("frame switch".into(), Mark::Switch),
+        ],
+        &n,
+    )
+}
+
+fn position_errors<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    inp: &Inputs<'_>,
+    sw: &[Switch],
+) -> Result<(), String> {
+    error_figure(
+        root,
+        inp,
+        sw,
+        "Position error against truth (m), local east/north/up",
+        [
+            ("east (m)", |e| e.pos_enu.x, |r| r.sigma_enu_m[0]),
+            ("north (m)", |e| e.pos_enu.y, |r| r.sigma_enu_m[1]),
+            ("up (m)", |e| e.pos_enu.z, |r| r.sigma_enu_m[2]),
+        ],
+        &["errors and σ both in the local geographic east/north/up axes of the truth position"],
+    )
+}
+
+fn velocity_errors<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    inp: &Inputs<'_>,
+    sw: &[Switch],
+) -> Result<(), String> {
+    error_figure(
+        root,
+        inp,
+        sw,
+        "Velocity error against truth (m/s), navigation-frame axes",
+        [
+            (
+                "nav x: east in g, grid east in G (m/s)",
+                |e| e.vel_nav.x,
+                |r| r.sigma_vel_nav_mps[0],
+            ),
+            (
+                "nav y: north in g, grid north in G (m/s)",
+                |e| e.vel_nav.y,
+                |r| r.sigma_vel_nav_mps[1],
+            ),
+            ("up (m/s)", |e| e.vel_nav.z, |r| r.sigma_vel_nav_mps[2]),
+        ],
+        &[
+            "the error is projected on the axes of the frame in use (those of the σ columns): at a switch x/y turn by the grid angle, so the curves may step there while the error itself does not",
+        ],
+    )
+}
+
+fn attitude_errors<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    inp: &Inputs<'_>,
+    sw: &[Switch],
+) -> Result<(), String> {
+    error_figure(
+        root,
+        inp,
+        sw,
+        "Attitude error φ against truth (arcmin): tilt about nav x / nav y, heading about up",
+        [
+            (
+                "tilt about nav x: east in g, grid east in G (arcmin)",
+                |e| e.att_nav.x * ARCMIN,
+                |r| r.sigma_att_deg[0] * 60.0,
+            ),
+            (
+                "tilt about nav y: north in g, grid north in G (arcmin)",
+                |e| e.att_nav.y * ARCMIN,
+                |r| r.sigma_att_deg[1] * 60.0,
+            ),
+            (
+                "heading, about up (arcmin)",
+                |e| e.att_nav.z * ARCMIN,
+                |r| r.sigma_att_deg[2] * 60.0,
+            ),
+        ],
+        &[
+            "φ from the body→ECEF quaternions (C = (I − φ×) C_true), projected on the axes of the frame in use, those of the σ columns; up is the same axis in g and G",
+        ],
+    )
+}
+
+fn biases<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    inp: &Inputs<'_>,
+    sw: &[Switch],
+) -> Result<(), String> {
+    let run = &inp.runs[0];
+    let (main, side) = layout(
+        root,
+        "IMU bias estimates against the simulated truth, body axes",
+    )?;
+    let tm = t_max(inp);
+    let panels = main.split_evenly((2, 3));
+    let rows: Vec<&Row> = run
+        .rows
+        .iter()
+        .step_by((run.rows.len() / MAX_POINTS).max(1))
+        .collect();
+    for (k, area) in panels.iter().enumerate() {
+        let (i, gyro) = (k % 3, k < 3);
+        let axis = ["x", "y", "z"][i];
+        let est: Vec<(f64, f64)> = rows
+            .iter()
+            .map(|r| {
+                (
+                    r.t_s,
+                    if gyro {
+                        r.gyro_bias_rps[i] * DEG_PER_H
+                    } else {
+                        r.accel_bias_mps2[i] * MICRO_G
+                    },
+                )
+            })
+            .collect();
+        let truth: Vec<(f64, f64)> = inp
+            .truth_bias
+            .iter()
+            .map(|b| {
+                (
+                    b.t_ns as f64 * 1e-9,
+                    if gyro {
+                        b.gyro_bias_rps[i] * DEG_PER_H
+                    } else {
+                        b.accel_bias_mps2[i] * MICRO_G
+                    },
+                )
+            })
+            .collect();
+        let last = est.last().map_or(f64::NAN, |p| p.1);
+        let last_truth = truth.last().map_or(f64::NAN, |p| p.1);
+        let p = Panel {
+            title: format!(
+                "{} {axis} ({})   end: est {} / true {}",
+                if gyro { "gyro" } else { "accel" },
+                if gyro { "°/h" } else { "µg" },
+                tick(last, last.abs().max(last_truth.abs())),
+                tick(last_truth, last.abs().max(last_truth.abs()))
+            ),
+            lines: vec![(truth, BLACK, 2), (est, AXIS_COLORS[i], 2)],
+            hlines: vec![(0.0, GREY)],
+            ..Default::default()
+        };
+        time_panel(area, &p, tm, sw)?;
+    }
+    let mut notes = vec![
+        "no σ: neither the solution CSV nor the Solution message carries the bias covariance, so no envelope is drawn".to_owned(),
+    ];
+    if inp.truth_bias.is_empty() {
+        notes.push("no truth: the log has no truth-bias records (simulate writes them)".into());
+    }
+    notes.extend(switch_notes(sw));
+    legend(
+        &side,
+        run.label,
+        &[
+            ("estimate x / y / z".into(), Mark::Line(BLUE, 2)),
+            (
+                "true bias (simulator: constant draw + Gauss–Markov)".into(),
+                Mark::Line(BLACK, 2),
+            ),
+            ("frame switch".into(), Mark::Switch),
+        ],
+        &notes,
+    )
+}
+
+fn innovations<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    inp: &Inputs<'_>,
+    sw: &[Switch],
+) -> Result<(), String> {
+    let Some(aids) = inp.aids else {
+        return Ok(());
+    };
+    let (main, side) = layout(
+        root,
+        "Aid innovations normalized by √(innovation variance), and test ratios against the gate",
+    )?;
+    let tm = t_max(inp);
+    let mut set: Vec<(&str, &[AidPoint], &[&str])> = vec![
+        ("SRS velocity", &aids.srs, &["x", "y", "z"]),
+        ("CNS position", &aids.cns, &["lat / grid x", "lon / grid y"]),
+        ("baro height", &aids.baro, &["h"]),
+    ];
+    // The star tracker's row only when the run had one.
+    if !aids.star.is_empty() {
+        set.push(("star attitude", &aids.star, &["x", "y", "z"]));
+    }
+    let cells = main.split_evenly((set.len(), 2));
+    const CLIP: f64 = 6.0;
+    for (k, (name, pts, comps)) in set.iter().enumerate() {
+        let fused = pts.iter().filter(|a| a.fused != 0).count();
+        let rejected = pts.len() - fused;
+        let mut p = Panel {
+            title: format!("{name}: innovation / σ (unit-free), {} updates", pts.len()),
+            hlines: vec![(3.0, GREY), (-3.0, GREY), (0.0, GREY)],
+            y: Some((-CLIP, CLIP)),
+            ..Default::default()
+        };
+        let mut clipped = 0;
+        for (c, _) in comps.iter().enumerate() {
+            let v: Vec<(f64, f64)> = pts
+                .iter()
+                .filter(|a| a.fused != 0)
+                .filter_map(|a| a.normalized(c).map(|v| (a.t_ns as f64 * 1e-9, v)))
+                .inspect(|x| clipped += usize::from(x.1.abs() > CLIP))
+                .map(|(t, v)| (t, v.clamp(-CLIP * 0.97, CLIP * 0.97)))
+                .collect();
+            p.dots.push((v, AXIS_COLORS[c]));
+        }
+        let rej: Vec<(f64, f64)> = pts
+            .iter()
+            .filter(|a| a.fused == 0)
+            .flat_map(|a| {
+                (0..comps.len())
+                    .filter_map(|c| a.normalized(c))
+                    .map(move |v| (a.t_ns as f64 * 1e-9, v.clamp(-CLIP * 0.97, CLIP * 0.97)))
+            })
+            .collect();
+        p.crosses.push((rej, RED_));
+        if clipped > 0 {
+            p.title
+                .push_str(&format!(", {clipped} beyond ±{CLIP} drawn at the edge"));
+        }
+        time_panel(&cells[2 * k], &p, tm, sw)?;
+        // Test ratio on a log axis: log10 drawn, labelled in ratio units.
+        const FLOOR: f64 = -3.0;
+        let tr = |a: &AidPoint| (a.t_ns as f64 * 1e-9, a.test_ratio.log10().max(FLOOR));
+        let fused_pts: Vec<(f64, f64)> = pts.iter().filter(|a| a.fused != 0).map(tr).collect();
+        let rej_pts: Vec<(f64, f64)> = pts.iter().filter(|a| a.fused == 0).map(tr).collect();
+        let hi = fused_pts
+            .iter()
+            .chain(&rej_pts)
+            .map(|p| p.1)
+            .fold(0.5f64, f64::max);
+        let q = Panel {
+            title: format!(
+                "{name}: test ratio (log scale, < 0.001 drawn at 0.001), fused {fused}, rejected {rejected}"
+            ),
+            dots: vec![(fused_pts, BLACK)],
+            crosses: vec![(rej_pts, RED_)],
+            hlines: vec![(0.0, RED_)],
+            y: Some((FLOOR - 0.15, hi.max(1.0) + 0.15)),
+            y_fmt: Some(|v| {
+                let x = 10f64.powf(v);
+                if x >= 1.0 {
+                    format!("{x:.0}")
+                } else {
+                    let d = (-x.log10()).ceil().max(1.0) as usize;
+                    format!("{x:.d$}")
+                }
+            }),
+            ..Default::default()
+        };
+        time_panel(&cells[2 * k + 1], &q, tm, sw)?;
+    }
+    let mut notes = vec![
+        "innovation / σ: each component over the square root of its variance; ±3 grey".to_owned(),
+        "test ratio: normalized innovation squared over the gate; above 1 rejected".to_owned(),
+        "CNS components: Δlatitude, Δlongitude in g; grid x, y position in G".to_owned(),
+    ];
+    notes.extend(switch_notes(sw));
+    legend(
+        &side,
+        inp.runs[0].label,
+        &[
+            ("component x / lat / h".into(), Mark::Dot(BLUE)),
+            ("component y / lon".into(), Mark::Dot(ORANGE)),
+            ("component z".into(), Mark::Dot(GREEN)),
+            ("test ratio of a fused update".into(), Mark::Dot(BLACK)),
+            ("rejected at the gate".into(), Mark::Cross(RED_)),
+            ("gate (test ratio 1)".into(), Mark::Line(RED_, 1)),
+            ("frame switch".into(), Mark::Switch),
+        ],
+        &notes,
+    )
+}
+
+fn compare_difference<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    inp: &Inputs<'_>,
+    sw: &[Switch],
+) -> Result<(), String> {
+    let (a, b) = (&inp.runs[0], &inp.runs[1]);
+    let (main, side) = layout(
+        root,
+        &format!("Difference {} − {} (same truth epochs)", b.label, a.label),
+    )?;
+    let key = |t: f64| (t * 1e6).round() as i64;
+    let by_t: HashMap<i64, &Epoch> = b.epochs.iter().map(|e| (key(e.t_s), e)).collect();
+    let pairs: Vec<(&Epoch, &Epoch)> = a
+        .epochs
+        .iter()
+        .filter_map(|ea| by_t.get(&key(ea.t_s)).map(|eb| (ea, *eb)))
+        .collect();
+    let tm = t_max(inp);
+    type Q = (&'static str, fn(&Epoch, &Epoch) -> f64);
+    let qs: [Q; 5] = [
+        ("east position (m)", |a, b| b.pos_enu.x - a.pos_enu.x),
+        ("north position (m)", |a, b| b.pos_enu.y - a.pos_enu.y),
+        ("up position (m)", |a, b| b.pos_enu.z - a.pos_enu.z),
+        ("velocity, magnitude of the difference (m/s)", |a, b| {
+            (b.vel_enu - a.vel_enu).norm()
+        }),
+        ("heading, about up (arcmin)", |a, b| {
+            (b.att_enu.z - a.att_enu.z) * ARCMIN
+        }),
+    ];
+    for (k, (area, (name, f))) in main.split_evenly((5, 1)).iter().zip(qs).enumerate() {
+        let v: Vec<(f64, f64)> = pairs.iter().map(|(ea, eb)| (ea.t_s, f(ea, eb))).collect();
+        let mx = v.iter().map(|p| p.1.abs()).fold(0.0, f64::max);
+        let p = Panel {
+            title: format!("{name}   max |Δ| {}", tick(mx, mx)),
+            lines: vec![(v, AXIS_COLORS[k % 3], 2)],
+            hlines: vec![(0.0, GREY)],
+            symmetric: k != 3,
+            ..Default::default()
+        };
+        time_panel(area, &p, tm, sw)?;
+    }
+    let mut notes = vec![format!(
+        "{} epochs in both runs; differences of the errors against truth, i.e. of the solutions themselves",
+        pairs.len()
+    )];
+    notes.extend(switch_notes(sw));
+    legend(
+        &side,
+        "compare − solution",
+        &[
+            (format!("{} − {}", b.label, a.label), Mark::Line(BLUE, 2)),
+            (format!("frame switch of {}", a.label), Mark::Switch),
+        ],
+        &notes,
+    )
 }
 
 fn cumulative_rmse<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
-    runs: &[Series<'_>],
+    inp: &Inputs<'_>,
+    sw: &[Switch],
 ) -> Result<(), String> {
-    let curves: Vec<Vec<(f64, f64)>> = runs
+    let (main, side) = layout(root, "Cumulative horizontal position RMSE (m)")?;
+    let curves: Vec<Line> = inp
+        .runs
         .iter()
-        .map(|r| {
+        .enumerate()
+        .map(|(k, r)| {
             let mut sum = 0.0;
-            r.epochs
+            let c = r
+                .epochs
                 .iter()
                 .enumerate()
                 .map(|(i, e)| {
                     sum += e.pos_enu.xy().norm_squared();
                     (e.t_s, (sum / (i + 1) as f64).sqrt())
                 })
-                .collect()
+                .collect();
+            (c, [BLUE, ORANGE][k % 2], 2)
         })
         .collect();
-    let t_max = curves
+    let hi = curves
         .iter()
-        .flat_map(|c| c.last())
-        .map(|p| p.0)
-        .fold(1.0, f64::max);
-    let (_, hi) = range(curves.iter().flatten().map(|p| p.1));
-    let mut chart = ChartBuilder::on(root)
-        .caption(
-            "cumulative horizontal position RMSE (m)",
-            ("sans-serif", 24),
-        )
-        .margin(10)
-        .x_label_area_size(35)
-        .y_label_area_size(70)
-        .build_cartesian_2d(0.0..t_max, 0.0..hi)
-        .map_err(|e| e.to_string())?;
-    chart
-        .configure_mesh()
-        .x_desc("t (s)")
-        .draw()
-        .map_err(|e| e.to_string())?;
-    for (k, (run, c)) in runs.iter().zip(&curves).enumerate() {
-        let col = COLORS[k % COLORS.len()];
-        chart
-            .draw_series(LineSeries::new(c.iter().copied(), col.stroke_width(2)))
-            .map_err(|e| e.to_string())?
-            .label(run.label)
-            .legend(move |(x, y)| PathElement::new([(x, y), (x + 20, y)], col.stroke_width(2)));
-    }
-    chart
-        .configure_series_labels()
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .draw()
-        .map_err(|e| e.to_string())?;
-    Ok(())
+        .flat_map(|c| c.0.iter().map(|p| p.1))
+        .fold(1e-3, f64::max);
+    let p = Panel {
+        title: "√(mean of horizontal error² from the start) (m)".into(),
+        lines: curves,
+        y: Some((0.0, hi * 1.05)),
+        ..Default::default()
+    };
+    time_panel(&main, &p, t_max(inp), sw)?;
+    let entries: Vec<(String, Mark)> = inp
+        .runs
+        .iter()
+        .enumerate()
+        .map(|(k, r)| (r.label.to_owned(), Mark::Line([BLUE, ORANGE][k % 2], 2)))
+        .chain(std::iter::once(("frame switch".to_owned(), Mark::Switch)))
+        .collect();
+    legend(&side, "runs", &entries, &switch_notes(sw))
 }
 
-/// Ground track in the tangent plane at the middle of the flight (km), truth and solution.
+/// Polar stereographic projection about the pole of the flight's hemisphere
+/// (km; spherical, radius 6371 km): well defined across the pole.
+fn stereo(r_e: &[f64; 3], north: bool) -> (f64, f64) {
+    let g = polarnav::earth::ecef_to_geodetic(&nalgebra::Vector3::from(*r_e));
+    let colat = if north {
+        std::f64::consts::FRAC_PI_2 - g.lat_rad
+    } else {
+        std::f64::consts::FRAC_PI_2 + g.lat_rad
+    };
+    let rho = 2.0 * 6371.0 * (colat / 2.0).tan();
+    let (sl, cl) = g.lon_rad.sin_cos();
+    if north {
+        (rho * sl, -rho * cl)
+    } else {
+        (rho * sl, rho * cl)
+    }
+}
+
 fn track<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
-    runs: &[Series<'_>],
+    inp: &Inputs<'_>,
+    sw: &[Switch],
 ) -> Result<(), String> {
-    let Some(first) = runs.first() else {
-        return Ok(());
-    };
-    let rows = first.rows;
-    if rows.is_empty() {
+    let run = &inp.runs[0];
+    if run.rows.is_empty() {
         return Ok(());
     }
-    let mid = &rows[rows.len() / 2];
-    let (lat, lon) = (mid.lat_deg.to_radians(), mid.lon_deg.to_radians());
-    let [e, n, _] = polarnav::frames::enu_axes_e(lat, lon);
-    let r0 = nalgebra::Vector3::from(mid.r_e_m);
-    let project =
-        |r: nalgebra::Vector3<f64>| ((r - r0).dot(&e) / 1000.0, (r - r0).dot(&n) / 1000.0);
-    let step = (rows.len() / 4000).max(1);
-    let sol: Vec<(f64, f64)> = rows
-        .iter()
-        .step_by(step)
-        .map(|r| project(nalgebra::Vector3::from(r.r_e_m)))
+    let north = run.rows[run.rows.len() / 2].lat_deg >= 0.0;
+    let (main, side) = layout(
+        root,
+        &format!(
+            "Track, polar stereographic about the {} Pole (km)",
+            if north { "North" } else { "South" }
+        ),
+    )?;
+    let sol: Vec<(f64, f64)> = decimate(run.rows)
+        .map(|r| stereo(&r.r_e_m, north))
         .collect();
-    let (x0, x1) = range(sol.iter().map(|p| p.0));
-    let (y0, y1) = range(sol.iter().map(|p| p.1));
-    let half = ((x1 - x0).max(y1 - y0)) / 2.0;
+    let truth: Vec<(f64, f64)> = decimate(inp.truth)
+        .map(|t| stereo(&t.r_e_m, north))
+        .collect();
+    let cmp: Vec<(f64, f64)> = inp
+        .runs
+        .get(1)
+        .map(|r| decimate(r.rows).map(|x| stereo(&x.r_e_m, north)).collect())
+        .unwrap_or_default();
+    let all = || truth.iter().chain(&sol).chain(&cmp);
+    let (mut x0, mut x1, mut y0, mut y1) = all().fold(
+        (
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+        ),
+        |a, p| (a.0.min(p.0), a.1.max(p.0), a.2.min(p.1), a.3.max(p.1)),
+    );
+    // Show the pole when it is within one track extent.
+    let ext = (x1 - x0).max(y1 - y0).max(1.0);
+    let pole_shown = x0 - ext < 0.0 && x1 + ext > 0.0 && y0 - ext < 0.0 && y1 + ext > 0.0;
+    if pole_shown {
+        (x0, x1, y0, y1) = (x0.min(0.0), x1.max(0.0), y0.min(0.0), y1.max(0.0));
+    }
+    let half = (x1 - x0).max(y1 - y0) / 2.0 * 1.12 + 1.0;
     let (cx, cy) = ((x0 + x1) / 2.0, (y0 + y1) / 2.0);
-    let mut chart = ChartBuilder::on(root)
-        .caption(
-            format!(
-                "track in the tangent plane at {:.3}°, {:.3}° (km)",
-                mid.lat_deg, mid.lon_deg
-            ),
-            ("sans-serif", 24),
-        )
-        .margin(10)
-        .x_label_area_size(35)
-        .y_label_area_size(60)
+    let (w, h) = main.dim_in_pixel();
+    let side_px = w.min(h);
+    let (square, _) = main.split_horizontally(side_px);
+    let mut chart = ChartBuilder::on(&square)
+        .margin(15)
+        .x_label_area_size(50)
+        .y_label_area_size(80)
         .build_cartesian_2d((cx - half)..(cx + half), (cy - half)..(cy + half))
-        .map_err(|e| e.to_string())?;
+        .map_err(s)?;
     chart
         .configure_mesh()
-        .x_desc("east (km)")
-        .y_desc("north (km)")
+        .x_desc("x (km), toward 90°E")
+        .y_desc(if north {
+            "y (km), toward 180°"
+        } else {
+            "y (km), toward 0°"
+        })
+        .x_label_formatter(&|v| format!("{v:.0}"))
+        .y_label_formatter(&|v| format!("{v:.0}"))
+        .label_style(("sans-serif", 15))
+        .axis_desc_style(("sans-serif", 16))
+        .bold_line_style(BLACK.mix(0.08))
+        .light_line_style(WHITE.mix(0.0))
         .draw()
-        .map_err(|e| e.to_string())?;
+        .map_err(s)?;
     chart
-        .draw_series(LineSeries::new(sol, COLORS[0].stroke_width(2)))
-        .map_err(|e| e.to_string())?
-        .label(first.label)
-        .legend(|(x, y)| PathElement::new([(x, y), (x + 20, y)], COLORS[0].stroke_width(2)));
+        .draw_series(LineSeries::new(
+            truth.iter().copied(),
+            BLACK.mix(0.35).stroke_width(7),
+        ))
+        .map_err(s)?;
+    if !cmp.is_empty() {
+        chart
+            .draw_series(LineSeries::new(cmp.iter().copied(), ORANGE.stroke_width(2)))
+            .map_err(s)?;
+    }
     chart
-        .configure_series_labels()
-        .background_style(WHITE.mix(0.85))
-        .border_style(BLACK)
-        .draw()
-        .map_err(|e| e.to_string())?;
-    Ok(())
+        .draw_series(LineSeries::new(sol.iter().copied(), BLUE.stroke_width(2)))
+        .map_err(s)?;
+    let font = ("sans-serif", 17).into_font();
+    if pole_shown {
+        chart
+            .draw_series(std::iter::once(
+                EmptyElement::at((0.0, 0.0))
+                    + Cross::new((0, 0), 8, BLACK.stroke_width(2))
+                    + Text::new("pole", (10, 4), font.clone()),
+            ))
+            .map_err(s)?;
+    }
+    if let (Some(a), Some(b)) = (sol.first(), sol.last()) {
+        chart
+            .draw_series(std::iter::once(
+                EmptyElement::at(*a)
+                    + Circle::new((0, 0), 9, GREEN.filled())
+                    + Text::new("start", (12, -22), font.clone()),
+            ))
+            .map_err(s)?;
+        chart
+            .draw_series(std::iter::once(
+                EmptyElement::at(*b)
+                    + Rectangle::new([(-8, -8), (8, 8)], RED_.filled())
+                    + Text::new("end", (12, -22), font.clone()),
+            ))
+            .map_err(s)?;
+    }
+    chart
+        .draw_series(sw.iter().map(|w| {
+            EmptyElement::at(stereo(&w.r_e_m, north))
+                + TriangleMarker::new((0, 0), 11, BLACK.filled())
+                + Text::new(
+                    format!("{} t={:.0} s", w.label, w.t_s),
+                    (14, 4),
+                    font.clone(),
+                )
+        }))
+        .map_err(s)?;
+    let hmax = run
+        .epochs
+        .iter()
+        .map(|e| e.pos_enu.xy().norm())
+        .fold(0.0, f64::max);
+    let mut notes = vec![
+        format!(
+            "the solution's horizontal error (max {} m, see position_errors) is far below a pixel at this scale",
+            tick(hmax, hmax)
+        ),
+        "spherical polar stereographic projection (R = 6371 km), valid across the pole".to_owned(),
+    ];
+    notes.extend(switch_notes(sw));
+    let mut entries = vec![
+        ("truth".to_owned(), Mark::Line(GREY, 7)),
+        (run.label.to_owned(), Mark::Line(BLUE, 2)),
+    ];
+    if let Some(r) = inp.runs.get(1) {
+        entries.push((r.label.to_owned(), Mark::Line(ORANGE, 2)));
+    }
+    entries.push(("start".into(), Mark::Dot(GREEN)));
+    entries.push(("end".into(), Mark::Square(RED_)));
+    entries.push((
+        "frame switch (position of the solution)".into(),
+        Mark::Triangle,
+    ));
+    legend(&side, "track", &entries, &notes)
 }
 
 #[cfg(test)]
@@ -418,22 +1261,31 @@ mod tests {
                 pos_enu: Vector3::new(r.t_s.sin(), r.t_s.cos(), 0.1),
                 vel_enu: Vector3::new(0.01, 0.0, 0.0),
                 att_enu: Vector3::new(0.0, 0.0, 1e-4),
+                vel_nav: Vector3::new(0.01, 0.0, 0.0),
+                att_nav: Vector3::new(0.0, 0.0, 1e-4),
                 frame: r.frame,
             })
             .collect();
         let dir = std::env::temp_dir().join(format!("polarnav-plots-{}", std::process::id()));
         std::fs::create_dir_all(&dir).expect("dir");
+        let runs = [Series {
+            label: "run",
+            rows: &rows,
+            epochs: &epochs,
+        }];
         let files = write_all(
             &dir,
-            &[Series {
-                label: "run",
-                rows: &rows,
-                epochs: &epochs,
-            }],
+            &Inputs {
+                runs: &runs,
+                truth: &[],
+                truth_bias: &[],
+                aids: None,
+            },
         )
         .expect("plots");
-        assert_eq!(files.len(), 3);
-        for f in &files {
+        // No aid updates (CSV solution), no compare run: no innovations, no difference.
+        assert_eq!(files.len(), 6);
+        for f in files.iter().map(|f| &f.path) {
             let bytes = std::fs::read(f).expect("read");
             let png = bytes.starts_with(b"\x89PNG");
             let svg = bytes.starts_with(b"<svg");

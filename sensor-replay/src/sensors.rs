@@ -78,6 +78,15 @@ impl ImuErrorModel {
         }
     }
 
+    /// The bias at the current time (constant draw plus Gauss–Markov part):
+    /// gyro (rad/s), accelerometer (m/s²), body axes.
+    pub fn bias(&self) -> (Vector3<f64>, Vector3<f64>) {
+        (
+            self.drawn.gyro_bias_rps + self.gm_gyro,
+            self.drawn.accel_bias_mps2 + self.gm_accel,
+        )
+    }
+
     /// Applies the errors to exact increments over `dt`.
     pub fn corrupt(
         &mut self,

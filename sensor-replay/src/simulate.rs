@@ -2,7 +2,7 @@
 
 use std::io::Write;
 
-use msgs::navlog::{Header, NavlogWriter, Record, WriteError};
+use msgs::navlog::{Header, NavlogWriter, Record, TruthBias, WriteError};
 use msgs::{ImuSample, InitState, TruthRecord};
 use nalgebra::{UnitQuaternion, Vector3};
 use polarnav::earth;
@@ -59,6 +59,20 @@ pub fn truth_record(t_ns: u64, t: &TruthSample) -> TruthRecord {
         r_e_m: t.r_e.into(),
         v_e_mps: t.v_e.into(),
         q_b_e: [q.w, q.i, q.j, q.k],
+    }
+}
+
+/// The true IMU bias record at `t_ns` (zero for error-free sensors).
+pub fn truth_bias_record(t_ns: u64, imu: &ImuErrorModel, perfect: bool) -> TruthBias {
+    let (g, a) = if perfect {
+        (Vector3::zeros(), Vector3::zeros())
+    } else {
+        imu.bias()
+    };
+    TruthBias {
+        t_ns,
+        gyro_bias_rps: g.into(),
+        accel_bias_mps2: a.into(),
     }
 }
 
@@ -199,6 +213,11 @@ pub fn simulate<W: Write>(
     let init = init_record(0, &truth0, &sig, (!opts.perfect).then_some(&mut rng));
     w.write(&Record::Init(init))?;
     w.write(&Record::Truth(truth_record(0, &truth0)))?;
+    w.write(&Record::TruthBias(truth_bias_record(
+        0,
+        &imu_err,
+        opts.perfect,
+    )))?;
 
     let catalogue: Vec<Body> = match &s.srs {
         Some(srs) if !srs.bodies.is_empty() => srs.bodies.iter().map(Body::from_spec).collect(),
@@ -291,6 +310,11 @@ pub fn simulate<W: Write>(
         }
         if truth_sched.due(t_ns) || k == n {
             w.write(&Record::Truth(truth_record(t_ns, &truth)))?;
+            w.write(&Record::TruthBias(truth_bias_record(
+                t_ns,
+                &imu_err,
+                opts.perfect,
+            )))?;
             sum.truth += 1;
         }
         sum.duration_ns = t_ns;

@@ -148,7 +148,11 @@ impl<'a> Input<'a> {
             Record::Baro(x) => Some(Input::Baro(x)),
             Record::Star(x) => Some(Input::Star(x)),
             Record::Init(x) => Some(Input::Init(x)),
-            Record::Header(_) | Record::Truth(_) | Record::Solution(_) | Record::Status(_) => None,
+            Record::Header(_)
+            | Record::Truth(_)
+            | Record::TruthBias(_)
+            | Record::Solution(_)
+            | Record::Status(_) => None,
         }
     }
 

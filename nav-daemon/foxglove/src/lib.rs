@@ -18,6 +18,7 @@
 //! | `/events/switch` | JSON [`SwitchNote`] | a frame change between solutions |
 //! | `/events` | `foxglove.Log` | the same switch as a line for Foxglove's Log panel |
 //! | `/truth`, `/truth/fix` | JSON truth with geodetic position; `foxglove.LocationFix` | truth records |
+//! | `/truth/bias` | JSON, the simulated IMU bias (`msgs::navlog::TruthBias`) | truth-bias records |
 //!
 //! Every message's log time is its sensor time stamp `t_ns`. JSON channels
 //! carry a JSON Schema derived from the payload's own serialization (field
@@ -210,6 +211,7 @@ pub struct FlightChannels {
     aid: [JsonChannel; 4],
     switch: JsonChannel,
     truth: JsonChannel,
+    truth_bias: JsonChannel,
     fix: Channel<LocationFix>,
     truth_fix: Channel<LocationFix>,
     pose: Channel<FrameTransform>,
@@ -219,7 +221,7 @@ pub struct FlightChannels {
 }
 
 /// Every topic this mapping writes, in a fixed order.
-pub const TOPICS: [&str; 18] = [
+pub const TOPICS: [&str; 19] = [
     "/imu",
     "/srs",
     "/cns",
@@ -238,6 +240,7 @@ pub const TOPICS: [&str; 18] = [
     "/events",
     "/truth",
     "/truth/fix",
+    "/truth/bias",
 ];
 
 /// A well-known message's time stamp (seconds saturate at `u32::MAX`, year 2106).
@@ -311,6 +314,12 @@ impl FlightChannels {
                 },
             ),
             truth: JsonChannel::new(ctx, "/truth", "polarnav.Truth", &TruthOut::default()),
+            truth_bias: JsonChannel::new(
+                ctx,
+                "/truth/bias",
+                "polarnav.TruthBias",
+                &msgs::navlog::TruthBias::default(),
+            ),
             fix: ctx.channel_builder("/solution/fix").build(),
             truth_fix: ctx.channel_builder("/truth/fix").build(),
             pose: ctx.channel_builder("/solution/pose").build(),
@@ -334,6 +343,7 @@ impl FlightChannels {
             Record::Truth(x) => self.truth(x),
             Record::Solution(x) => self.solution(x),
             Record::Status(x) => self.status(x),
+            Record::TruthBias(x) => self.truth_bias.log(x.t_ns, x),
         }
     }
 
