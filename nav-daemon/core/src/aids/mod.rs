@@ -100,7 +100,9 @@ mod tests {
 
     const T_NS: u64 = 1_000_000_000_000;
 
-    fn truth(kind: FrameKind, lat: f64, lon: f64) -> AnyNav {
+    /// A navigation state at (lat, lon) in `kind`, turned and moving (the
+    /// aids' measurement-model tests share it).
+    pub(super) fn truth(kind: FrameKind, lat: f64, lon: f64) -> AnyNav {
         let geo = Geodetic::from_deg(lat, lon, 17_000.0);
         let c_e_g = frames::c_e_g(geo.lat_rad, geo.lon_rad);
         let q = UnitQuaternion::from_matrix(

@@ -117,22 +117,13 @@ pub fn measurement(nav: &AnyNav, s: &StarSample) -> Result<Measurement<3>, AidEr
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::earth::{self, Geodetic};
+    use crate::aids::tests::truth;
+    use crate::earth;
     use crate::frames;
     use crate::mech::FrameKind;
     use nalgebra::SVector;
 
     const T_NS: u64 = 3_600_000_000_000;
-
-    fn truth(kind: FrameKind, lat: f64, lon: f64) -> AnyNav {
-        let geo = Geodetic::from_deg(lat, lon, 17_000.0);
-        let c_e_g = frames::c_e_g(geo.lat_rad, geo.lon_rad);
-        let q = UnitQuaternion::from_matrix(
-            &(c_e_g.transpose() * frames::c_b_n_from_euler(0.4, 0.02, 0.05)),
-        );
-        let v_e = c_e_g.transpose() * Vector3::new(150.0, -190.0, 2.0);
-        AnyNav::from_frame_free(kind, &earth::geodetic_to_ecef(&geo), &v_e, &q)
-    }
 
     /// A perfect sample of the attitude of `t`: C_b^i = C_e^i(t) C_b^e, with
     /// C_e^i built here independently of the model (rotation about z by ω t).
