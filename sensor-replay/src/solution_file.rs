@@ -7,7 +7,7 @@ use std::io::Read;
 use std::path::Path;
 
 use mcap::records::Record;
-use mcap::sans_io::linear_reader::{LinearReadEvent, LinearReader};
+use mcap::sans_io::linear_reader::{LinearReadEvent, LinearReader, LinearReaderOptions};
 
 use msgs::Solution;
 use polarnav::solution_csv::{self, Row};
@@ -50,6 +50,9 @@ pub struct Loaded {
     pub aids: Option<Aids>,
 }
 
+/// The longest MCAP record (a chunk, compressed or decompressed) eval reads.
+pub const MAX_MCAP_RECORD_BYTES: usize = 64 << 20;
+
 /// True for a file named `*.mcap`.
 pub fn is_mcap(p: &Path) -> bool {
     p.extension()
@@ -70,7 +73,12 @@ pub fn load(path: &Path) -> Result<Loaded, String> {
     // Streamed record by record (chunks decompressed one at a time): memory
     // holds the rows, not the file, which carries every IMU sample too.
     let mut topic_of: HashMap<u16, String> = HashMap::new();
-    let mut reader = LinearReader::new();
+    // A record or chunk (compressed or not) longer than this is refused as
+    // damage: a corrupt or hostile length must not make the reader allocate
+    // it. The project's writers make 1 MiB chunks.
+    let mut reader = LinearReader::new_with_options(
+        LinearReaderOptions::default().with_record_length_limit(MAX_MCAP_RECORD_BYTES),
+    );
     while let Some(event) = reader.next_event() {
         match event.map_err(|e| format!("{p}: MCAP: {e}"))? {
             LinearReadEvent::ReadRequest(need) => {
@@ -133,4 +141,52 @@ fn solution_of_json(data: &[u8]) -> Result<Solution, serde_json::Error> {
             .or_insert_with(|| serde_json::json!([0, 0, 0]));
     }
     serde_json::from_value(v)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn write(name: &str, bytes: &[u8]) -> std::path::PathBuf {
+        let p =
+            std::env::temp_dir().join(format!("polarnav-sf-{}-{name}.mcap", std::process::id()));
+        std::fs::write(&p, bytes).expect("write");
+        p
+    }
+
+    /// A record whose length field claims u64::MAX, 1e18 or just over the
+    /// limit is refused as damage before anything of that size is allocated.
+    #[test]
+    fn an_absurd_record_length_is_refused_without_allocating_it() {
+        for (k, len) in [
+            u64::MAX,
+            1_000_000_000_000_000_000,
+            MAX_MCAP_RECORD_BYTES as u64 + 1,
+        ]
+        .into_iter()
+        .enumerate()
+        {
+            let mut bytes = b"\x89MCAP0\r\n".to_vec();
+            // A chunk (opcode 0x06) that says it is `len` bytes long.
+            bytes.push(0x06);
+            bytes.extend_from_slice(&len.to_le_bytes());
+            bytes.extend_from_slice(&[0u8; 64]);
+            let p = write(&format!("len{k}"), &bytes);
+            let e = load(&p).expect_err("absurd length");
+            assert!(e.contains("MCAP"), "{e}");
+            let _ = std::fs::remove_file(&p);
+        }
+    }
+
+    /// Not MCAP, or MCAP without any solution: an error that names the file.
+    #[test]
+    fn a_file_without_solutions_is_refused_naming_it() {
+        let p = write("empty", b"\x89MCAP0\r\n");
+        let e = load(&p).expect_err("no solution");
+        assert!(e.contains(&p.display().to_string()), "{e}");
+        let _ = std::fs::remove_file(&p);
+        let p = write("text", b"t_s,frame\n1,g\n");
+        assert!(load(&p).is_err());
+        let _ = std::fs::remove_file(&p);
+    }
 }

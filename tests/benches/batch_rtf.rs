@@ -141,6 +141,30 @@ fn main() {
         solution_only / n * 1e6,
         csv / n * 1e6
     );
+    // The same batch writing MCAP (every channel of polarnav-foxglove, JSON
+    // messages, zstd chunks) instead of the CSV: what `--out F.mcap` costs.
+    let out = dir.join("solution.mcap");
+    let t = Instant::now();
+    let r = batch::run_to::<_, std::io::Sink>(
+        BufReader::with_capacity(1 << 20, std::fs::File::open(&log).expect("open")),
+        "flight.navlog",
+        batch::Output::Mcap(Box::new(
+            polarnav_foxglove::McapFile::create(&out, polarnav_foxglove::AidSource::Updates)
+                .expect("mcap"),
+        )),
+        &ConfigFile::defaults(),
+        &BatchOptions::default(),
+    )
+    .expect("batch mcap");
+    let mcap_s = t.elapsed().as_secs_f64();
+    assert_eq!(r.rows, (FLIGHT_S * 200.0) as u64);
+    let mcap_mb = std::fs::metadata(&out).map_or(0.0, |m| m.len() as f64 / 1e6);
+    println!(
+        "  MCAP output instead of CSV: {mcap_s:.3} s ({:.0}x), {mcap_mb:.1} MB ({:.2} µs and {:.0} bytes per IMU sample, inputs included)",
+        FLIGHT_S / mcap_s,
+        mcap_s / n * 1e6,
+        mcap_mb * 1e6 / n
+    );
     micro(&init);
     std::fs::remove_dir_all(&dir).ok();
 }

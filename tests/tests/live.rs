@@ -1878,7 +1878,9 @@ fn foxglove_view_serves_the_recorded_solutions_and_mcap_recordings_read_back() {
         Some(0),
         "client"
     );
-    std::thread::sleep(Duration::from_millis(300));
+    // The client stops 3 s after its last message, so by now the daemon has
+    // published every solution; a recorder drains its subscriptions once
+    // more when it is told to stop.
     assert_eq!(terminate(&mut recorder, Duration::from_secs(10)), Some(0));
     assert_eq!(
         terminate(&mut mcap_recorder, Duration::from_secs(10)),

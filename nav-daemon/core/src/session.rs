@@ -1148,12 +1148,12 @@ impl Session {
         let resets = n.aid_resets();
         match a.offer(n) {
             Ok(_) => {
-                let st = n.status();
+                let [srs, cns, baro, star] = n.aid_statuses();
                 let status = match a {
-                    Aid::Srs(_) => st.srs_aid,
-                    Aid::Cns(_) => st.cns_aid,
-                    Aid::Baro(_) => st.baro_aid,
-                    Aid::Star(_) => st.star_aid,
+                    Aid::Srs(_) => srs,
+                    Aid::Cns(_) => cns,
+                    Aid::Baro(_) => baro,
+                    Aid::Star(_) => star,
                 };
                 sink.event(&Event::AidUpdate {
                     stream: a.stream(),

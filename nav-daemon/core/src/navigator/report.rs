@@ -146,6 +146,13 @@ impl Navigator {
         }
     }
 
+    /// The aids' status records (SRS, CNS, baro, star), as [`Self::status`]
+    /// carries them, without building the rest of the status.
+    pub fn aid_statuses(&self) -> [AidStatus; 4] {
+        let a = &self.aids;
+        [&a.srs, &a.cns, &a.baro, &a.star].map(|c| c.status_at(self.t_ns))
+    }
+
     /// Health record (loop timing is filled in by the live driver).
     pub fn status(&self) -> Status {
         let aid = |c: &AidControl| -> (StreamCounters, AidStatus) {
