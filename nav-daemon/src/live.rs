@@ -370,7 +370,7 @@ pub fn run(
         let cpu0 = cpu_time::ThreadTime::try_now().ok();
         state.cycle(&ports)?;
         let cpu = cpu0.and_then(|c| c.try_elapsed().ok()).unwrap_or_default();
-        let status_due = state.account(t0.elapsed(), cpu, period, &ports)?;
+        let status_due = state.account(t0.elapsed(), cpu, period);
         notify.watchdog();
         if status_due {
             let st = state.status();
@@ -630,8 +630,7 @@ impl LoopState {
         // as its sample is integrated and fuses aids before the next sample,
         // so where a cycle ends changes nothing.
         let mut sink = PublishSink::new(&ports.solution, &mut self.out);
-        self.inbox
-            .deliver(&mut self.session, self.imu_lost, &mut sink);
+        self.inbox.deliver(&mut self.session, &mut sink);
         self.report.solutions += sink.done()?;
         if let Some(w) = self.checkpoint.as_mut() {
             w.offer(&self.session);
@@ -640,13 +639,7 @@ impl LoopState {
     }
 
     /// Timing, IMU-lost detection and watchdog; true when a status is due.
-    fn account(
-        &mut self,
-        elapsed: Duration,
-        cpu: Duration,
-        period: Duration,
-        ports: &Ports,
-    ) -> Result<bool, LiveError> {
+    fn account(&mut self, elapsed: Duration, cpu: Duration, period: Duration) -> bool {
         self.cycle_time_sum += elapsed;
         self.cycle_time_max = self.cycle_time_max.max(elapsed);
         self.cycle_count_window += 1;
@@ -662,16 +655,15 @@ impl LoopState {
         {
             self.imu_lost = true;
             tracing::warn!(
-                "IMU lost: no sample for {} nominal periods",
+                waiting = self.inbox.waiting(),
+                "IMU lost: no sample for {} nominal periods; inputs stamped after it keep waiting for it",
                 self.opts.imu_lost_periods
             );
-            // What waited for the IMU goes to the session, which offers it now.
-            let mut sink = PublishSink::new(&ports.solution, &mut self.out);
-            self.inbox.deliver_all(&mut self.session, &mut sink);
-            self.session.imu_lost(&mut sink);
-            self.report.solutions += sink.done()?;
+            // Reported only: the inputs that wait for the IMU keep waiting
+            // (decisions come from the stamps, never from the wall clock).
+            self.session.imu_lost(&mut polarnav::session::Discard);
         }
-        Ok(self.last_status.elapsed() >= self.opts.status_period)
+        self.last_status.elapsed() >= self.opts.status_period
     }
 
     fn reset_window(&mut self) {

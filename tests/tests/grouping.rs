@@ -81,7 +81,7 @@ fn live(records: &[&Record], seed: u64, max_step: usize) -> (Collect, msgs::Stat
             }
             *d = published;
         }
-        inbox.deliver(&mut s, false, &mut sink);
+        inbox.deliver(&mut s, &mut sink);
     }
     inbox.deliver_all(&mut s, &mut sink);
     s.finish(&mut sink);

@@ -12,18 +12,25 @@
 //!   stamped at or after it has been received, so that the session gets it
 //!   right before the sample that follows it, where a navlog has it.
 //!
-//! Sequence gaps are noted in arrival order, as inputs are received. While
-//! the IMU is lost, before the first IMU sample, and at the end, every input
-//! is handed on at once. The buffer is allocated once; a cycle moves inputs
-//! without allocating.
+//! Sequence gaps are noted in arrival order, as inputs are received. Before
+//! the first IMU sample and at the end every input is handed on at once.
+//! Nothing here depends on when an input arrived, only on its stamp and on
+//! the IMU stamps received: in particular an input keeps waiting while the
+//! IMU is late or declared lost (a driver stalled for a few seconds), so a
+//! busy machine changes no solution. The buffer is allocated once; a cycle
+//! moves inputs without allocating.
 
 use msgs::{BaroSample, CnsFix, ImuSample, InitState, SrsSample, StarSample};
 
 use crate::session::{Event, Input, Session, Sink};
 
 /// Most inputs kept for a later IMU sample; beyond, the oldest go on to the
-/// session, which queues or refuses them (as ahead of the IMU).
-pub const CARRY_MAX: usize = 64;
+/// session, which queues or refuses them (as ahead of the IMU). 256 covers
+/// an IMU stalled for 5 s while aids arrive at 50 Hz in all (a star tracker
+/// and a barometer at 20 Hz, SRS and CNS at 5 Hz), as `batch` would fuse
+/// them; a longer stall with the aids still arriving refuses the oldest, as
+/// `batch` also refuses aids more than 1 s ahead of the IMU.
+pub const CARRY_MAX: usize = 256;
 
 /// An input held by value. Not boxed on purpose: boxing the SRS variant
 /// would allocate in the loop.
@@ -69,7 +76,10 @@ pub struct Inbox {
     buf: Vec<Received>,
     /// The first `kept` inputs of `buf` wait for a later IMU sample.
     kept: usize,
-    /// Time of the newest IMU sample received.
+    /// Time of the IMU sample received last (one publisher sends them in
+    /// time order; after a stamp that went back, e.g. a new replay or a
+    /// restarted driver, the new time line counts, and one absurd stamp
+    /// holds nothing beyond the next sample).
     newest_imu_t_ns: Option<u64>,
 }
 
@@ -88,7 +98,7 @@ impl Inbox {
     /// returned for the driver to log.
     pub fn receive(&mut self, session: &mut Session, r: Received) -> Option<Event> {
         if let Received::Imu(x) = &r {
-            self.newest_imu_t_ns = Some(self.newest_imu_t_ns.map_or(x.t_ns, |t| t.max(x.t_ns)));
+            self.newest_imu_t_ns = Some(x.t_ns);
         }
         let gap = session.arrived(&r.input());
         self.buf.push(r);
@@ -96,12 +106,13 @@ impl Inbox {
     }
 
     /// The end of a cycle: the inputs received, in navlog order, go to the
-    /// session, but for those stamped after every IMU sample received so
-    /// far (unless `imu_lost`), which wait for the next cycle.
-    pub fn deliver(&mut self, session: &mut Session, imu_lost: bool, sink: &mut impl Sink) {
+    /// session, but for those stamped after the newest IMU sample received
+    /// so far, which wait (at most [`CARRY_MAX`]) for the next cycle, also
+    /// while the IMU is late or lost.
+    pub fn deliver(&mut self, session: &mut Session, sink: &mut impl Sink) {
         self.buf.sort_unstable_by_key(Received::key);
         let n = match self.newest_imu_t_ns {
-            Some(t) if !imu_lost => {
+            Some(t) => {
                 let later = self.buf.iter().rev().take_while(|r| r.key().0 > t).count();
                 self.buf.len() - later.min(CARRY_MAX)
             }
@@ -110,7 +121,7 @@ impl Inbox {
         self.hand(n, session, sink);
     }
 
-    /// Every input held goes to the session (the IMU is lost, or the end).
+    /// Every input held goes to the session (the end of the run).
     pub fn deliver_all(&mut self, session: &mut Session, sink: &mut impl Sink) {
         self.buf.sort_unstable_by_key(Received::key);
         self.hand(self.buf.len(), session, sink);
@@ -163,24 +174,30 @@ mod tests {
         for r in [imu(10_000_000, 0), imu(20_000_000, 1), baro(35_000_000, 0)] {
             assert!(inbox.receive(&mut s, r).is_none());
         }
-        inbox.deliver(&mut s, false, &mut sink);
+        inbox.deliver(&mut s, &mut sink);
         assert_eq!(inbox.waiting(), 1);
         // Cycle 2: IMU 30 ms does not reach it; 40 ms does.
         inbox.receive(&mut s, imu(30_000_000, 2));
-        inbox.deliver(&mut s, false, &mut sink);
+        inbox.deliver(&mut s, &mut sink);
         assert_eq!(inbox.waiting(), 1);
         inbox.receive(&mut s, imu(40_000_000, 3));
-        inbox.deliver(&mut s, false, &mut sink);
+        inbox.deliver(&mut s, &mut sink);
         assert_eq!(inbox.waiting(), 0);
         // A stamp equal to the newest IMU sample's goes on (navlog order:
         // the IMU sample, then the aid).
         inbox.receive(&mut s, baro(40_000_000, 1));
-        inbox.deliver(&mut s, false, &mut sink);
+        inbox.deliver(&mut s, &mut sink);
         assert_eq!(inbox.waiting(), 0);
-        // While the IMU is lost, nothing waits.
+        // However long the IMU stays away, an input ahead of it waits.
         inbox.receive(&mut s, baro(90_000_000, 2));
-        inbox.deliver(&mut s, true, &mut sink);
-        assert_eq!(inbox.waiting(), 0);
+        for _ in 0..1000 {
+            inbox.deliver(&mut s, &mut sink);
+        }
+        s.imu_lost(&mut sink);
+        inbox.deliver(&mut s, &mut sink);
+        assert_eq!(inbox.waiting(), 1);
+        assert_eq!(s.status().baro.received, 2);
+        inbox.deliver_all(&mut s, &mut sink);
         assert_eq!(s.status().baro.received, 3);
     }
 
@@ -193,7 +210,7 @@ mod tests {
         for k in 0..(CARRY_MAX as u64 + 10) {
             inbox.receive(&mut s, baro(1_000_000_000 + k, k));
         }
-        inbox.deliver(&mut s, false, &mut sink);
+        inbox.deliver(&mut s, &mut sink);
         assert_eq!(inbox.waiting(), CARRY_MAX);
         inbox.deliver_all(&mut s, &mut sink);
         assert_eq!(inbox.waiting(), 0);

@@ -27,11 +27,15 @@
 //!   IMU samples are fused in the same order whatever order they arrived
 //!   in and however a driver grouped them, so a live cycle (which drains
 //!   its topics one after the other) and a navlog give the same result.
-//! - **Solutions**: the solution of an IMU sample is emitted as soon as the
-//!   sample is integrated. It holds every aid stamped up to the previous
-//!   sample's time; aids stamped within the sample's own
-//!   interval show from the next solution on. Nothing depends on where a
-//!   live cycle ends ([`Session::flush`] exists for tools only).
+//! - **Solutions**: the solution of an IMU sample holds every aid stamped
+//!   up to that sample's time: it is emitted when the next IMU sample
+//!   arrives (after the aids stamped up to the sample's time are fused) or
+//!   at the end ([`Session::finish`]), never at the end of a live cycle,
+//!   so nothing depends on where a cycle ends. A sink may decline a
+//!   solution ([`Sink::wants_solution`]): it is then not built at all.
+//! - **IMU loss** (the live loop's wall-clock watchdog, [`Session::imu_lost`])
+//!   is reported in the status and changes no decision: aids ahead of the
+//!   IMU wait for it as they always do, so a late IMU costs nothing.
 //! - **Accounting**: every input is counted once, per stream:
 //!   `received = accepted + rejected_invalid + rejected_time + rejected_gate
 //!   + not_used`, and inits apart ([`InitCounters`]).
@@ -391,7 +395,16 @@ enum Place {
 
 /// Where a session's outputs go.
 pub trait Sink {
-    /// A solution, in time order, one per accepted IMU sample.
+    /// Whether the solution of the IMU sample at `t_ns` is wanted; `must`
+    /// marks a solution a decimating sink keeps whatever its interval: the
+    /// first one, a frame switch, a reset or re-initialization at this
+    /// sample, and the last one. A declined solution is not built (the
+    /// filter runs on regardless). Default: every one.
+    fn wants_solution(&mut self, _t_ns: u64, _must: bool) -> bool {
+        true
+    }
+    /// A solution, in time order, one per accepted IMU sample that
+    /// [`Sink::wants_solution`] accepted.
     fn solution(&mut self, s: &Solution);
     /// A decision worth a log line (rate-limit recurring ones).
     fn event(&mut self, _e: &Event) {}
@@ -485,6 +498,11 @@ pub struct Session {
     outside: PerStream<StreamCounters>,
     seq: PerStream<SeqTracker>,
     inits: InitCounters,
+    /// The newest integrated sample's solution is still to be emitted.
+    solution_pending: bool,
+    /// (switch count, reset count, re-initializations) at the last emitted
+    /// or declined solution: a change marks the next one as a must.
+    marks: Option<(u32, u32, u32)>,
     imu_lost: bool,
     resumed: bool,
     reinits: u32,
@@ -509,6 +527,8 @@ impl Session {
             outside: PerStream::default(),
             seq: PerStream::default(),
             inits: InitCounters::default(),
+            solution_pending: false,
+            marks: None,
             imu_lost: false,
             resumed: false,
             reinits: 0,
@@ -611,29 +631,35 @@ impl Session {
         }
     }
 
-    /// Fuses the aids stamped up to the navigator's time now, for a tool
-    /// that reads the state after an epoch's aids. Drivers need not call it:
-    /// the session fuses them before the next IMU sample. The live loop must
-    /// not call it at the end of a cycle: where its cycles end would then
-    /// decide the order in which aids of one time stamp are fused, and live
-    /// would no longer equal `batch` bit for bit.
+    /// Fuses the aids stamped up to the navigator's time and emits the
+    /// newest sample's solution, for a tool that reads the state after an
+    /// epoch's aids. Drivers need not call it: the session does both when
+    /// the next IMU sample arrives. The live loop must not call it at the
+    /// end of a cycle: an aid of the sample's own time stamp that arrives
+    /// in the next cycle would then miss the solution (and be fused in
+    /// another order), and live would no longer equal `batch` bit for bit.
     pub fn flush(&mut self, sink: &mut impl Sink) {
         self.fuse_due(sink);
+        self.emit_pending(false, sink);
     }
 
-    /// The IMU stopped (live: no sample for several periods). Aids waiting
-    /// for it are offered now and counted as ahead of the IMU; status marks
-    /// the IMU lost and no aid fresh until the next IMU sample.
-    pub fn imu_lost(&mut self, sink: &mut impl Sink) {
+    /// The IMU stopped (live: no sample for several periods, by the wall
+    /// clock). Reported only: status marks the IMU lost and no aid fresh
+    /// until the next IMU sample. Nothing is decided on it: aids ahead of
+    /// the IMU keep waiting for it (within [`AID_QUEUE`] and
+    /// [`MAX_AID_LEAD_NS`]), as `batch` has them wait, so a late IMU
+    /// changes no solution.
+    pub fn imu_lost(&mut self, _sink: &mut impl Sink) {
         self.imu_lost = true;
-        self.drain_queue(sink);
     }
 
-    /// The end of the inputs: the pending solution is emitted and every
-    /// held input is accounted for (waiting aids as ahead of the IMU,
-    /// time-jump candidates as rejected, a held init as not used).
+    /// The end of the inputs: the pending solution is emitted (always, as
+    /// the last one) and every held input is accounted for (waiting aids as
+    /// ahead of the IMU, time-jump candidates as rejected, a held init as
+    /// not used).
     pub fn finish(&mut self, sink: &mut impl Sink) {
-        self.flush(sink);
+        self.fuse_due(sink);
+        self.emit_pending(true, sink);
         self.drain_queue(sink);
         self.refute_candidates(sink);
         if let Some(i) = self.held_init.take() {
@@ -1032,15 +1058,15 @@ impl Session {
     /// depend only on the order of the inputs, not on how a driver groups
     /// them.
     fn integrate(&mut self, s: &ImuSample, sink: &mut impl Sink) {
-        self.fuse_due(sink);
+        self.flush(sink);
         let Some(n) = self.nav.as_mut() else { return };
         match n.on_imu(s) {
             Ok(out) => {
                 self.last_imu_t_ns = s.t_ns;
+                self.solution_pending = true;
                 if let Some(sw) = out.switch {
                     sink.event(&Event::Switch(sw));
                 }
-                sink.solution(&n.solution());
             }
             Err(reason) => sink.event(&Event::Rejected {
                 stream: Stream::Imu,
@@ -1050,6 +1076,21 @@ impl Session {
             }),
         }
         self.check_repairs(sink);
+    }
+
+    /// Emits the newest sample's solution if it is pending and the sink
+    /// wants it (`last`: the end of the inputs, always a must).
+    fn emit_pending(&mut self, last: bool, sink: &mut impl Sink) {
+        if !std::mem::take(&mut self.solution_pending) {
+            return;
+        }
+        let Some(n) = &self.nav else { return };
+        let marks = (n.switch_count(), n.last_reset().count, self.reinits);
+        let must = last || self.marks != Some(marks);
+        self.marks = Some(marks);
+        if sink.wants_solution(n.t_ns(), must) {
+            sink.solution(&n.solution());
+        }
     }
 
     fn check_repairs(&mut self, sink: &mut impl Sink) {
@@ -1116,10 +1157,6 @@ impl Session {
             return;
         };
         let now = n.t_ns();
-        if self.imu_lost {
-            self.offer(&a, sink);
-            return;
-        }
         if a.t_ns().saturating_sub(now) > MAX_AID_LEAD_NS {
             self.count_outside(a.stream(), |c| c.rejected_time += 1);
             sink.event(&Event::Rejected {

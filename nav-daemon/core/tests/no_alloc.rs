@@ -247,7 +247,7 @@ fn steady_state_loop_does_not_allocate() {
                 inbox.receive(session, Received::Star(star_at(t_ns)));
                 checksum += session.status().cycles as f64;
             }
-            inbox.deliver(session, false, &mut Discard);
+            inbox.deliver(session, &mut Discard);
             checksum += session.navigator().map_or(f64::NAN, |n| n.solution().h_m);
         }
         checksum
