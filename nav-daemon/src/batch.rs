@@ -13,6 +13,7 @@ use std::io::{BufRead, Write};
 use msgs::navlog::{NavlogReader, ReadReport, Record};
 use polarnav::align::{AlignError, Alignment};
 use polarnav::navigator::SwitchEvent;
+use polarnav::row_interval::RowInterval;
 use polarnav::session::{Event, InitCounters, Input, PerStream, Session, Sink, Stream};
 
 use crate::events::log_event;
@@ -39,6 +40,9 @@ pub struct BatchOptions {
     pub cli: CliOverrides,
     /// Print a progress line to stderr every this many seconds of flight (0 = quiet).
     pub progress_every_s: f64,
+    /// Write one solution per this interval of sensor time (and every
+    /// first, switch, reset and last row) instead of every one.
+    pub every: Option<RowInterval>,
 }
 
 /// What a batch run did.
@@ -134,19 +138,25 @@ struct CsvSink<'a, W: Write> {
     align_error: Option<AlignError>,
     rejections_logged: PerStream<u32>,
     gaps_logged: PerStream<u32>,
+    every: Option<RowInterval>,
+    csv: solution_csv::RowWriter,
 }
 
 /// Rejections logged per stream before the rest are only counted (status).
 const REJECTIONS_LOGGED: u32 = 10;
 
 impl<W: Write> Sink for CsvSink<'_, W> {
+    fn wants_solution(&mut self, t_ns: u64, must: bool) -> bool {
+        self.every.as_mut().is_none_or(|e| e.take(t_ns, must))
+    }
+
     fn solution(&mut self, s: &msgs::Solution) {
         if self.error.is_some() {
             return;
         }
         match &mut self.out {
             Output::Csv(w) => {
-                if let Err(e) = solution_csv::write_row(w, s) {
+                if let Err(e) = self.csv.write(w, s) {
                     self.error = Some(e);
                     return;
                 }
@@ -268,6 +278,8 @@ pub fn run_to<R: BufRead, W: Write>(
         align_error: None,
         rejections_logged: PerStream::default(),
         gaps_logged: PerStream::default(),
+        every: opts.every,
+        csv: solution_csv::RowWriter::new(),
     };
     match &mut sink.out {
         Output::Csv(w) => writeln!(w, "{}", solution_csv::HEADER)?,

@@ -7,6 +7,7 @@ use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
 use nav_daemon::batch::{self, BatchOptions};
+use polarnav::row_interval::RowInterval;
 use polarnav_config::{AidSet, CliOverrides, ConfigFile, Conversion, SensorGrade, effective};
 
 #[derive(Debug, Parser)]
@@ -61,6 +62,12 @@ enum Cmd {
         /// Print a progress line every this many seconds of flight (0 = quiet).
         #[arg(long, default_value_t = 0.0)]
         progress: f64,
+        /// Write one solution row per this many seconds of sensor time (on
+        /// whole multiples of it), plus the first and last rows and those at
+        /// frame switches, resets and re-initializations. The filter still
+        /// runs at the IMU rate and a written row is the full-rate run's row.
+        #[arg(long, value_name = "SECONDS")]
+        every: Option<f64>,
         /// IMU noise model of a sensor grade: navigation, tactical or mems
         /// (over the configuration's and the log header's `[filter]` noise keys).
         #[arg(long)]
@@ -135,6 +142,7 @@ fn main() -> ExitCode {
             no_switch,
             align,
             preset,
+            every,
         }) => {
             let usage = |m: String| {
                 eprintln!("error: {m}");
@@ -147,6 +155,10 @@ fn main() -> ExitCode {
             let preset = match preset.as_deref().map(SensorGrade::parse).transpose() {
                 Ok(g) => g,
                 Err(m) => return usage(format!("--preset: {m}")),
+            };
+            let every = match every.map(RowInterval::new).transpose() {
+                Ok(e) => e,
+                Err(e) => return usage(format!("--every: {e}")),
             };
             let conversion = match conversion.as_deref() {
                 None => None,
@@ -172,6 +184,7 @@ fn main() -> ExitCode {
                     preset,
                 },
                 progress_every_s: progress,
+                every,
             };
             let log_name = log.display().to_string();
             let input = match File::open(&log) {

@@ -44,7 +44,7 @@ fn batch_with(log: &Path, config_text: &str, cli: CliOverrides) -> (Vec<Row>, Ba
         &file,
         &BatchOptions {
             cli,
-            progress_every_s: 0.0,
+            ..Default::default()
         },
     )
     .expect("batch");

@@ -25,6 +25,7 @@ pub mod frames;
 pub mod inbox;
 pub mod mech;
 pub mod navigator;
+pub mod row_interval;
 pub mod session;
 pub mod settings;
 pub mod solution_csv;
