@@ -210,12 +210,23 @@ pub fn mechanize_at<F: NavFrame>(
     prev: &Increment,
     cur: &Increment,
 ) -> Nav<F> {
-    let geo0 = *geo0;
+    mechanize_from(s, &Local::new(geo0), prev, cur)
+}
+
+/// [`mechanize`] with the local geometry at the position of `s` already
+/// known (`l0`: the nominal state keeps it, so a step converts and takes
+/// the trigonometry of one position, the predicted end, not two).
+pub fn mechanize_from<F: NavFrame>(
+    s: &Nav<F>,
+    l0: &Local,
+    prev: &Increment,
+    cur: &Increment,
+) -> Nav<F> {
     let dt = cur.dt_s;
     let dv_sf_b = compensated_dv(prev, cur);
 
     // Predictor with the start-of-interval environment.
-    let l0 = Local::new(&geo0);
+    let l0 = *l0;
     let c0 = F::c_e_n(&l0);
     let env0 = Environment::with::<F>(&l0, &c0, &s.v_n);
     let v_pred = velocity_update(s, &dv_sf_b, &env0, &s.v_n, dt);
@@ -390,9 +401,15 @@ impl AnyNav {
 
     /// [`AnyNav::mechanize`] with the current geodetic position already known.
     pub fn mechanize_at(&self, geo: &Geodetic, prev: &Increment, cur: &Increment) -> Self {
+        self.mechanize_from(&Local::new(geo), prev, cur)
+    }
+
+    /// [`AnyNav::mechanize`] with the local geometry of the current
+    /// position already known.
+    pub fn mechanize_from(&self, l0: &Local, prev: &Increment, cur: &Increment) -> Self {
         match self {
-            AnyNav::Geographic(s) => AnyNav::Geographic(mechanize_at(s, geo, prev, cur)),
-            AnyNav::Grid(s) => AnyNav::Grid(mechanize_at(s, geo, prev, cur)),
+            AnyNav::Geographic(s) => AnyNav::Geographic(mechanize_from(s, l0, prev, cur)),
+            AnyNav::Grid(s) => AnyNav::Grid(mechanize_from(s, l0, prev, cur)),
         }
     }
 
@@ -512,20 +529,21 @@ mod tests {
     }
 }
 
-/// The nominal navigation state with its geodetic position cached: every
-/// change goes through a method that refreshes the cache, so it cannot go
-/// stale (the mechanization reads it every step instead of converting
-/// ECEF → geodetic twice).
+/// The nominal navigation state with its geodetic position and local
+/// geometry (trigonometry of latitude and longitude, radii, gravity)
+/// cached: every change goes through a method that refreshes the cache, so
+/// it cannot go stale (the mechanization and the solution read it instead
+/// of converting ECEF → geodetic and taking the same sines again).
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct Nominal {
     nav: AnyNav,
-    geo: Geodetic,
+    local: Local,
 }
 
 impl Nominal {
     pub fn new(nav: AnyNav) -> Self {
         Self {
-            geo: nav.geodetic(),
+            local: Local::new(&nav.geodetic()),
             nav,
         }
     }
@@ -535,7 +553,12 @@ impl Nominal {
     }
 
     pub fn geo(&self) -> Geodetic {
-        self.geo
+        self.local.geo
+    }
+
+    /// The local geometry at the current position.
+    pub fn local(&self) -> &Local {
+        &self.local
     }
 
     pub fn kind(&self) -> FrameKind {
@@ -544,7 +567,7 @@ impl Nominal {
 
     /// One strapdown step.
     pub fn mechanize(&mut self, prev: &Increment, cur: &Increment) {
-        *self = Self::new(self.nav.mechanize_at(&self.geo, prev, cur));
+        *self = Self::new(self.nav.mechanize_from(&self.local, prev, cur));
     }
 
     /// The same state in frame `to`.
@@ -555,6 +578,6 @@ impl Nominal {
     /// Closed-loop feedback of an error-state correction.
     pub fn correct(&mut self, phi: &Vector3<f64>, dv: &Vector3<f64>, dp: &Vector3<f64>) {
         self.nav.correct(phi, dv, dp);
-        self.geo = self.nav.geodetic();
+        self.local = Local::new(&self.nav.geodetic());
     }
 }

@@ -79,28 +79,27 @@ impl Navigator {
         f
     }
 
-    /// The current solution.
+    /// The current solution. The geometry of the position (its geodetic
+    /// coordinates, their sines and the local axes) is the nominal state's
+    /// cached one: no conversion or trigonometry of the position here.
     pub fn solution(&self) -> Solution {
-        let geo = self.nominal.geo();
-        let c_e_n = self.nominal.nav().c_e_n_at(&geo);
-        let c_e_g = match &self.nominal.nav() {
-            AnyNav::Geographic(_) => c_e_n,
-            AnyNav::Grid(_) => frames::c_e_g(geo.lat_rad, geo.lon_rad),
+        let l = self.nominal.local();
+        let geo = l.geo;
+        let c_e_g = l.c_e_g();
+        let c_e_n = match &self.nominal.nav() {
+            AnyNav::Geographic(_) => c_e_g,
+            AnyNav::Grid(_) => l.c_e_grid(),
         };
         let ff = self.nominal.nav().frame_free_at(&geo, &c_e_n);
         let c_b_e = ff.q_b_e.to_rotation_matrix().into_inner();
         let c_b_g = c_e_g * c_b_e;
         let (heading, pitch, roll) = frames::euler_from_c_b_n(&c_b_g);
         // σ from grid north's components on the local east and north axes.
-        let sigma = match &self.nominal.nav() {
-            AnyNav::Grid(_) => {
-                let grid_north = c_e_n.row(1);
-                grid_north
-                    .dot(&c_e_g.row(0))
-                    .atan2(grid_north.dot(&c_e_g.row(1)))
-            }
-            AnyNav::Geographic(_) => frames::grid_angle(geo.lat_rad, geo.lon_rad),
+        let grid_north = match &self.nominal.nav() {
+            AnyNav::Grid(_) => c_e_n.row(1).transpose(),
+            AnyNav::Geographic(_) => l.grid_axes()[1],
         };
+        let sigma = grid_north.dot(&l.east).atan2(grid_north.dot(&l.north));
         // Only the position block is needed here (this runs every IMU sample).
         let cov_pos = self.block_in(idx::DP, &self.nominal.nav().position_error_to_enu(&c_e_g));
         let grid_heading = (heading - sigma).rem_euclid(std::f64::consts::TAU);
