@@ -136,15 +136,49 @@ fn in_log_order(log: &LogContents) -> Vec<Sensor<'_>> {
     out
 }
 
+/// A stalled IMU driver (`play --stall-imu AT:FOR`): from sensor time `at_s`
+/// (seconds after the log's init) the IMU stream goes silent for `for_s`
+/// seconds of wall-clock time while the aids go on; then the samples held
+/// meanwhile go out at once, in order, as a delayed driver catches up.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ImuStall {
+    pub at_s: f64,
+    pub for_s: f64,
+}
+
+impl ImuStall {
+    /// Parses `AT:FOR` (seconds); both finite, AT ≥ 0, 0 < FOR ≤ 3600.
+    pub fn parse(text: &str) -> Result<Self, String> {
+        let (at, dur) = text
+            .split_once(':')
+            .ok_or_else(|| format!("expected AT:FOR in seconds, got {text:?}"))?;
+        let num = |what: &str, v: &str| -> Result<f64, String> {
+            v.trim()
+                .parse::<f64>()
+                .map_err(|_| format!("{what} of {text:?} is not a number"))
+        };
+        let (at_s, for_s) = (num("AT", at)?, num("FOR", dur)?);
+        if !(at_s.is_finite() && at_s >= 0.0) {
+            return Err(format!("AT of {text:?}: expected seconds >= 0"));
+        }
+        if !(for_s.is_finite() && for_s > 0.0 && for_s <= 3600.0) {
+            return Err(format!("FOR of {text:?}: expected seconds in (0, 3600]"));
+        }
+        Ok(Self { at_s, for_s })
+    }
+}
+
 /// Publishes the log at wall-clock rate (scaled by `speed`) against absolute
 /// deadlines, in log order (a record never goes out before the one the log
 /// has before it). Each pass starts with an init message; with `loops` > 1
-/// the time base keeps increasing from pass to pass.
+/// the time base keeps increasing from pass to pass. `stalls` (first pass
+/// only) hold the IMU stream back for a while, as a delayed driver would.
 pub fn play(
     log: &LogContents,
     cfg: &TransportConfig,
     speed: f64,
     loops: u64,
+    stalls: &[ImuStall],
     stop: &AtomicBool,
 ) -> Result<Pacing, TransportError> {
     let node = polarnav_ipc::node(cfg, "sensor-replay-play")?;
@@ -175,6 +209,13 @@ pub fn play(
     let progress_every = (span / 10).max(1);
     let mut next_progress = progress_every;
     let start = Instant::now() + Duration::from_millis(100);
+    // IMU samples held by a stall (the aids keep their schedule).
+    let mut held: Vec<ImuSample> = Vec::new();
+    let mut stalls: Vec<ImuStall> = stalls.to_vec();
+    stalls.sort_by(|a, b| a.at_s.total_cmp(&b.at_s));
+    let mut stalls = stalls.into_iter().peekable();
+    // The end (a wall-clock instant) of the stall in progress.
+    let mut stalled_until: Option<Instant> = None;
     'passes: for pass in 0..loops.max(1) {
         // Whole sidereal days (of the WGS-84 Earth rate) between passes: the
         // Earth has the same orientation at every pass's time stamps, so
@@ -201,6 +242,40 @@ pub fn play(
             let deadline = at(sensor_t(s).max(t0)).max(last_deadline);
             last_deadline = deadline;
             wait_until(deadline);
+            // A stall ends: the held IMU samples go out at once, in order.
+            if let Some(end) = stalled_until
+                && Instant::now() >= end
+            {
+                stalled_until = None;
+                for x in held.drain(..) {
+                    imu.publish(&x)?;
+                    lateness.push(end.elapsed().as_nanos() as u64);
+                }
+            }
+            if let Sensor::Imu(x) = s
+                && pass == 0
+            {
+                let t_s = x.t_ns.saturating_sub(t0) as f64 * 1e-9;
+                if stalled_until.is_none()
+                    && let Some(st) = stalls.next_if(|st| st.at_s <= t_s)
+                {
+                    let d = Duration::from_secs_f64(st.for_s);
+                    eprintln!(
+                        "play: IMU stalled at t = {t_s:.3} s for {:.3} s (aids go on)",
+                        st.for_s
+                    );
+                    stalled_until = Some(Instant::now() + d);
+                }
+                if stalled_until.is_some() {
+                    per_stream[0] += 1;
+                    held.push(ImuSample {
+                        t_ns: x.t_ns + offset,
+                        seq: x.seq + pass * log.imu.len() as u64,
+                        ..**x
+                    });
+                    continue;
+                }
+            }
             per_stream[match s {
                 Sensor::Imu(_) => 0,
                 Sensor::Srs(_) => 1,
@@ -247,6 +322,14 @@ pub fn play(
                     100.0 * done as f64 / span as f64
                 );
             }
+        }
+    }
+    // A stall still running at the end: its samples go out now.
+    if let Some(end) = stalled_until {
+        wait_until(end);
+        for x in held.drain(..) {
+            imu.publish(&x)?;
+            lateness.push(end.elapsed().as_nanos() as u64);
         }
     }
     lateness.sort_unstable();

@@ -56,6 +56,12 @@ enum Cmd {
         /// iceoryx2 service prefix (the daemon's `prefix`; same rule).
         #[arg(long, default_value = msgs::service::DEFAULT_PREFIX, value_parser = prefix_arg)]
         prefix: String,
+        /// Stall the IMU stream as a delayed driver would: from AT seconds of
+        /// flight (sensor time after the init) publish no IMU sample for FOR
+        /// seconds of wall-clock time while the aids go on, then the held
+        /// samples at once. Repeat the option or separate stalls by commas.
+        #[arg(long = "stall-imu", value_name = "AT:FOR", value_delimiter = ',', value_parser = stall_arg)]
+        stall_imu: Vec<sensor_replay::live::ImuStall>,
     },
     /// Fault campaign: every scenario in DIR simulated with and without its
     /// [faults], navigated by batch, and judged (exit 1 if any fails).
@@ -310,6 +316,7 @@ fn run(cli: Cli) -> Result<(), Fail> {
             repeat,
             passes,
             prefix,
+            stall_imu,
         } => {
             if !(speed.is_finite() && speed > 0.0) {
                 return Err(bad(format!(
@@ -335,7 +342,7 @@ fn run(cli: Cli) -> Result<(), Fail> {
                 log.display(),
                 c.imu.len()
             );
-            let p = sensor_replay::live::play(&c, &cfg, speed, loops, &stop)
+            let p = sensor_replay::live::play(&c, &cfg, speed, loops, &stall_imu, &stop)
                 .map_err(|e| Fail(1, e.to_string()))?;
             println!("{}", p.summary());
             Ok(())
@@ -654,6 +661,10 @@ fn import_fail(e: ImportError) -> Fail {
 /// `--prefix`: the one prefix rule of the project ([`msgs::service::validate_prefix`]).
 fn prefix_arg(s: &str) -> Result<String, String> {
     msgs::service::validate_prefix(s).map(|()| s.to_owned())
+}
+
+fn stall_arg(s: &str) -> Result<sensor_replay::live::ImuStall, String> {
+    sensor_replay::live::ImuStall::parse(s)
 }
 
 fn main() -> ExitCode {
