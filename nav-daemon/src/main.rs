@@ -66,7 +66,7 @@ enum Cmd {
         /// whole multiples of it), plus the first and last rows and those at
         /// frame switches, resets and re-initializations. The filter still
         /// runs at the IMU rate and a written row is the full-rate run's row.
-        #[arg(long, value_name = "SECONDS")]
+        #[arg(long, value_name = "SECONDS", allow_negative_numbers = true)]
         every: Option<f64>,
         /// IMU noise model of a sensor grade: navigation, tactical or mems
         /// (over the configuration's and the log header's `[filter]` noise keys).

@@ -155,6 +155,11 @@ fn bad_options_exit_2_with_a_clear_message() {
     let (code, err, _) = run_batch(&dir, &log, &["--force-switch", "5,2"]);
     assert_eq!(code, 2);
     assert!(err.contains("force_switch_s"), "{err}");
+    for every in ["0", "-1", "NaN", "inf", "1e300", "1e-400", "soon"] {
+        let (code, err, _) = run_batch(&dir, &log, &["--every", every]);
+        assert_eq!(code, 2, "--every {every}: {err}");
+        assert!(err.contains("--every"), "--every {every}: {err}");
+    }
     std::fs::remove_dir_all(&dir).ok();
 }
 

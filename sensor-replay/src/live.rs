@@ -580,7 +580,33 @@ pub enum RecordError {
 
 #[cfg(test)]
 mod tests {
-    use super::Pacing;
+    use super::{ImuStall, Pacing};
+
+    #[test]
+    fn imu_stalls_parse_and_absurd_ones_are_refused_naming_the_part() {
+        let ok = ImuStall::parse("35:2").expect("35:2");
+        assert_eq!((ok.at_s, ok.for_s), (35.0, 2.0));
+        let ok = ImuStall::parse(" 0 : 1e-10 ").expect("tiny stall");
+        assert_eq!((ok.at_s, ok.for_s), (0.0, 1e-10));
+        assert_eq!(ImuStall::parse("1e18:3600").expect("late").at_s, 1e18);
+        for (bad, names) in [
+            ("35", "AT:FOR"),
+            ("", "AT:FOR"),
+            ("x:2", "AT"),
+            ("1:y", "FOR"),
+            ("-1:2", "AT"),
+            ("NaN:2", "AT"),
+            ("inf:2", "AT"),
+            ("1:0", "FOR"),
+            ("1:-2", "FOR"),
+            ("1:NaN", "FOR"),
+            ("1:3600.5", "FOR"),
+            ("1:1e300", "FOR"),
+        ] {
+            let e = ImuStall::parse(bad).expect_err(bad);
+            assert!(e.contains(names), "{bad:?}: {e}");
+        }
+    }
 
     #[test]
     fn summary_counts_read_back() {

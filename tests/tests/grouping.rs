@@ -61,7 +61,20 @@ fn received(r: &Record) -> Received {
 /// by the time it drains one topic the publisher has got further than when
 /// it drained the one before.
 fn live(records: &[&Record], seed: u64, max_step: usize) -> (Collect, msgs::Status) {
+    live_with(records, seed, max_step, usize::MAX)
+}
+
+/// [`live`], and the daemon declares the IMU lost after `lost_after`
+/// cycles in a row without an IMU sample, as its wall-clock watch does
+/// while the IMU driver is late.
+fn live_with(
+    records: &[&Record],
+    seed: u64,
+    max_step: usize,
+    lost_after: usize,
+) -> (Collect, msgs::Status) {
     let mut rng = Lcg(seed);
+    let mut cycles_without_imu = 0usize;
     let mut s = Session::new(SessionSettings::default());
     let mut sink = Collect::default();
     let mut inbox = Inbox::with_capacity(1024);
@@ -79,7 +92,14 @@ fn live(records: &[&Record], seed: u64, max_step: usize) -> (Collect, msgs::Stat
                     sink.event(&e);
                 }
             }
+            if k == 1 {
+                let got_imu = records[*d..published].iter().any(|r| topic(r) == Some(1));
+                cycles_without_imu = if got_imu { 0 } else { cycles_without_imu + 1 };
+            }
             *d = published;
+        }
+        if cycles_without_imu == lost_after {
+            s.imu_lost(&mut sink);
         }
         inbox.deliver(&mut s, &mut sink);
     }
@@ -126,5 +146,167 @@ fn however_the_live_loop_groups_its_inputs_its_solutions_are_those_of_batch() {
         ] {
             assert_eq!(a, c, "seed {seed}: {name} counters");
         }
+    }
+}
+
+/// An IMU driver that stalls while the aids keep arriving (what
+/// `play --stall-imu` does over iceoryx2): the IMU samples stamped in
+/// `[t0, t1)` are published only after every aid stamped before `t1`.
+fn stalled(records: &[&'static Record], stalls: &[(f64, f64)]) -> Vec<&'static Record> {
+    let t = |r: &Record| match r {
+        Record::Init(x) => x.t_ns,
+        Record::Imu(x) => x.t_ns,
+        Record::Srs(x) => x.t_ns,
+        Record::Cns(x) => x.t_ns,
+        Record::Baro(x) => x.t_ns,
+        _ => unreachable!("inputs only"),
+    };
+    let mut out: Vec<&Record> = records.to_vec();
+    for &(t0, t1) in stalls {
+        let (a, b) = ((t0 * 1e9) as u64, (t1 * 1e9) as u64);
+        let held: Vec<&Record> = out
+            .iter()
+            .copied()
+            .filter(|r| matches!(r, Record::Imu(_)) && (a..b).contains(&t(r)))
+            .collect();
+        out.retain(|r| !(matches!(r, Record::Imu(_)) && (a..b).contains(&t(r))));
+        // After the last aid stamped before t1.
+        let at = out
+            .iter()
+            .rposition(|r| !matches!(r, Record::Imu(_)) && t(r) < b)
+            .map_or(0, |k| k + 1);
+        out.splice(at..at, held);
+    }
+    out
+}
+
+/// The IMU stalls for 0.15 s, 0.5 s and 2 s of sensor time while the aids
+/// keep coming, and the daemon declares it lost each time: every aid waits
+/// for the IMU sample that follows it, none is refused that `batch` fuses,
+/// and every solution is batch's, bit for bit.
+#[test]
+fn an_imu_stalled_and_declared_lost_changes_no_solution() {
+    let text = std::fs::read_to_string(repo("config/scenarios/polar-crossing.toml"))
+        .expect("scenario")
+        .replace("duration_s = 19600.0", "duration_s = 30.0");
+    let all: &'static [Record] = Box::leak(simulate_records(&text, 1).into_boxed_slice());
+    let records: Vec<&Record> = all.iter().filter(|r| topic(r).is_some()).collect();
+    let (b, b_status) = batch(&records);
+    let arrival = stalled(&records, &[(5.0, 5.15), (10.0, 10.5), (15.0, 17.0)]);
+    // The reordering is real: some aid now arrives before IMU samples
+    // stamped earlier than it.
+    let mut newest_aid = 0u64;
+    let mut overtaken = 0usize;
+    for r in &arrival {
+        match r {
+            Record::Imu(x) if x.t_ns < newest_aid => overtaken += 1,
+            Record::Srs(x) => newest_aid = newest_aid.max(x.t_ns),
+            Record::Cns(x) => newest_aid = newest_aid.max(x.t_ns),
+            Record::Baro(x) => newest_aid = newest_aid.max(x.t_ns),
+            _ => {}
+        }
+    }
+    // The 100 Hz samples of each window stamped before its last 10 Hz
+    // barometer sample: 5.00-5.09, 10.00-10.39, 15.00-16.89 s.
+    assert_eq!(overtaken, 10 + 40 + 190, "IMU samples overtaken by an aid");
+    for (seed, max_step, lost_after) in [(7, 2, 3), (8, 8, 1), (9, 40, 2)] {
+        let (l, l_status) = live_with(&arrival, seed, max_step, lost_after);
+        assert_eq!(l.solutions.len(), b.solutions.len(), "seed {seed}");
+        let differ = l
+            .solutions
+            .iter()
+            .zip(&b.solutions)
+            .position(|(x, y)| x != y);
+        assert_eq!(differ, None, "seed {seed}: first differing solution");
+        for (name, a, c) in [
+            ("IMU", l_status.imu, b_status.imu),
+            ("SRS", l_status.srs, b_status.srs),
+            ("CNS", l_status.cns, b_status.cns),
+            ("baro", l_status.baro, b_status.baro),
+        ] {
+            assert_eq!(a, c, "seed {seed}: {name} counters");
+        }
+        assert!(b_status.baro.accepted > 250, "{:?}", b_status.baro);
+    }
+}
+
+/// A solution is the posterior of its epoch: the one stamped at an aid's
+/// time has fused that aid. The reference drives a [`Navigator`] by hand
+/// (IMU sample, then every aid stamped at or before it, then the
+/// solution); the session's solutions equal it, and at every barometer
+/// epoch differ from the prior one (the solution taken before the fix).
+#[test]
+fn the_solution_at_a_fix_epoch_has_fused_that_fix() {
+    use polarnav::navigator::Navigator;
+    let text = std::fs::read_to_string(repo("config/scenarios/polar-crossing.toml"))
+        .expect("scenario")
+        .replace("duration_s = 19600.0", "duration_s = 10.0");
+    let all = simulate_records(&text, 3);
+    let records: Vec<&Record> = all.iter().filter(|r| topic(r).is_some()).collect();
+    let (session, _) = batch(&records);
+
+    let init = records
+        .iter()
+        .find_map(|r| match r {
+            Record::Init(x) => Some(*x),
+            _ => None,
+        })
+        .expect("init");
+    let aid_t = |r: &Record| match r {
+        Record::Srs(x) => Some(x.t_ns),
+        Record::Cns(x) => Some(x.t_ns),
+        Record::Baro(x) => Some(x.t_ns),
+        _ => None,
+    };
+    let mut nav = Navigator::new(&init, &SessionSettings::default().navigator);
+    let aids: Vec<&Record> = records
+        .iter()
+        .copied()
+        .filter(|r| aid_t(r).is_some())
+        .collect();
+    let mut next_aid = 0;
+    let (mut posterior, mut prior_at_fix) = (Vec::new(), Vec::new());
+    for r in &records {
+        let Record::Imu(s) = r else { continue };
+        nav.on_imu(s).expect("imu");
+        let before = nav.solution();
+        let mut baro_here = false;
+        while next_aid < aids.len() && aid_t(aids[next_aid]).expect("aid") <= s.t_ns {
+            match aids[next_aid] {
+                Record::Srs(x) => drop(nav.on_srs(x)),
+                Record::Cns(x) => drop(nav.on_cns(x)),
+                Record::Baro(x) => {
+                    baro_here |= x.t_ns == s.t_ns;
+                    drop(nav.on_baro(x))
+                }
+                _ => unreachable!(),
+            }
+            next_aid += 1;
+        }
+        if baro_here {
+            prior_at_fix.push((posterior.len(), before));
+        }
+        posterior.push(nav.solution());
+    }
+    assert_eq!(session.solutions.len(), posterior.len());
+    let state = |s: &msgs::Solution| (s.t_ns, s.r_e_m, s.v_e_mps, s.q_b_e, s.sigma_pos_enu_m);
+    for (k, (a, b)) in session.solutions.iter().zip(&posterior).enumerate() {
+        assert_eq!(state(a), state(b), "solution {k}");
+    }
+    assert!(
+        prior_at_fix.len() >= 99,
+        "{} baro epochs",
+        prior_at_fix.len()
+    );
+    for (k, prior) in &prior_at_fix {
+        let s = &session.solutions[*k];
+        assert_eq!(s.t_ns, prior.t_ns);
+        assert!(
+            s.sigma_pos_enu_m[2] < prior.sigma_pos_enu_m[2],
+            "t = {} s: σu {} not below the prior's {}",
+            s.t_ns as f64 * 1e-9,
+            s.sigma_pos_enu_m[2],
+            prior.sigma_pos_enu_m[2]
+        );
     }
 }

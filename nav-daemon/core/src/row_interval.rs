@@ -74,9 +74,7 @@ mod tests {
         // Independent: the first sample of each whole second, by scanning.
         let mut want: Vec<u64> = (0..2000u64)
             .map(|k| 3_000_000 + k * 5_000_000)
-            .filter(|t| {
-                *t == 3_000_000 || (t - 5_000_000) / 1_000_000_000 != t / 1_000_000_000
-            })
+            .filter(|t| *t == 3_000_000 || (t - 5_000_000) / 1_000_000_000 != t / 1_000_000_000)
             .collect();
         want.extend([3_503_000_000, 3_508_000_000]);
         want.sort_unstable();
