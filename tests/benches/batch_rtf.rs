@@ -1,7 +1,10 @@
 //! Benchmark (not a test): `nav-daemon batch` over a 1 h, 200 Hz flight with
 //! SRS/CNS/baro aids and the full solution CSV written, as real-time factor.
 //! Also the breakdown: reading/decoding the log, the navigator alone, and
-//! formatting the CSV. Run with `cargo bench -p polarnav-tests --bench batch_rtf`.
+//! formatting the CSV, and `batch --every 1` (one row per second written,
+//! the filter at the full rate). Each figure is printed beside the one
+//! measured for issue 20 on earlier mains and beside its target. Run with
+//! `cargo bench -p polarnav-tests --bench batch_rtf`.
 
 use std::io::{BufReader, BufWriter, Write};
 use std::time::Instant;
@@ -9,12 +12,57 @@ use std::time::Instant;
 use msgs::navlog::{NavlogReader, Record};
 use nav_daemon::batch::{self, BatchOptions};
 use polarnav::navigator::{Navigator, NavigatorConfig};
+use polarnav::row_interval::RowInterval;
 use polarnav::solution_csv;
 use polarnav_config::ConfigFile;
 use sensor_replay::scenario::Scenario;
 use sensor_replay::simulate::{SimOptions, simulate};
 
 const FLIGHT_S: f64 = 3600.0;
+
+/// Real-time factors of the full-CSV batch before issue 20 (quiet machine,
+/// transpolar, interleaved runs as in the issue): main 228cf9b, before the
+/// solution grew its σ, bias and flag columns, and main 06264ed.
+const OLD_RTF: [(&str, f64); 2] = [("228cf9b", 2909.0), ("06264ed", 2185.0)];
+/// Issue 20's targets: full CSV, and `--every 1`.
+const TARGET_FULL_RTF: f64 = 3500.0;
+const TARGET_EVERY_1_RTF: f64 = 10_000.0;
+
+/// Wall times of `runs` batch runs over `log` with `opts`, each to a new
+/// CSV file (the previous one deleted and the pages flushed before the
+/// clock starts, so a run does not pay for truncating the last one).
+fn batch_runs(
+    log: &std::path::Path,
+    out: &std::path::Path,
+    opts: &BatchOptions,
+    runs: usize,
+) -> Vec<f64> {
+    (0..runs)
+        .map(|_| {
+            let _ = std::fs::remove_file(out);
+            let _ = std::process::Command::new("sync").status();
+            let t = Instant::now();
+            let r = batch::run(
+                BufReader::with_capacity(1 << 20, std::fs::File::open(log).expect("open")),
+                "flight.navlog",
+                BufWriter::with_capacity(1 << 20, std::fs::File::create(out).expect("create")),
+                &ConfigFile::defaults(),
+                opts,
+            )
+            .expect("batch");
+            let dt = t.elapsed().as_secs_f64();
+            assert_eq!(r.status.imu.accepted, (FLIGHT_S * 200.0) as u64);
+            dt
+        })
+        .collect()
+}
+
+/// Median and best of `times`.
+fn median_best(times: &[f64]) -> (f64, f64) {
+    let mut t = times.to_vec();
+    t.sort_by(f64::total_cmp);
+    (t[t.len() / 2], t[0])
+}
 
 fn main() {
     let dir = std::env::temp_dir().join(format!("polarnav-bench-{}", std::process::id()));
@@ -39,30 +87,18 @@ fn main() {
         t0.elapsed().as_secs_f64()
     );
 
-    // Whole batch, as the command runs it, five times. Each run writes a new
-    // file: the previous run's output is deleted before the clock starts (and
-    // its pages flushed), so a run does not pay for truncating the last one.
-    let mut chrono = Vec::new();
-    for _ in 0..5 {
-        let out = dir.join("solution.csv");
-        let _ = std::fs::remove_file(&out);
-        let _ = std::process::Command::new("sync").status();
-        let t = Instant::now();
-        let r = batch::run(
-            BufReader::with_capacity(1 << 20, std::fs::File::open(&log).expect("open")),
-            "flight.navlog",
-            BufWriter::with_capacity(1 << 20, std::fs::File::create(&out).expect("create")),
-            &ConfigFile::defaults(),
-            &BatchOptions::default(),
-        )
-        .expect("batch");
-        chrono.push(t.elapsed().as_secs_f64());
-        assert_eq!(r.rows, (FLIGHT_S * 200.0) as u64);
-    }
-    let mut times = chrono.clone();
-    times.sort_by(f64::total_cmp);
-    let best = times[0];
-    let median = times[times.len() / 2];
+    // Whole batch, as the command runs it, five times; then with --every 1.
+    let out = dir.join("solution.csv");
+    let chrono = batch_runs(&log, &out, &BatchOptions::default(), 5);
+    let full_mb = std::fs::metadata(&out).map_or(0.0, |m| m.len() as f64 / 1e6);
+    let (median, best) = median_best(&chrono);
+    let every = BatchOptions {
+        every: Some(RowInterval::new(1.0).expect("1 s")),
+        ..Default::default()
+    };
+    let chrono_every = batch_runs(&log, &out, &every, 5);
+    let every_mb = std::fs::metadata(&out).map_or(0.0, |m| m.len() as f64 / 1e6);
+    let (median_every, best_every) = median_best(&chrono_every);
 
     // Breakdown: decode only; navigator only (records in memory); CSV formatting only.
     let t = Instant::now();
@@ -114,17 +150,35 @@ fn main() {
     let solution_only = t.elapsed().as_secs_f64();
     let t = Instant::now();
     let mut sink = BufWriter::with_capacity(1 << 20, std::io::sink());
+    let mut rows = solution_csv::RowWriter::new();
     for s in &sols {
-        solution_csv::write_row(&mut sink, s).expect("row");
+        rows.write(&mut sink, s).expect("row");
     }
     sink.flush().expect("flush");
     let csv = t.elapsed().as_secs_f64();
 
-    println!("batch over a {FLIGHT_S:.0} s, 200 Hz flight with SRS/CNS/baro and the full CSV:");
+    let load = std::fs::read_to_string("/proc/loadavg").unwrap_or_default();
     println!(
-        "  wall time median {median:.3} s, best {best:.3} s (runs in order: {chrono:.3?}) -> real-time factor median {:.0}x, best {:.0}x",
+        "batch over a {FLIGHT_S:.0} s, 200 Hz flight with SRS/CNS/baro (load average at the end: {})",
+        load.split_whitespace()
+            .take(3)
+            .collect::<Vec<_>>()
+            .join(" ")
+    );
+    let old = OLD_RTF
+        .iter()
+        .map(|(commit, rtf)| format!("{commit} {rtf:.0}x"))
+        .collect::<Vec<_>>()
+        .join(", ");
+    println!(
+        "  full CSV ({full_mb:.0} MB): wall time median {median:.3} s, best {best:.3} s (runs in order: {chrono:.3?}) -> real-time factor median {:.0}x, best {:.0}x; before: {old}; target {TARGET_FULL_RTF:.0}x",
         FLIGHT_S / median,
         FLIGHT_S / best
+    );
+    println!(
+        "  --every 1 ({every_mb:.1} MB): wall time median {median_every:.3} s, best {best_every:.3} s (runs in order: {chrono_every:.3?}) -> real-time factor median {:.0}x, best {:.0}x; before: no such option; target {TARGET_EVERY_1_RTF:.0}x",
+        FLIGHT_S / median_every,
+        FLIGHT_S / best_every
     );
     println!(
         "  breakdown: decode log {decode:.3} s ({:.0}x), navigator + solutions {navigate:.3} s ({:.0}x), CSV formatting {csv:.3} s ({:.0}x)",
@@ -134,7 +188,7 @@ fn main() {
     );
     let n = sols.len() as f64;
     println!(
-        "  per IMU sample: decode {:.2} µs, navigator {:.2} µs (filter and mechanization {:.2} µs, solution {:.2} µs), CSV {:.2} µs",
+        "  per IMU sample: decode {:.2} µs, navigator {:.2} µs (filter and mechanization {:.2} µs, solution {:.2} µs), CSV row {:.2} µs",
         decode / n * 1e6,
         navigate / n * 1e6,
         filter_only / n * 1e6,
