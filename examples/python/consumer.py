@@ -56,6 +56,10 @@ def main() -> int:
     ap.add_argument("--csv", help="write every received solution to this file")
     ap.add_argument("--until-imu-accepted", type=int, default=0,
                     help="exit once a status reports this many accepted IMU samples")
+    ap.add_argument("--until-seq", type=int, default=0,
+                    help="exit once the solution with this sequence number (or a later one) "
+                         "is received; the daemon publishes the solution of the last IMU "
+                         "sample when the next arrives or when it stops")
     ap.add_argument("--timeout", type=float, default=0.0,
                     help="give up after this many seconds (0: run until interrupted)")
     args = ap.parse_args()
@@ -107,6 +111,10 @@ def main() -> int:
                             *s.q_b_e, s.heading_rad, *s.sigma_pos_enu_m, s.flags, s.frame]
                     csv.write(",".join(repr(v) for v in vals) + "\n")
                 sample.delete()
+                if args.until_seq and last_seq >= args.until_seq:
+                    print(f"done: {received} solutions received, {gaps} lost to overflow",
+                          flush=True)
+                    return 0
             while (sample := status_sub.receive()) is not None:
                 st = sample.payload().contents
                 frame = "grid" if st.frame == FRAME_GRID else "geo"

@@ -1136,7 +1136,7 @@ fn python_consumer_receives_solution_and_status() {
     let mut consumer = env.command_for(&py, "python");
     consumer
         .arg(repo("examples/python/consumer.py"))
-        .args(["--prefix", &env.cfg.prefix, "--until-imu-accepted", "2000"])
+        .args(["--prefix", &env.cfg.prefix, "--until-seq", "2000"])
         .args(["--timeout", "60", "--csv"])
         .arg(&csv);
     let mut consumer = Proc(consumer.spawn().expect("python consumer"));
@@ -1156,6 +1156,9 @@ fn python_consumer_receives_solution_and_status() {
         Some(0),
         "play failed"
     );
+    // The solution of the last IMU sample goes out when the daemon stops
+    // (no next sample follows it).
+    assert_eq!(terminate(&mut daemon, Duration::from_secs(20)), Some(0));
     let code = wait(&mut consumer, Duration::from_secs(60));
     let printed = read("python.out");
     assert_eq!(
@@ -1164,7 +1167,6 @@ fn python_consumer_receives_solution_and_status() {
         "consumer failed: {printed}{}",
         read("python.err")
     );
-    assert_eq!(terminate(&mut daemon, Duration::from_secs(20)), Some(0));
     eprintln!("{}", printed.trim());
     assert!(
         printed.contains("frame=grid") && printed.contains("srs=fresh"),
@@ -1436,7 +1438,11 @@ fn a_stalled_subscriber_never_blocks_the_daemon() {
     // Only now does the stalled subscriber read.
     let mut seqs = Vec::new();
     stalled.drain(|s| seqs.push(s.seq)).expect("drain");
+    // The solution of the last sample is published when the next sample
+    // arrives or, as here, when the daemon stops.
     assert_eq!(terminate(&mut daemon, Duration::from_secs(20)), Some(0));
+    let mut at_stop = Vec::new();
+    stalled.drain(|s| at_stop.push(s.seq)).expect("drain");
     let qos = polarnav_ipc::qos(msgs::service::Topic::Solution);
     eprintln!(
         "stalled subscriber: {} of {} solutions kept (seq {:?}..{:?}); daemon: {} IMU accepted, {} overruns",
@@ -1452,9 +1458,10 @@ fn a_stalled_subscriber_never_blocks_the_daemon() {
     assert_eq!(seqs.len(), qos.buffer, "the buffer keeps exactly its size");
     assert_eq!(
         seqs.last().copied(),
-        Some(4000),
-        "the newest solution is kept"
+        Some(3999),
+        "the newest solution published before the stop is kept"
     );
+    assert_eq!(at_stop, [4000], "the last solution at the stop");
     assert!(
         seqs.windows(2).all(|w| w[1] == w[0] + 1),
         "kept samples are the newest, in order"
