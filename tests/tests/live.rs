@@ -689,12 +689,14 @@ fn bytes_of(p: &Path) -> Vec<u8> {
 
 /// The flight computer of issue 20: two CPU-bound processes per core and a
 /// writer fsyncing to disk, beside the replay, the daemon and the recorder,
-/// on a flight with three frame switches. The recorded solutions are
-/// batch's bit for bit, every one of them; no input is lost; the counters
-/// of every stream are batch's; the watchdog (WatchdogSec=2s, as the
-/// shipped unit) is fed throughout. On main 06264ed this failed: the
-/// IMU, late by five periods, was declared lost and an aid stamped after it
-/// was refused ("ahead of the newest IMU sample") that batch fused.
+/// on a flight with three frame switches, and the IMU driver late twice
+/// (50 ms and 200 ms of wall time while the aids go on, as a driver
+/// starved of CPU would be). The recorded solutions are batch's bit for
+/// bit, every one of them; no input is lost; the counters of every stream
+/// are batch's; the watchdog (WatchdogSec=2s, as the shipped unit) is fed
+/// throughout. On main 06264ed this failed: the late IMU was declared
+/// lost and the aids stamped after it were refused ("ahead of the newest
+/// IMU sample") that batch fused.
 #[test]
 fn under_cpu_and_disk_contention_live_equals_batch_and_keeps_the_watchdog() {
     let cores = std::thread::available_parallelism().map_or(2, |n| n.get());
@@ -705,6 +707,7 @@ fn under_cpu_and_disk_contention_live_equals_batch_and_keeps_the_watchdog() {
             burners: 2 * cores,
             io_writer: true,
             config: "[frame]\nforce_switch_s = [12.0, 27.0, 44.0]\n",
+            play_args: &["--stall-imu", "20:0.05,38:0.2"],
             watchdog_usec: Some(2_000_000),
             record_all: true,
             ..Load::default()
