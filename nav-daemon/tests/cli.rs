@@ -407,7 +407,11 @@ fn settings_that_can_never_navigate_are_refused_with_file_key_and_reason() {
          [live]\ncheckpoint_period_s = 1e7\ncheckpoint_max_age_s = 60\n",
     )
     .expect("write");
-    let o = bin().arg("--check-config").arg(&file).output().expect("run");
+    let o = bin()
+        .arg("--check-config")
+        .arg(&file)
+        .output()
+        .expect("run");
     assert_eq!(
         o.status.code(),
         Some(0),

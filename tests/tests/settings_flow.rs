@@ -86,7 +86,9 @@ fn batch_config_filter_table_changes_the_solution() {
         .expect_err("a limit below the Earth's rate")
         .to_string();
     assert!(
-        e.contains("test.toml") && e.contains("filter.max_gyro_rate_dps") && e.contains("Earth's rate"),
+        e.contains("test.toml")
+            && e.contains("filter.max_gyro_rate_dps")
+            && e.contains("Earth's rate"),
         "{e}"
     );
     let _ = std::fs::remove_dir_all(&dir);

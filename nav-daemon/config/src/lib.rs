@@ -13,11 +13,11 @@ use serde::{Deserialize, Serialize};
 
 pub use effective::{CliOverrides, ConfigFile, Effective, Source, effective};
 use polarnav::navigator::NavigatorConfig;
-use polarnav::settings::{Bound, MAX_FLIGHT_S};
 pub use polarnav::settings::{
     AidSet, AidSettings, Conversion, FilterSettings, FrameSettings, InitSettings, SensorGrade,
     SettingsError,
 };
+use polarnav::settings::{Bound, MAX_FLIGHT_S};
 
 /// Reads a `preset` value (a sensor grade's name); `origin` and `key` name it in errors.
 pub fn parse_preset(v: &toml::Value, origin: &str, key: &str) -> Result<SensorGrade, ConfigError> {
@@ -269,7 +269,11 @@ impl Config {
             above: "longer than any flight (1e7 s, 116 days): no checkpoint would ever be \
                     written",
         }
-        .check(origin, "live.checkpoint_period_s", c.live.checkpoint_period_s)?;
+        .check(
+            origin,
+            "live.checkpoint_period_s",
+            c.live.checkpoint_period_s,
+        )?;
         let coast = c.filter.imu_max_coast_s;
         let above_age = format!(
             "the gap from the checkpoint to the first IMU sample is coasted, and no gap \
@@ -282,7 +286,11 @@ impl Config {
             below: "shorter than one period of the fastest IMU (1 ms)",
             above: &above_age,
         }
-        .check(origin, "live.checkpoint_max_age_s", c.live.checkpoint_max_age_s)?;
+        .check(
+            origin,
+            "live.checkpoint_max_age_s",
+            c.live.checkpoint_max_age_s,
+        )?;
         Ok(())
     }
 

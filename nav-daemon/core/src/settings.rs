@@ -194,8 +194,12 @@ impl InitSettings {
             "init.heading_deg",
             self.heading_deg,
         )?;
-        angle(-90.0, 90.0, "pitch is at most 90° (Euler angles beyond are another attitude)")
-            .check(origin, "init.pitch_deg", self.pitch_deg)?;
+        angle(
+            -90.0,
+            90.0,
+            "pitch is at most 90° (Euler angles beyond are another attitude)",
+        )
+        .check(origin, "init.pitch_deg", self.pitch_deg)?;
         angle(-180.0, 180.0, "roll is at most half a turn").check(
             origin,
             "init.roll_deg",
@@ -642,7 +646,13 @@ impl FilterSettings {
             .check(origin, k, v)?;
         }
         for (k, v, lo, hi, unit) in [
-            ("filter.gyro_bias_dph", self.gyro_bias_dph, 1e-6, 1e4, "deg/h"),
+            (
+                "filter.gyro_bias_dph",
+                self.gyro_bias_dph,
+                1e-6,
+                1e4,
+                "deg/h",
+            ),
             ("filter.accel_bias_ug", self.accel_bias_ug, 1e-3, 1e5, "µg"),
         ] {
             Bound {
@@ -847,7 +857,11 @@ impl FrameSettings {
                     entering the grid frame later cannot carry a flight across it (set \
                     never_switch for a reference run that stays in g)",
         }
-        .check(origin, &format!("{table}.switch_enter_deg"), self.switch_enter_deg)?;
+        .check(
+            origin,
+            &format!("{table}.switch_enter_deg"),
+            self.switch_enter_deg,
+        )?;
         Bound {
             lo: 1.0,
             hi: 89.0,
@@ -856,7 +870,11 @@ impl FrameSettings {
                     unit(n × ŷ_e) vanishes): it must be left at least 1° from it",
             above: "the geographic frame cannot be used within 1° of the pole",
         }
-        .check(origin, &format!("{table}.switch_leave_deg"), self.switch_leave_deg)?;
+        .check(
+            origin,
+            &format!("{table}.switch_leave_deg"),
+            self.switch_leave_deg,
+        )?;
         if self.switch_leave_deg >= self.switch_enter_deg {
             return Err(bad(
                 "switch_leave_deg",

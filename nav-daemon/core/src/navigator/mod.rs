@@ -31,9 +31,9 @@ mod recovery;
 mod report;
 use error_state::ErrorState;
 use gating::AidGate;
+pub use history::HISTORY as STATE_HISTORY_LEN;
 use history::History;
 use imu_input::ImuLimits;
-pub use history::HISTORY as STATE_HISTORY_LEN;
 pub use imu_input::{IMU_DT_RANGE_S, MAX_BRIDGE_STEPS};
 pub use recovery::{StreakVerdict, chi2_999_per_dof};
 
