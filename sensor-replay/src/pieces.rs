@@ -317,13 +317,13 @@ impl Pieces {
             | Record::Srs(_)
             | Record::Cns(_)
             | Record::Baro(_)
-            | Record::Star(_) => {
-                if self.last_solution.is_some() {
-                    if self.tail.len() == TAIL_MAX {
-                        self.tail.pop_front();
-                    }
-                    self.tail.push_back(r.clone());
+            | Record::Star(_)
+                if self.last_solution.is_some() =>
+            {
+                if self.tail.len() == TAIL_MAX {
+                    self.tail.pop_front();
                 }
+                self.tail.push_back(r.clone());
             }
             _ => {}
         }
@@ -474,13 +474,13 @@ impl Pieces {
                 opened: Instant::now(),
                 unflushed: 0,
             };
-            if self.counts.opened > 0 || self.failed.is_some() {
-                if let Some(i) = self.start_state() {
-                    p.write(&Record::Init(i))?;
-                    if self.last_solution.is_some_and(|s| s.t_ns >= i.t_ns) {
-                        for r in &self.tail {
-                            p.write(r)?;
-                        }
+            if (self.counts.opened > 0 || self.failed.is_some())
+                && let Some(i) = self.start_state()
+            {
+                p.write(&Record::Init(i))?;
+                if self.last_solution.is_some_and(|s| s.t_ns >= i.t_ns) {
+                    for r in &self.tail {
+                        p.write(r)?;
                     }
                 }
             }
@@ -607,10 +607,13 @@ pub fn piece_seq(name: &str) -> Option<u64> {
     let (seq, stamp) = rest.split_once('-')?;
     let digits = |s: &str| !s.is_empty() && s.bytes().all(|b| b.is_ascii_digit());
     let (date, time) = stamp.split_once('T')?;
-    if !(seq.len() >= 6 && seq.len() <= 19 && digits(seq))
-        || !(date.len() == 8 && digits(date))
-        || !(time.len() == 6 && digits(time))
-    {
+    let well_formed = (6..=19).contains(&seq.len())
+        && digits(seq)
+        && date.len() == 8
+        && digits(date)
+        && time.len() == 6
+        && digits(time);
+    if !well_formed {
         return None;
     }
     seq.parse().ok()
