@@ -322,3 +322,117 @@ fn batch_logs_and_counts_a_refused_star_sample_and_goes_on() {
     assert!(err.contains("aids: 3 fused, 1 rejected"), "{err}");
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// Settings under which nothing can navigate (or that no flight reaches)
+/// are refused by `--check-config` and by the daemon alike: exit 2, and the
+/// message names the file, the key and the physical reason. One row per
+/// refused setting; NaN and ±Inf are refused for every numeric key.
+#[test]
+fn settings_that_can_never_navigate_are_refused_with_file_key_and_reason() {
+    let dir = temp_dir("never");
+    #[rustfmt::skip]
+    let cases: &[(&str, &str, &str)] = &[
+        // (file text, key, words of the reason)
+        ("[filter]\nmax_accel_mps2 = 9.0\n", "filter.max_accel_mps2", "measures gravity"),
+        ("[filter]\nmax_accel_mps2 = 1e300\n", "filter.max_accel_mps2", "refuse nothing"),
+        ("[filter]\nmax_gyro_rate_dps = 0.004\n", "filter.max_gyro_rate_dps", "Earth's rate"),
+        ("[filter]\nmax_gyro_rate_dps = 0.0\n", "filter.max_gyro_rate_dps", "Earth's rate"),
+        ("[filter]\nmax_gyro_rate_dps = 1e18\n", "filter.max_gyro_rate_dps", "refuse nothing"),
+        ("[filter]\nmax_gyro_rate_dps = nan\n", "filter.max_gyro_rate_dps", "finite"),
+        ("[live]\ncheckpoint_period_s = 1e300\n", "live.checkpoint_period_s", "longer than any flight"),
+        ("[live]\ncheckpoint_period_s = 1e-12\n", "live.checkpoint_period_s", "every sample"),
+        ("[live]\ncheckpoint_period_s = inf\n", "live.checkpoint_period_s", "finite"),
+        ("[live]\ncheckpoint_max_age_s = 3600\n", "live.checkpoint_max_age_s", "coasted"),
+        ("[live]\ncheckpoint_max_age_s = 0\n", "live.checkpoint_max_age_s", "fastest IMU"),
+        ("[live]\nimu_rate_hz = 5\n", "live.imu_rate_hz", "strapdown"),
+        ("[live]\nimu_rate_hz = 1e6\n", "live.imu_rate_hz", "1 kHz"),
+        ("[live]\nimu_lost_periods = 0\n", "live.imu_lost_periods", "between any"),
+        ("[live]\nimu_lost_periods = 4000000000\n", "live.imu_lost_periods", "longest coast"),
+        ("[live]\nimu_rate_hz = 10\n", "filter.imu_gap_s", "time jump"),
+        ("[filter]\nimu_gap_s = 1e-6\n", "filter.imu_gap_s", "time jump"),
+        ("[filter]\nimu_gap_s = 1e300\n", "filter.imu_gap_s", "cannot be bridged"),
+        ("[filter]\nimu_max_coast_s = 1e7\n", "filter.imu_max_coast_s", "state is unknown"),
+        ("[filter]\ncovariance_interval_s = 1e-12\n", "filter.covariance_interval_s", "resolution"),
+        ("[filter]\ncovariance_interval_s = 10\n", "filter.covariance_interval_s", "once a second"),
+        ("[filter]\ncoast_accel_mps2 = -1\n", "filter.coast_accel_mps2", "negative"),
+        ("[filter]\ncoast_accel_mps2 = 1e18\n", "filter.coast_accel_mps2", "10 g"),
+        ("[filter]\ncoast_rate_dps = 1e18\n", "filter.coast_rate_dps", "full circle"),
+        ("[filter]\ngyro_bias_dph = 1e-300\n", "filter.gyro_bias_dph", "positive definite"),
+        ("[filter]\naccel_bias_ug = 0\n", "filter.accel_bias_ug", "positive definite"),
+        ("[filter]\narw_dpsh = -0.001\n", "filter.arw_dpsh", "noise-free"),
+        ("[filter]\nvrw_ug_psqhz = 1e300\n", "filter.vrw_ug_psqhz", "overflow"),
+        ("[filter]\ngyro_bias_tau_s = 0.5\n", "filter.gyro_bias_tau_s", "white noise"),
+        ("[filter]\naccel_bias_tau_s = 1e300\n", "filter.accel_bias_tau_s", "constant over any flight"),
+        ("[aids]\nsrs_gate = 1e-300\n", "aids.srs_gate", "good samples"),
+        ("[aids]\nbaro_gate = 0.5\n", "aids.baro_gate", "good samples"),
+        ("[aids]\ncns_gate = 1e300\n", "aids.cns_gate", "refuses nothing"),
+        ("[aids]\nstar_gate = inf\n", "aids.star_gate", "finite"),
+        ("[aids]\ncns_timeout_s = 1e300\n", "aids.cns_timeout_s", "longer than any flight"),
+        ("[aids]\nbaro_timeout_s = 0.001\n", "aids.baro_timeout_s", "stale between"),
+        ("[aids]\nmax_latency_s = 1e-9\n", "aids.max_latency_s", "late"),
+        ("[aids]\nmax_latency_s = 30\n", "aids.max_latency_s", "1 s"),
+        ("[live]\nimu_rate_hz = 1000\n[aids]\nmax_latency_s = 0.9\n", "aids.max_latency_s", "state history"),
+        ("[aids]\nreset_after_s = 1\n", "aids.reset_after_s", "aid fault"),
+        ("[frame]\nswitch_enter_deg = 89.9\nswitch_leave_deg = 89.5\n", "frame.switch_enter_deg", "pole"),
+        ("[frame]\nswitch_enter_deg = 1.0\nswitch_leave_deg = 0.5\n", "frame.switch_leave_deg", "equator"),
+        ("[frame]\nforce_switch_s = [300.0, 1e300]\n", "frame.force_switch_s", "longer than any flight"),
+        ("[frame]\nforce_switch_s = [nan]\n", "frame.force_switch_s", "ascending"),
+        (INIT_OK_BUT_H, "init.h_m", "underground"),
+        (INIT_OK_BUT_SPEED, "init.vel_enu_mps", "1000 m/s"),
+        (INIT_OK_BUT_PITCH, "init.pitch_deg", "another attitude"),
+        (INIT_OK_BUT_SIGMA_TILT, "init.sigma_tilt_arcmin", "double"),
+        (INIT_OK_BUT_SIGMA_ZERO, "init.sigma_pos_h_m", "exact state"),
+        (INIT_OK_BUT_LON, "init.lon_deg", "turn"),
+    ];
+    let file = dir.join("never.toml");
+    for (text, key, reason) in cases {
+        std::fs::write(&file, text).expect("write");
+        for args in [vec!["--check-config"], vec!["--config"]] {
+            let o = bin()
+                .args(&args)
+                .arg(&file)
+                .env("POLARNAV_IOX_ROOT", dir.join("iox"))
+                .output()
+                .expect("run");
+            let err = String::from_utf8_lossy(&o.stderr);
+            assert_eq!(o.status.code(), Some(2), "{args:?} {text:?}: {err}");
+            assert!(
+                err.contains("never.toml")
+                    && err.contains(&format!("`{key}`"))
+                    && err.contains(reason),
+                "{args:?} {text:?}: expected file, `{key}` and {reason:?} in: {err}"
+            );
+        }
+    }
+    // The bounds are bounds, not the defaults: values at their edges pass.
+    std::fs::write(
+        &file,
+        "[filter]\nmax_accel_mps2 = 9.84\nmax_gyro_rate_dps = 0.0042\nimu_gap_s = 0.005\n\
+         coast_accel_mps2 = 100\n[aids]\nbaro_gate = 1.0\nmax_latency_s = 1.0\n\
+         [live]\ncheckpoint_period_s = 1e7\ncheckpoint_max_age_s = 60\n",
+    )
+    .expect("write");
+    let o = bin()
+        .arg("--check-config")
+        .arg(&file)
+        .output()
+        .expect("run");
+    assert_eq!(
+        o.status.code(),
+        Some(0),
+        "{}",
+        String::from_utf8_lossy(&o.stderr)
+    );
+    assert!(
+        !dir.join("iox").exists(),
+        "an iceoryx2 root was created before the settings were checked"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+const INIT_OK_BUT_H: &str = "[init]\nlat_deg = 80\nlon_deg = 0\nh_m = -5000\nheading_deg = 0\nsigma_pos_h_m = 10\nsigma_pos_v_m = 10\nsigma_vel_mps = 0.1\nsigma_tilt_arcmin = 1\nsigma_heading_arcmin = 3\n";
+const INIT_OK_BUT_SPEED: &str = "[init]\nlat_deg = 80\nlon_deg = 0\nh_m = 18000\nvel_enu_mps = [900.0, 900.0, 0.0]\nheading_deg = 0\nsigma_pos_h_m = 10\nsigma_pos_v_m = 10\nsigma_vel_mps = 0.1\nsigma_tilt_arcmin = 1\nsigma_heading_arcmin = 3\n";
+const INIT_OK_BUT_PITCH: &str = "[init]\nlat_deg = 80\nlon_deg = 0\nh_m = 18000\nheading_deg = 0\npitch_deg = 120\nsigma_pos_h_m = 10\nsigma_pos_v_m = 10\nsigma_vel_mps = 0.1\nsigma_tilt_arcmin = 1\nsigma_heading_arcmin = 3\n";
+const INIT_OK_BUT_SIGMA_TILT: &str = "[init]\nlat_deg = 80\nlon_deg = 0\nh_m = 18000\nheading_deg = 0\nsigma_pos_h_m = 10\nsigma_pos_v_m = 10\nsigma_vel_mps = 0.1\nsigma_tilt_arcmin = 1e6\nsigma_heading_arcmin = 3\n";
+const INIT_OK_BUT_SIGMA_ZERO: &str = "[init]\nlat_deg = 80\nlon_deg = 0\nh_m = 18000\nheading_deg = 0\nsigma_pos_h_m = 0\nsigma_pos_v_m = 10\nsigma_vel_mps = 0.1\nsigma_tilt_arcmin = 1\nsigma_heading_arcmin = 3\n";
+const INIT_OK_BUT_LON: &str = "[init]\nlat_deg = 80\nlon_deg = 1e300\nh_m = 18000\nheading_deg = 0\nsigma_pos_h_m = 10\nsigma_pos_v_m = 10\nsigma_vel_mps = 0.1\nsigma_tilt_arcmin = 1\nsigma_heading_arcmin = 3\n";

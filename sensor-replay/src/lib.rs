@@ -8,6 +8,7 @@ pub mod interop;
 pub mod live;
 pub mod logfile;
 pub mod monitor;
+pub mod pieces;
 pub mod plots;
 pub mod scenario;
 pub mod sensors;

@@ -1,19 +1,18 @@
 //! Wall-clock replay and the flight recorder over iceoryx2.
 
-use std::io::Write;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
-use msgs::navlog::{Header, NavlogWriter, Record};
+use msgs::navlog::Record;
 use msgs::service::Topic;
 use msgs::{
     BaroSample, CnsFix, EffectiveSettings, ImuSample, InitState, Solution, SrsSample, StarSample,
     Status,
 };
-use polarnav_foxglove::McapFile;
 use polarnav_ipc::{TopicPublisher, TopicSubscriber, TransportConfig, TransportError};
 
 use crate::logfile::{LogContents, SensorRef};
+use crate::pieces::{Opener, Output, Pieces};
 
 /// Pacing statistics of a replay (lateness of each publication behind its deadline).
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
@@ -365,12 +364,16 @@ pub fn play(
 /// Counts of a recording.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct Recorded {
+    /// Records written (each once, whatever pieces repeat at their start).
     pub records: u64,
     pub solutions: u64,
+    /// Records that could not be written (full disk or another write error).
+    pub lost: u64,
+    /// Pieces opened and pieces removed by the retention bound.
+    pub pieces: u64,
+    pub removed: u64,
 }
 
-/// Subscribes to every service and writes a navlog of inputs and outputs
-/// until `stop` is set (or `max_duration` passes).
 /// Records held while the recorder waits for the daemon's settings.
 const HOLD_RECORDS: usize = 100_000;
 
@@ -383,53 +386,15 @@ pub const RECORD_FLUSH_PERIOD: Duration = Duration::from_millis(50);
 /// settings (for the header) before it starts the file without them.
 pub const SETTINGS_WAIT: Duration = Duration::from_millis(100);
 
-/// Where the recorder writes.
-#[derive(Debug)]
-pub enum RecordOut<W: Write> {
-    /// A navlog (the daemon's settings in its header).
-    Navlog(W),
-    /// An MCAP file of the `polarnav_foxglove` channels (the header as its
-    /// `polarnav` metadata); aid updates come from the status records.
-    Mcap(Box<McapFile>),
-}
-
-/// The recorder's open file.
-enum RecordWriter<W: Write> {
-    Navlog(NavlogWriter<W>),
-    Mcap(Box<McapFile>),
-}
-
-impl<W: Write> RecordWriter<W> {
-    fn write(&mut self, r: &Record) -> Result<(), RecordError> {
-        match self {
-            RecordWriter::Navlog(w) => w.write(r)?,
-            RecordWriter::Mcap(m) => m.channels().record(r),
-        }
-        Ok(())
-    }
-
-    fn flush(&mut self) -> Result<(), RecordError> {
-        match self {
-            RecordWriter::Navlog(w) => w.flush()?,
-            RecordWriter::Mcap(m) => m.flush()?,
-        }
-        Ok(())
-    }
-
-    fn finish(self) -> Result<(), RecordError> {
-        match self {
-            RecordWriter::Navlog(w) => {
-                w.finish()?;
-            }
-            RecordWriter::Mcap(m) => m.close()?,
-        }
-        Ok(())
-    }
-}
-
-pub fn record<W: Write>(
+/// Subscribes to every service and writes what arrives to `out` (one file
+/// or rotated pieces, see [`crate::pieces`]) until `stop` is set (or
+/// `max_duration` passes). The subscriptions are drained every cycle
+/// whatever the disk does: a write that fails costs the records it could
+/// not write (counted), never a wait of the publishers.
+pub fn record(
     cfg: &TransportConfig,
-    out: RecordOut<W>,
+    out: Output,
+    open: Opener,
     stop: &AtomicBool,
     max_duration: Option<Duration>,
 ) -> Result<Recorded, RecordError> {
@@ -448,32 +413,13 @@ pub fn record<W: Write>(
     // The header carries the daemon's effective settings, so the writer
     // starts once they arrive (or, without a daemon, when the records held
     // meanwhile reach HOLD_RECORDS, or at the end).
-    let mut out = Some(out);
-    let mut w: Option<RecordWriter<W>> = None;
-    let open = |out: &mut Option<RecordOut<W>>,
-                text: Option<&str>|
-     -> Result<RecordWriter<W>, RecordError> {
-        let metadata = match text {
-            Some(t) => format!("# recorded live; the daemon's effective settings:\n{t}"),
-            None => "recorded live (no daemon settings received)".to_owned(),
-        };
-        let header = Header::new(
-            concat!("sensor-replay ", env!("CARGO_PKG_VERSION"), " record"),
-            &cfg.prefix,
-            0,
-            &metadata,
-        );
-        let out = out
-            .take()
-            .ok_or(RecordError::WaitSet("writer opened twice".into()))?;
-        Ok(match out {
-            RecordOut::Navlog(out) => RecordWriter::Navlog(NavlogWriter::new(out, header)?),
-            RecordOut::Mcap(m) => {
-                m.header(&header)?;
-                RecordWriter::Mcap(m)
-            }
-        })
-    };
+    let mut pieces = Pieces::new(
+        out,
+        open,
+        concat!("sensor-replay ", env!("CARGO_PKG_VERSION"), " record"),
+        &cfg.prefix,
+    );
+    let mut started = false;
     let waitset = WaitSetBuilder::new()
         .signal_handling_mode(SignalHandlingMode::Disabled)
         .create::<ipc::Service>()
@@ -481,7 +427,7 @@ pub fn record<W: Write>(
     let _tick = waitset
         .attach_interval(Duration::from_millis(5))
         .map_err(|e| RecordError::WaitSet(format!("{e:?}")))?;
-    let started = Instant::now();
+    let t_start = Instant::now();
     let mut n = Recorded::default();
     let mut buf: Vec<Record> = Vec::with_capacity(4096);
     let mut last_flush = Instant::now();
@@ -494,7 +440,7 @@ pub fn record<W: Write>(
         // signal) is not a stop request: SIGINT/SIGTERM set `stop`.
         let done = stop.load(Ordering::Relaxed)
             || matches!(r, iceoryx2::waitset::WaitSetRunResult::TerminationRequest)
-            || max_duration.is_some_and(|d| started.elapsed() >= d);
+            || max_duration.is_some_and(|d| t_start.elapsed() >= d);
         init.drain(|x| buf.push(Record::Init(x)))?;
         imu.drain(|x| buf.push(Record::Imu(x)))?;
         srs.drain(|x| buf.push(Record::Srs(Box::new(x))))?;
@@ -513,12 +459,13 @@ pub fn record<W: Write>(
         {
             first_output = Some(Instant::now());
         }
-        if w.is_none() {
+        if !started {
             let mut text: Option<String> = None;
             settings.drain(|m| text = m.text().map(str::to_owned))?;
             if let Some(t) = text {
                 eprintln!("record: the daemon's effective settings go into the header");
-                w = Some(open(&mut out, Some(&t))?);
+                pieces.start(Some(t)).map_err(RecordError::Create)?;
+                started = true;
             } else if buf.len() >= HOLD_RECORDS
                 || done
                 || first_output.is_some_and(|t: Instant| t.elapsed() >= SETTINGS_WAIT)
@@ -527,7 +474,8 @@ pub fn record<W: Write>(
                 // 25 ms: none by SETTINGS_WAIT after its first output means
                 // a daemon without them. Outputs are held no longer, so a
                 // kill loses at most that much of them at the start.
-                w = Some(open(&mut out, None)?);
+                pieces.start(None).map_err(RecordError::Create)?;
+                started = true;
             }
         }
         for s in [
@@ -542,25 +490,28 @@ pub fn record<W: Write>(
         ] {
             let _ = s.try_wait(|_| {});
         }
-        let Some(writer) = w.as_mut() else {
+        if !started {
             continue;
-        };
+        }
         // Time order within the batch (inputs and outputs of a cycle arrive together).
         buf.sort_by_key(|r| r.t_ns().unwrap_or(0));
-        for r in buf.drain(..) {
-            writer.write(&r)?;
-            n.records += 1;
-        }
+        pieces.write_all(buf.drain(..));
         if last_flush.elapsed() >= RECORD_FLUSH_PERIOD {
-            writer.flush()?;
+            pieces.flush();
             last_flush = Instant::now();
         }
         if done {
             break;
         }
     }
-    if let Some(w) = w {
-        w.finish()?;
+    let finished = pieces.finish();
+    let c = pieces.counts();
+    n.records = c.written;
+    n.lost = c.lost;
+    n.pieces = c.opened;
+    n.removed = c.removed;
+    if let Err(e) = finished {
+        eprintln!("record: the last piece could not be closed: {e}");
     }
     Ok(n)
 }
@@ -576,6 +527,9 @@ pub enum RecordError {
     Mcap(#[from] polarnav_foxglove::McapError),
     #[error("iceoryx2 waitset: {0}")]
     WaitSet(String),
+    /// The output file named on the command line cannot be created.
+    #[error("cannot create {0}")]
+    Create(String),
 }
 
 #[cfg(test)]

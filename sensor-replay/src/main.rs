@@ -71,11 +71,33 @@ enum Cmd {
     },
     /// Flight recorder: subscribe to every service and write a navlog until stopped.
     Record {
+        /// One file (`.mcap`: MCAP, else navlog).
+        #[arg(long, required_unless_present = "out_dir", conflicts_with = "out_dir")]
+        out: Option<PathBuf>,
+        /// A directory of navlog pieces `flight-NNNNNN-YYYYMMDDTHHMMSSZ.navlog`
+        /// (created if missing), each readable alone.
         #[arg(long)]
-        out: PathBuf,
-        /// iceoryx2 service prefix (the daemon's `prefix`; same rule).
-        #[arg(long, default_value = msgs::service::DEFAULT_PREFIX, value_parser = prefix_arg)]
-        prefix: String,
+        out_dir: Option<PathBuf>,
+        /// With --out-dir: start a new piece once the open one holds this
+        /// many bytes (K, M, G, T: binary units; 64K to 1T).
+        #[arg(long, requires = "out_dir")]
+        rotate_bytes: Option<String>,
+        /// With --out-dir: start a new piece after this many seconds of the
+        /// recorder's clock (1 to 1e7).
+        #[arg(long, requires = "out_dir")]
+        rotate_secs: Option<f64>,
+        /// With --out-dir: remove the oldest pieces (never the open one, never
+        /// a file of another name) while the pieces hold more than this.
+        #[arg(long, requires = "out_dir")]
+        keep_bytes: Option<String>,
+        /// The daemon's configuration file: record the services of its
+        /// `prefix` (read and validated as the daemon does).
+        #[arg(long)]
+        config: Option<PathBuf>,
+        /// iceoryx2 service prefix (the daemon's `prefix`; same rule; over
+        /// the one of --config; default polarnav).
+        #[arg(long, value_parser = prefix_arg)]
+        prefix: Option<String>,
         /// Stop after this many seconds.
         #[arg(long)]
         duration: Option<f64>,
@@ -349,39 +371,94 @@ fn run(cli: Cli) -> Result<(), Fail> {
         }
         Cmd::Record {
             out,
+            out_dir,
+            rotate_bytes,
+            rotate_secs,
+            keep_bytes,
+            config,
             prefix,
             duration,
         } => {
-            let stop = stop_flag()?;
-            // The format by the extension: `.mcap` writes MCAP, anything else a navlog.
-            let target = if is_mcap(&out) {
-                let m = McapFile::create(&out, AidSource::Status)
-                    .map_err(|e| Fail(1, e.to_string()))?;
-                sensor_replay::live::RecordOut::Mcap(Box::new(m))
-            } else {
-                let f = File::create(&out)
-                    .map_err(|e| Fail(1, format!("{}: cannot create: {e}", out.display())))?;
-                // A large buffer for few write calls; the recorder flushes it
-                // every RECORD_FLUSH_PERIOD, which bounds the loss to a kill.
-                sensor_replay::live::RecordOut::Navlog(BufWriter::with_capacity(1 << 20, f))
+            use sensor_replay::pieces::{self, Output, Rotation};
+            if let Some(d) = duration
+                && !(d.is_finite() && d > 0.0 && d <= 1e9)
+            {
+                return Err(bad(format!(
+                    "--duration: expected seconds in (0, 1e9], got {d}"
+                )));
+            }
+            let (lo, hi) = pieces::ROTATE_BYTES_RANGE;
+            let rotate_bytes = rotate_bytes
+                .map(|s| pieces::parse_bytes(&s, lo, hi))
+                .transpose()
+                .map_err(|e| bad(format!("--rotate-bytes: {e}")))?;
+            if let Some(s) = rotate_secs {
+                let (lo, hi) = pieces::ROTATE_SECS_RANGE;
+                if !(s.is_finite() && (lo..=hi).contains(&s)) {
+                    return Err(bad(format!(
+                        "--rotate-secs: expected seconds in [{lo}, {hi}], got {s}"
+                    )));
+                }
+            }
+            // At least one closed piece of the largest size must fit.
+            let keep_lo = rotate_bytes.unwrap_or(lo);
+            let keep_bytes = keep_bytes
+                .map(|s| pieces::parse_bytes(&s, keep_lo, pieces::KEEP_BYTES_MAX))
+                .transpose()
+                .map_err(|e| {
+                    bad(format!(
+                        "--keep-bytes: {e} (at least --rotate-bytes, so that a closed piece is kept)"
+                    ))
+                })?;
+            // The prefix: --prefix, else the daemon's configuration's, read
+            // by the same crate and validated as the daemon does.
+            let prefix = match (&prefix, &config) {
+                (Some(p), _) => p.clone(),
+                (None, Some(path)) => {
+                    let file =
+                        polarnav_config::ConfigFile::load(path).map_err(|e| bad(e.to_string()))?;
+                    let eff = polarnav_config::effective(
+                        &file,
+                        None,
+                        &polarnav_config::CliOverrides::default(),
+                    )
+                    .map_err(|e| bad(e.to_string()))?;
+                    eff.config.prefix
+                }
+                (None, None) => msgs::service::DEFAULT_PREFIX.to_owned(),
             };
+            let (target, shown) = match (out, out_dir) {
+                (Some(f), _) => (Output::File(f.clone()), f.display().to_string()),
+                (None, Some(dir)) => {
+                    std::fs::create_dir_all(&dir)
+                        .map_err(|e| Fail(1, format!("{}: cannot create: {e}", dir.display())))?;
+                    let shown = format!("{}/flight-*.navlog", dir.display());
+                    (
+                        Output::Dir(Rotation {
+                            dir,
+                            rotate_bytes,
+                            rotate_secs,
+                            keep_bytes,
+                        }),
+                        shown,
+                    )
+                }
+                (None, None) => return Err(bad("--out FILE or --out-dir DIR is required".into())),
+            };
+            let stop = stop_flag()?;
             let cfg = polarnav_ipc::TransportConfig::new(&prefix);
-            eprintln!(
-                "record: {prefix}/... -> {} (stop with Ctrl-C)",
-                out.display()
-            );
+            eprintln!("record: {prefix}/... -> {shown} (stop with Ctrl-C)");
             let n = sensor_replay::live::record(
                 &cfg,
                 target,
+                pieces::create_file(),
                 &stop,
                 duration.map(std::time::Duration::from_secs_f64),
             )
             .map_err(|e| Fail(1, e.to_string()))?;
             println!(
-                "record: {} records ({} solutions) written to {}",
-                n.records,
-                n.solutions,
-                out.display()
+                "record: {} records ({} solutions) written to {shown} in {} piece(s), {} removed by --keep-bytes; {} records lost to a full disk or a failed write",
+                n.records, n.solutions, n.pieces, n.removed, n.lost
             );
             Ok(())
         }
@@ -612,13 +689,6 @@ fn run(cli: Cli) -> Result<(), Fail> {
     }
 }
 
-/// SIGINT/SIGTERM set the returned flag (the loops finish their cycle and exit cleanly).
-/// An output named `*.mcap` is written as MCAP.
-fn is_mcap(p: &std::path::Path) -> bool {
-    p.extension()
-        .is_some_and(|e| e.eq_ignore_ascii_case("mcap"))
-}
-
 /// Streams a navlog into an MCAP file, record by record (bounded memory);
 /// a damaged record costs itself, as in every reader of the project.
 fn export_mcap(log: &std::path::Path, out: &std::path::Path) -> Result<u64, Fail> {
@@ -643,6 +713,7 @@ fn export_mcap(log: &std::path::Path, out: &std::path::Path) -> Result<u64, Fail
     Ok(n)
 }
 
+/// SIGINT/SIGTERM set the returned flag (the loops finish their cycle and exit cleanly).
 fn stop_flag() -> Result<std::sync::Arc<std::sync::atomic::AtomicBool>, Fail> {
     let stop = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
     let flag = std::sync::Arc::clone(&stop);

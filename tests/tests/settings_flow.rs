@@ -80,22 +80,16 @@ fn batch_config_filter_table_changes_the_solution() {
         moved > 0.0,
         "[filter] arw_dpsh had no effect on the solution"
     );
-    // An absurd rate limit refuses every IMU sample: nothing to navigate on.
-    let (none, rr) = batch_with(
-        &log,
-        "[filter]\nmax_gyro_rate_dps = 0.000001\n",
-        CliOverrides::default(),
-    );
-    assert!(none.is_empty(), "{} rows", none.len());
-    let imu = rr.status.imu;
-    assert_eq!(imu.accepted, 0);
-    // All refused as implausible but for those held as time-jump
-    // candidates while the navigator's time stood still (refused as such).
-    assert_eq!(imu.received, 12_000);
-    assert!(imu.rejected_invalid >= 11_990, "{imu:?}");
-    assert_eq!(
-        imu.rejected_invalid + imu.rejected_time + imu.not_used,
-        imu.received
+    // A rate limit below the Earth's rate would refuse every IMU sample: the
+    // configuration is refused before anything runs (issue 20, item 7).
+    let e = ConfigFile::parse("[filter]\nmax_gyro_rate_dps = 0.000001\n", "test.toml")
+        .expect_err("a limit below the Earth's rate")
+        .to_string();
+    assert!(
+        e.contains("test.toml")
+            && e.contains("filter.max_gyro_rate_dps")
+            && e.contains("Earth's rate"),
+        "{e}"
     );
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -17,6 +17,7 @@ pub use polarnav::settings::{
     AidSet, AidSettings, Conversion, FilterSettings, FrameSettings, InitSettings, SensorGrade,
     SettingsError,
 };
+use polarnav::settings::{Bound, MAX_FLIGHT_S};
 
 /// Reads a `preset` value (a sensor grade's name); `origin` and `key` name it in errors.
 pub fn parse_preset(v: &toml::Value, origin: &str, key: &str) -> Result<SensorGrade, ConfigError> {
@@ -144,15 +145,11 @@ impl From<SettingsError> for ConfigError {
     }
 }
 
-fn check(origin: &str, key: &str, v: f64, ok: bool, expected: &str) -> Result<(), ConfigError> {
-    if v.is_finite() && ok {
-        Ok(())
-    } else {
-        Err(ConfigError::Invalid {
-            path: origin.to_owned(),
-            key: key.to_owned(),
-            message: format!("expected {expected}, got {v}"),
-        })
+fn invalid(origin: &str, key: &str, message: String) -> ConfigError {
+    ConfigError::Invalid {
+        path: origin.to_owned(),
+        key: key.to_owned(),
+        message,
     }
 }
 
@@ -203,26 +200,97 @@ impl Config {
             i.validate(origin)?;
         }
         let r = c.live.imu_rate_hz;
-        check(
+        Bound {
+            lo: 10.0,
+            hi: 1000.0,
+            unit: "Hz",
+            below: "an IMU slower than 10 Hz cannot carry a strapdown mechanization through \
+                    a manoeuvre (and the loop's tick would be 0.1 s)",
+            above: "the input buffers and the state history are sized for at most 1 kHz",
+        }
+        .check(origin, "live.imu_rate_hz", r)?;
+        let period_s = 1.0 / r;
+        // Keys whose bounds depend on the IMU rate (the live loop's and the
+        // navigator's time lines must fit each other).
+        let gap = c.filter.imu_gap_s;
+        if gap < period_s {
+            return Err(invalid(
+                origin,
+                "filter.imu_gap_s",
+                format!(
+                    "expected at least one IMU period (1 / live.imu_rate_hz = {period_s} s), \
+                     got {gap}: every sample of a {r} Hz IMU would be a time jump"
+                ),
+            ));
+        }
+        let history_s = polarnav::navigator::STATE_HISTORY_LEN as f64 * period_s;
+        let lat = c.aids.max_latency_s;
+        if lat > history_s {
+            return Err(invalid(
+                origin,
+                "aids.max_latency_s",
+                format!(
+                    "expected at most {history_s} s (the state history: {} samples at \
+                     live.imu_rate_hz = {r} Hz), got {lat}: an aid that late has no state \
+                     to be fused against",
+                    polarnav::navigator::STATE_HISTORY_LEN
+                ),
+            ));
+        }
+        let n = c.live.imu_lost_periods;
+        if n == 0 {
+            return Err(invalid(
+                origin,
+                "live.imu_lost_periods",
+                "expected at least 1, got 0: the IMU would be declared lost between any \
+                 two samples"
+                    .into(),
+            ));
+        }
+        let lost_s = f64::from(n) * period_s;
+        if lost_s > c.filter.imu_max_coast_s {
+            return Err(invalid(
+                origin,
+                "live.imu_lost_periods",
+                format!(
+                    "expected at most filter.imu_max_coast_s × live.imu_rate_hz = {} periods, \
+                     got {n} ({lost_s} s): an IMU silent longer than the longest coast is lost \
+                     and must be reported before that",
+                    (c.filter.imu_max_coast_s * r).floor()
+                ),
+            ));
+        }
+        Bound {
+            lo: polarnav::settings::MIN_IMU_PERIOD_S,
+            hi: MAX_FLIGHT_S,
+            unit: "s",
+            below: "shorter than one period of the fastest IMU (1 ms): a checkpoint (with \
+                    fsync) at every sample",
+            above: "longer than any flight (1e7 s, 116 days): no checkpoint would ever be \
+                    written",
+        }
+        .check(
             origin,
-            "live.imu_rate_hz",
-            r,
-            (10.0..=1000.0).contains(&r),
-            "an IMU rate in [10, 1000] Hz",
+            "live.checkpoint_period_s",
+            c.live.checkpoint_period_s,
         )?;
-        for (k, v) in [
-            ("live.checkpoint_period_s", c.live.checkpoint_period_s),
-            ("live.checkpoint_max_age_s", c.live.checkpoint_max_age_s),
-        ] {
-            check(origin, k, v, v > 0.0, "a positive time in seconds")?;
+        let coast = c.filter.imu_max_coast_s;
+        let above_age = format!(
+            "the gap from the checkpoint to the first IMU sample is coasted, and no gap \
+             longer than filter.imu_max_coast_s ({coast} s) is"
+        );
+        Bound {
+            lo: polarnav::settings::MIN_IMU_PERIOD_S,
+            hi: coast,
+            unit: "s",
+            below: "shorter than one period of the fastest IMU (1 ms)",
+            above: &above_age,
         }
-        if c.live.imu_lost_periods == 0 {
-            return Err(ConfigError::Invalid {
-                path: origin.to_owned(),
-                key: "live.imu_lost_periods".into(),
-                message: "expected at least 1".into(),
-            });
-        }
+        .check(
+            origin,
+            "live.checkpoint_max_age_s",
+            c.live.checkpoint_max_age_s,
+        )?;
         Ok(())
     }
 
@@ -369,6 +437,28 @@ mod tests {
         let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config/nav-daemon.toml");
         let c = Config::load(&path).expect("shipped config");
         assert_eq!(c.prefix, "polarnav");
+    }
+
+    /// Every shipped scenario's `[navigator]` table (what `batch` reads from
+    /// the header of a log simulated from it) passes the same validation
+    /// over the shipped configuration, so no bound refuses a shipped flight.
+    #[test]
+    fn every_shipped_scenario_passes_over_the_shipped_config() {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config");
+        let file = ConfigFile::load(&root.join("nav-daemon.toml")).expect("shipped config");
+        let mut n = 0;
+        for dir in [root.join("scenarios"), root.join("scenarios/faults")] {
+            for entry in std::fs::read_dir(&dir).expect("scenarios") {
+                let path = entry.expect("entry").path();
+                if path.extension().is_some_and(|e| e == "toml") {
+                    let text = std::fs::read_to_string(&path).expect("scenario");
+                    effective(&file, Some(&text), &CliOverrides::default())
+                        .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+                    n += 1;
+                }
+            }
+        }
+        assert!(n >= 17, "{n} scenarios");
     }
 
     #[test]

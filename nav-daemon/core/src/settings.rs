@@ -140,51 +140,102 @@ pub struct InitSettings {
 
 impl InitSettings {
     pub fn validate(&self, origin: &str) -> Result<(), SettingsError> {
-        check(
+        // The same limits as the navigator's check of an init record
+        // (`navigator::check_init`, `INIT_SIGMA_MAX`): an init outside them
+        // would be refused at the first IMU sample, and nothing would start.
+        let angle = |lo: f64, hi: f64, what: &'static str| Bound {
+            lo,
+            hi,
+            unit: "deg",
+            below: what,
+            above: what,
+        };
+        angle(-90.0, 90.0, "a latitude is at most 90° from the equator").check(
             origin,
             "init.lat_deg",
             self.lat_deg,
-            self.lat_deg.abs() <= 90.0,
-            "a latitude in [-90, 90]",
         )?;
-        check(
+        angle(-360.0, 360.0, "a longitude is an angle of at most a turn").check(
             origin,
             "init.lon_deg",
             self.lon_deg,
-            true,
-            "a longitude in degrees",
         )?;
-        check(
-            origin,
-            "init.h_m",
-            self.h_m,
-            self.h_m.abs() < 1e5,
-            "a height in metres",
-        )?;
+        Bound {
+            lo: -1000.0,
+            hi: 1e5,
+            unit: "m",
+            below: "more than 1 km below the ellipsoid is underground everywhere",
+            above: "100 km is space: the barometer and the atmosphere model end far below",
+        }
+        .check(origin, "init.h_m", self.h_m)?;
         for (i, v) in self.vel_enu_mps.iter().enumerate() {
-            check(
-                origin,
-                &format!("init.vel_enu_mps[{i}]"),
-                *v,
-                v.abs() < 2000.0,
-                "a velocity in m/s",
-            )?;
+            Bound {
+                lo: -1000.0,
+                hi: 1000.0,
+                unit: "m/s",
+                below: "faster than 1 km/s is not this aircraft",
+                above: "faster than 1 km/s is not this aircraft",
+            }
+            .check(origin, &format!("init.vel_enu_mps[{i}]"), *v)?;
         }
-        for (k, v) in [
-            ("init.heading_deg", self.heading_deg),
-            ("init.pitch_deg", self.pitch_deg),
-            ("init.roll_deg", self.roll_deg),
-        ] {
-            check(origin, k, v, true, "an angle in degrees")?;
+        let speed = self.vel_enu_mps.iter().map(|v| v * v).sum::<f64>().sqrt();
+        if speed > 1000.0 {
+            return Err(SettingsError {
+                origin: origin.to_owned(),
+                key: "init.vel_enu_mps".to_owned(),
+                message: format!(
+                    "expected a speed of at most 1000 m/s, got {speed}: the navigator refuses \
+                     a faster init (not this aircraft)"
+                ),
+            });
         }
-        for (k, v) in [
-            ("init.sigma_pos_h_m", self.sigma_pos_h_m),
-            ("init.sigma_pos_v_m", self.sigma_pos_v_m),
-            ("init.sigma_vel_mps", self.sigma_vel_mps),
-            ("init.sigma_tilt_arcmin", self.sigma_tilt_arcmin),
-            ("init.sigma_heading_arcmin", self.sigma_heading_arcmin),
+        angle(-360.0, 360.0, "a heading is an angle of at most a turn").check(
+            origin,
+            "init.heading_deg",
+            self.heading_deg,
+        )?;
+        angle(
+            -90.0,
+            90.0,
+            "pitch is at most 90° (Euler angles beyond are another attitude)",
+        )
+        .check(origin, "init.pitch_deg", self.pitch_deg)?;
+        angle(-180.0, 180.0, "roll is at most half a turn").check(
+            origin,
+            "init.roll_deg",
+            self.roll_deg,
+        )?;
+        let max = crate::navigator::INIT_SIGMA_MAX;
+        let arcmin = 180.0 / std::f64::consts::PI * 60.0;
+        for (k, v, hi, unit) in [
+            ("init.sigma_pos_h_m", self.sigma_pos_h_m, max[0], "m"),
+            ("init.sigma_pos_v_m", self.sigma_pos_v_m, max[1], "m"),
+            ("init.sigma_vel_mps", self.sigma_vel_mps, max[2], "m/s"),
+            (
+                "init.sigma_tilt_arcmin",
+                self.sigma_tilt_arcmin,
+                max[4] * arcmin,
+                "arcmin",
+            ),
+            (
+                "init.sigma_heading_arcmin",
+                self.sigma_heading_arcmin,
+                max[5] * arcmin,
+                "arcmin",
+            ),
         ] {
-            check(origin, k, v, v > 0.0, "a positive 1-σ")?;
+            // A σ above 0 but below the navigator's floor (1 cm, 1 mm/s,
+            // 1 µrad) is raised to it, so P₀ stays positive definite.
+            Bound {
+                lo: f64::MIN_POSITIVE,
+                hi,
+                unit,
+                below: "a zero or negative 1-σ claims an exact state: P₀ would not be positive \
+                        definite",
+                above: "P₀ would span more magnitudes than a double resolves (and the \
+                        navigator refuses such an init)",
+            }
+            .check(origin, k, v)?;
         }
         Ok(())
     }
@@ -477,6 +528,77 @@ fn check(origin: &str, key: &str, v: f64, ok: bool, expected: &str) -> Result<()
     }
 }
 
+/// The longest time any setting may span: about 116 days, above the
+/// longest HALE flight flown (64 days, 5.5e6 s). A period or timeout
+/// beyond it never comes round in a flight.
+pub const MAX_FLIGHT_S: f64 = 1e7;
+
+/// The resolution of every time stamp (`t_ns`): a shorter time is not a time.
+pub const STAMP_RESOLUTION_S: f64 = 1e-9;
+
+/// The shortest IMU period the system takes (1 kHz, `[live] imu_rate_hz`).
+pub const MIN_IMU_PERIOD_S: f64 = 1e-3;
+
+/// The Earth's rotation rate in °/s (0.004178): what a gyro at rest measures.
+pub fn earth_rate_dps() -> f64 {
+    crate::earth::OMEGA_IE.to_degrees()
+}
+
+/// The largest normal gravity (at the poles, at the ellipsoid: 9.8322 m/s²):
+/// the specific force an IMU at rest or in level flight measures there.
+pub fn max_normal_gravity_mps2() -> f64 {
+    crate::earth::normal_gravity(std::f64::consts::FRAC_PI_2, 0.0)
+}
+
+/// A physical bound of a numeric setting: `[lo, hi]` in `unit`, and why a
+/// value below `lo` or above `hi` cannot work. [`Bound::check`] refuses NaN,
+/// ±Inf and values outside, naming the key and the reason.
+#[derive(Debug, Clone, Copy)]
+pub struct Bound<'a> {
+    pub lo: f64,
+    pub hi: f64,
+    pub unit: &'a str,
+    /// Why a value below `lo` cannot work.
+    pub below: &'a str,
+    /// Why a value above `hi` cannot work.
+    pub above: &'a str,
+}
+
+impl Bound<'_> {
+    /// `Ok` if `v` is finite and in `[lo, hi]`; else an error naming
+    /// `origin`, `key`, the bound, the value and the reason.
+    pub fn check(&self, origin: &str, key: &str, v: f64) -> Result<(), SettingsError> {
+        let message = if !v.is_finite() {
+            format!(
+                "expected a finite number in [{}, {}] {}, got {v}",
+                self.lo, self.hi, self.unit
+            )
+        } else if v < self.lo {
+            format!(
+                "expected at least {} {}, got {v}: {}",
+                self.lo, self.unit, self.below
+            )
+        } else if v > self.hi {
+            format!(
+                "expected at most {} {}, got {v}: {}",
+                self.hi, self.unit, self.above
+            )
+        } else {
+            return Ok(());
+        };
+        Err(SettingsError {
+            origin: origin.to_owned(),
+            key: key.to_owned(),
+            message,
+        })
+    }
+}
+
+/// Above these the squares, 2σ²/τ and P₀ of the noise model leave the
+/// range of normal doubles: a unit mistake, not a sensor.
+const NOISE_TOO_LARGE: &str =
+    "no IMU is that noisy, and the covariance built from it would overflow (a unit mistake?)";
+
 impl FilterSettings {
     /// The noise key `name` (a key a [`SensorGrade`] sets).
     fn noise_key_mut(&mut self, name: &str) -> Option<&mut f64> {
@@ -497,40 +619,63 @@ impl FilterSettings {
         // Ranges wide enough for any real IMU and narrow enough that the
         // squares, 2σ²/τ and P₀ stay normal doubles: a value outside them is
         // a unit mistake, not a sensor.
-        for (k, v, max) in [
-            ("filter.arw_dpsh", self.arw_dpsh, 100.0),
-            ("filter.vrw_ug_psqhz", self.vrw_ug_psqhz, 1e5),
+        let white = "0 is a noise-free sensor; a negative density is not one";
+        for (k, v, hi, unit) in [
+            ("filter.arw_dpsh", self.arw_dpsh, 100.0, "deg/√h"),
+            ("filter.vrw_ug_psqhz", self.vrw_ug_psqhz, 1e5, "µg/√Hz"),
             (
                 "filter.gyro_bias_instability_dph",
                 self.gyro_bias_instability_dph,
                 1e4,
+                "deg/h",
             ),
             (
                 "filter.accel_bias_instability_ug",
                 self.accel_bias_instability_ug,
                 1e5,
+                "µg",
             ),
         ] {
-            check(
-                origin,
-                k,
-                v,
-                (0.0..=max).contains(&v),
-                &format!("a number in [0, {max}]"),
-            )?;
+            Bound {
+                lo: 0.0,
+                hi,
+                unit,
+                below: white,
+                above: NOISE_TOO_LARGE,
+            }
+            .check(origin, k, v)?;
         }
-        for (k, v, min, max) in [
-            ("filter.gyro_bias_dph", self.gyro_bias_dph, 1e-6, 1e4),
-            ("filter.accel_bias_ug", self.accel_bias_ug, 1e-3, 1e5),
+        for (k, v, lo, hi, unit) in [
+            (
+                "filter.gyro_bias_dph",
+                self.gyro_bias_dph,
+                1e-6,
+                1e4,
+                "deg/h",
+            ),
+            ("filter.accel_bias_ug", self.accel_bias_ug, 1e-3, 1e5, "µg"),
         ] {
-            check(
-                origin,
-                k,
-                v,
-                (min..=max).contains(&v),
-                &format!("an initial 1-σ in [{min}, {max}]"),
-            )?;
+            Bound {
+                lo,
+                hi,
+                unit,
+                below: "a smaller initial 1-σ leaves the bias block of P₀ too small beside the \
+                        attitude and velocity variances for a double: the covariance would lose \
+                        positive definiteness in the first updates",
+                above: NOISE_TOO_LARGE,
+            }
+            .check(origin, k, v)?;
         }
+        let c = self.covariance_interval_s;
+        Bound {
+            lo: STAMP_RESOLUTION_S,
+            hi: 1.0,
+            unit: "s",
+            below: "shorter than the 1 ns resolution of the time stamps",
+            above: "the covariance must be propagated at least once a second (the aid rates) \
+                    for the first-order transition matrix to hold",
+        }
+        .check(origin, "filter.covariance_interval_s", c)?;
         for (k, v) in [
             ("filter.gyro_bias_tau_s", self.gyro_bias_tau_s),
             ("filter.accel_bias_tau_s", self.accel_bias_tau_s),
@@ -539,45 +684,74 @@ impl FilterSettings {
             // intervals the second-order Φ = 1 − Δt/τ + (Δt/τ)²/2 is no
             // longer close to e^(−Δt/τ); above ~11 days it is a constant
             // over any flight.
-            let min = (10.0 * self.covariance_interval_s).max(1.0);
-            check(
-                origin,
-                k,
-                v,
-                (min..=1e6).contains(&v),
-                &format!(
-                    "a correlation time in [{min}, 1e6] s (at least 10 filter.covariance_interval_s)"
-                ),
-            )?;
+            let lo = (10.0 * c).max(1.0);
+            Bound {
+                lo,
+                hi: 1e6,
+                unit: "s",
+                below: "below 1 s a bias is white noise, and below 10 filter.covariance_interval_s \
+                        the discrete Gauss–Markov transition is no longer e^(−Δt/τ)",
+                above: "beyond 11 days the bias is a constant over any flight: set its \
+                        instability to 0 instead",
+            }
+            .check(origin, k, v)?;
         }
-        for (k, v) in [
-            ("filter.max_gyro_rate_dps", self.max_gyro_rate_dps),
-            ("filter.max_accel_mps2", self.max_accel_mps2),
-            ("filter.imu_gap_s", self.imu_gap_s),
-        ] {
-            check(origin, k, v, v > 0.0, "a positive number")?;
+        let g = max_normal_gravity_mps2();
+        Bound {
+            lo: earth_rate_dps(),
+            hi: 1e5,
+            unit: "°/s",
+            below: "every gyro at rest measures the Earth's rate (0.004178 °/s): every IMU \
+                    sample would be refused",
+            above: "no gyro measures 1e5 °/s (280 rev/s): the limit would refuse nothing",
         }
+        .check(origin, "filter.max_gyro_rate_dps", self.max_gyro_rate_dps)?;
+        let below_g = format!(
+            "an IMU at rest or in level flight measures gravity ({g:.4} m/s² at the poles): \
+             every IMU sample would be refused"
+        );
+        Bound {
+            lo: g,
+            hi: 1e5,
+            unit: "m/s²",
+            below: &below_g,
+            above: "no accelerometer measures 1e4 g: the limit would refuse nothing",
+        }
+        .check(origin, "filter.max_accel_mps2", self.max_accel_mps2)?;
+        Bound {
+            lo: MIN_IMU_PERIOD_S,
+            hi: 3600.0,
+            unit: "s",
+            below: "shorter than one period of the fastest IMU (1 kHz): every sample would be \
+                    a time jump",
+            above: "an hour without IMU cannot be bridged",
+        }
+        .check(origin, "filter.imu_gap_s", self.imu_gap_s)?;
         check(
             origin,
             "filter.imu_max_coast_s",
             self.imu_max_coast_s,
             self.imu_max_coast_s > self.imu_gap_s && self.imu_max_coast_s <= 3600.0,
-            "a time in seconds above filter.imu_gap_s and at most 3600",
+            "a time in seconds above filter.imu_gap_s and at most 3600 (a coast is a gap \
+             longer than imu_gap_s; after an hour without IMU the state is unknown)",
         )?;
-        for (k, v) in [
-            ("filter.coast_accel_mps2", self.coast_accel_mps2),
-            ("filter.coast_rate_dps", self.coast_rate_dps),
-        ] {
-            check(origin, k, v, v >= 0.0, "a number ≥ 0")?;
+        Bound {
+            lo: 0.0,
+            hi: 100.0,
+            unit: "m/s²",
+            below: "a negative 1-σ is not one",
+            above: "no airframe of this class survives a 10 g manoeuvre",
         }
-        let c = self.covariance_interval_s;
-        check(
-            origin,
-            "filter.covariance_interval_s",
-            c,
-            c > 0.0 && c <= 1.0,
-            "an interval in (0, 1] s",
-        )
+        .check(origin, "filter.coast_accel_mps2", self.coast_accel_mps2)?;
+        Bound {
+            lo: 0.0,
+            hi: 360.0,
+            unit: "°/s",
+            below: "a negative 1-σ is not one",
+            above: "a HALE airframe does not turn a full circle per second",
+        }
+        .check(origin, "filter.coast_rate_dps", self.coast_rate_dps)?;
+        Ok(())
     }
 
     /// Process noise in SI units.
@@ -605,30 +779,61 @@ impl FilterSettings {
 
 impl AidSettings {
     pub fn validate(&self, origin: &str) -> Result<(), SettingsError> {
-        for (k, v) in [
-            ("aids.srs_gate", self.srs_gate),
-            ("aids.cns_gate", self.cns_gate),
-            ("aids.baro_gate", self.baro_gate),
-            ("aids.star_gate", self.star_gate),
+        // A gate is a threshold on a χ² variable with as many degrees of
+        // freedom as the aid has components (SRS velocity 3, CNS
+        // latitude/longitude 2, baro 1, star attitude 3); its mean is that
+        // number.
+        for (k, v, dof) in [
+            ("aids.srs_gate", self.srs_gate, 3.0),
+            ("aids.cns_gate", self.cns_gate, 2.0),
+            ("aids.baro_gate", self.baro_gate, 1.0),
+            ("aids.star_gate", self.star_gate, 3.0),
         ] {
-            check(origin, k, v, v > 0.0, "a positive χ² threshold")?;
+            Bound {
+                lo: dof,
+                hi: 1e4,
+                unit: "(χ²)",
+                below: "below the mean of the χ² of a consistent innovation (its degrees of \
+                        freedom) most good samples of the aid would be refused",
+                above: "beyond a 100-σ innovation the gate refuses nothing, not even a fault",
+            }
+            .check(origin, k, v)?;
         }
         for (k, v) in [
             ("aids.srs_timeout_s", self.srs_timeout_s),
             ("aids.cns_timeout_s", self.cns_timeout_s),
             ("aids.baro_timeout_s", self.baro_timeout_s),
             ("aids.star_timeout_s", self.star_timeout_s),
-            ("aids.max_latency_s", self.max_latency_s),
         ] {
-            check(origin, k, v, v > 0.0, "a positive time in seconds")?;
+            Bound {
+                lo: 0.02,
+                hi: MAX_FLIGHT_S,
+                unit: "s",
+                below: "shorter than one period of the fastest aid (50 Hz): the aid would be \
+                        stale between every two samples",
+                above: "longer than any flight (1e7 s, 116 days): a dead aid would never be \
+                        reported",
+            }
+            .check(origin, k, v)?;
         }
+        Bound {
+            lo: MIN_IMU_PERIOD_S,
+            hi: 1.0,
+            unit: "s",
+            below: "shorter than one period of the fastest IMU (1 ms): any transport delay \
+                    would make every aid late",
+            above: "an aid may wait at most 1 s for the IMU, and the state history reaches \
+                    back no further",
+        }
+        .check(origin, "aids.max_latency_s", self.max_latency_s)?;
         let r = self.reset_after_s;
         check(
             origin,
             "aids.reset_after_s",
             r,
             r == 0.0 || (5.0..=3600.0).contains(&r),
-            "0 (never) or a time in [5, 3600] s",
+            "0 (never) or a time in [5, 3600] s (a shorter streak cannot tell a drifting \
+             filter from an aid fault; after an hour of refusals the state is lost anyway)",
         )?;
         Ok(())
     }
@@ -642,17 +847,34 @@ impl FrameSettings {
             key: format!("{table}.{key}"),
             message,
         };
-        for (k, v) in [
-            ("switch_enter_deg", self.switch_enter_deg),
-            ("switch_leave_deg", self.switch_leave_deg),
-        ] {
-            if !(v.is_finite() && (0.0..=90.0).contains(&v)) {
-                return Err(bad(
-                    k,
-                    format!("expected a latitude in [0, 90] degrees, got {v}"),
-                ));
-            }
+        Bound {
+            lo: 1.0,
+            hi: 89.0,
+            unit: "deg",
+            below: "the grid frame is singular on the equator at λ = ±90° (grid north = \
+                    unit(n × ŷ_e) vanishes): it must not be entered within 1° of it",
+            above: "the geographic frame's tan L terms grow beyond 57 within 1° of the pole: \
+                    entering the grid frame later cannot carry a flight across it (set \
+                    never_switch for a reference run that stays in g)",
         }
+        .check(
+            origin,
+            &format!("{table}.switch_enter_deg"),
+            self.switch_enter_deg,
+        )?;
+        Bound {
+            lo: 1.0,
+            hi: 89.0,
+            unit: "deg",
+            below: "the grid frame is singular on the equator at λ = ±90° (grid north = \
+                    unit(n × ŷ_e) vanishes): it must be left at least 1° from it",
+            above: "the geographic frame cannot be used within 1° of the pole",
+        }
+        .check(
+            origin,
+            &format!("{table}.switch_leave_deg"),
+            self.switch_leave_deg,
+        )?;
         if self.switch_leave_deg >= self.switch_enter_deg {
             return Err(bad(
                 "switch_leave_deg",
@@ -669,6 +891,15 @@ impl FrameSettings {
                     "force_switch_s",
                     format!(
                         "expected ascending non-negative times in seconds, got {t} after {last}"
+                    ),
+                ));
+            }
+            if t > MAX_FLIGHT_S {
+                return Err(bad(
+                    "force_switch_s",
+                    format!(
+                        "expected times of at most {MAX_FLIGHT_S} s, got {t}: longer than any \
+                         flight (116 days), the switch would never happen"
                     ),
                 ));
             }

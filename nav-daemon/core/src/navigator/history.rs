@@ -5,8 +5,9 @@ use nalgebra::{UnitQuaternion, Vector3};
 
 use crate::mech::{AnyNav, FrameKind};
 
-/// Length of the state history: 0.5 s at 1 kHz, 2.5 s at 200 Hz.
-const HISTORY: usize = 512;
+/// Length of the state history: 0.5 s at 1 kHz, 2.5 s at 200 Hz. An aid
+/// older than the oldest stored state cannot be fused at its own time.
+pub const HISTORY: usize = 512;
 
 /// Nominal states after the last IMU samples (a ring), so that an aid that
 /// arrives late is fused against the state at its own time. Stored as they

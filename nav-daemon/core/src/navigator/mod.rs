@@ -31,6 +31,7 @@ mod recovery;
 mod report;
 use error_state::ErrorState;
 use gating::AidGate;
+pub use history::HISTORY as STATE_HISTORY_LEN;
 use history::History;
 use imu_input::ImuLimits;
 pub use imu_input::{IMU_DT_RANGE_S, MAX_BRIDGE_STEPS};

@@ -1,0 +1,360 @@
+//! The flight recorder on a long flight (issue 20, item 6), over real
+//! iceoryx2 between separate processes (replay → daemon → recorder), each
+//! test on its own service prefix and iceoryx2 root, every wait with a
+//! deadline: rotation and retention bounds, each piece navigable alone,
+//! the prefix from the daemon's configuration, and a full tmpfs.
+
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+use msgs::navlog::Record;
+use polarnav_ipc::{TransportConfig, remove_isolated};
+use polarnav_tests::{bin, repo};
+use sensor_replay::pieces::list_pieces;
+use sensor_replay::scenario::Scenario;
+use sensor_replay::simulate::{SimOptions, simulate};
+
+struct Env {
+    dir: PathBuf,
+    cfg: TransportConfig,
+}
+
+impl Env {
+    fn new(tag: &str) -> Self {
+        let cfg = TransportConfig::isolated(tag);
+        let dir = std::env::temp_dir().join(format!("polarnav-rec-{tag}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).expect("dir");
+        std::fs::write(
+            dir.join("nav.toml"),
+            format!("prefix = \"{}\"\n", cfg.prefix),
+        )
+        .expect("config");
+        Self { dir, cfg }
+    }
+
+    /// `program` with this environment's iceoryx2 isolation, output in `<log>.out` / `<log>.err`.
+    fn command(&self, program: &Path, log: &str) -> Command {
+        let mut c = Command::new(program);
+        c.env(
+            "POLARNAV_IOX_PREFIX",
+            self.cfg.iox_prefix.as_deref().expect("isolated"),
+        )
+        .env(
+            "POLARNAV_IOX_ROOT",
+            self.cfg.iox_root.as_ref().expect("isolated"),
+        )
+        .env("RUST_LOG", "info")
+        .stdin(Stdio::null())
+        .stdout(std::fs::File::create(self.dir.join(format!("{log}.out"))).expect("log"))
+        .stderr(std::fs::File::create(self.dir.join(format!("{log}.err"))).expect("log"));
+        c
+    }
+
+    fn read(&self, log: &str) -> String {
+        std::fs::read_to_string(self.dir.join(log)).unwrap_or_default()
+    }
+
+    /// Waits until `log`'s stderr contains `text`.
+    fn wait_for(&self, log: &str, text: &str, deadline: Duration) {
+        let t0 = Instant::now();
+        while t0.elapsed() < deadline {
+            if self.read(&format!("{log}.err")).contains(text) {
+                return;
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        panic!(
+            "{log} did not print {text:?} within {deadline:?}: {}",
+            self.read(&format!("{log}.err"))
+        );
+    }
+
+    fn start_daemon(&self) -> Proc {
+        let mut c = self.command(&bin("nav-daemon"), "daemon");
+        c.arg("--config").arg(self.dir.join("nav.toml"));
+        let p = Proc(c.spawn().expect("nav-daemon"));
+        self.wait_for("daemon", "services open", Duration::from_secs(20));
+        p
+    }
+
+    fn play(&self, log: &Path, speed: &str) -> Proc {
+        let mut c = self.command(&bin("sensor-replay"), "play");
+        c.arg("play")
+            .arg(log)
+            .args(["--speed", speed, "--prefix", &self.cfg.prefix]);
+        Proc(c.spawn().expect("play"))
+    }
+}
+
+impl Drop for Env {
+    fn drop(&mut self) {
+        remove_isolated(&self.cfg);
+        let _ = std::fs::remove_dir_all(&self.dir);
+    }
+}
+
+/// A child killed when dropped, so a failing test leaves nothing running.
+struct Proc(Child);
+
+impl Drop for Proc {
+    fn drop(&mut self) {
+        if let Ok(None) = self.0.try_wait() {
+            let _ = self.0.kill();
+            let _ = self.0.wait();
+        }
+    }
+}
+
+fn wait(child: &mut Child, deadline: Duration) -> Option<i32> {
+    let t0 = Instant::now();
+    while t0.elapsed() < deadline {
+        if let Some(s) = child.try_wait().expect("wait") {
+            return s.code();
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let _ = child.kill();
+    let _ = child.wait();
+    panic!("process {} did not exit within {deadline:?}", child.id());
+}
+
+fn sigterm(pid: u32) {
+    let _ = Command::new("kill")
+        .arg("-TERM")
+        .arg(pid.to_string())
+        .status();
+}
+
+fn short_log(dir: &Path, seconds: f64) -> PathBuf {
+    let text = std::fs::read_to_string(repo("config/scenarios/transpolar.toml"))
+        .expect("scenario")
+        .replace("duration_s = 4480.0", &format!("duration_s = {seconds}"));
+    let s = Scenario::parse(&text, "short").expect("scenario");
+    let log = dir.join("flight.navlog");
+    simulate(
+        &s,
+        &text,
+        SimOptions::default(),
+        std::fs::File::create(&log).expect("create"),
+    )
+    .expect("simulate");
+    log
+}
+
+/// Every piece reads clean, starts with a header and an init, and
+/// `nav-daemon batch` and `sensor-replay export` read it alone.
+fn check_pieces_navigate_alone(env: &Env, pieces: &[PathBuf]) {
+    for (k, p) in pieces.iter().enumerate() {
+        let (records, report) = msgs::navlog::read_all(&std::fs::read(p).expect("piece"));
+        assert!(report.is_clean(), "{}: {report}", p.display());
+        assert!(matches!(records[0], Record::Header(_)), "{}", p.display());
+        assert!(
+            matches!(records[1], Record::Init(_)),
+            "{}: no init after the header",
+            p.display()
+        );
+        let csv = env.dir.join(format!("piece-{k}.csv"));
+        let o = Command::new(bin("nav-daemon"))
+            .args(["--config"])
+            .arg(env.dir.join("nav.toml"))
+            .args(["batch", "--log"])
+            .arg(p)
+            .arg("--out")
+            .arg(&csv)
+            .output()
+            .expect("batch");
+        assert_eq!(
+            o.status.code(),
+            Some(0),
+            "batch {}: {}",
+            p.display(),
+            String::from_utf8_lossy(&o.stderr)
+        );
+        let rows = std::fs::read_to_string(&csv).expect("csv").lines().count();
+        assert!(rows > 10, "batch {}: {rows} lines", p.display());
+        let o = Command::new(bin("sensor-replay"))
+            .arg("export")
+            .arg(p)
+            .arg("--solution-csv")
+            .arg(env.dir.join(format!("export-{k}.csv")))
+            .output()
+            .expect("export");
+        assert_eq!(
+            o.status.code(),
+            Some(0),
+            "export {}: {}",
+            p.display(),
+            String::from_utf8_lossy(&o.stderr)
+        );
+    }
+}
+
+/// Rotation at 256 KiB and retention at 1 MiB during a live replay: the
+/// pieces never hold more than the bound plus the open piece (checked
+/// while recording), the oldest go first, a foreign file stays, the
+/// prefix comes from the daemon's configuration, and each piece left is
+/// navigable alone.
+#[test]
+fn rotated_pieces_keep_the_retention_bound_and_each_navigates_alone() {
+    let env = Env::new("rotate");
+    let log = short_log(&env.dir, 40.0);
+    let out = env.dir.join("recordings");
+    std::fs::create_dir_all(&out).expect("dir");
+    std::fs::write(out.join("operator-notes.txt"), vec![b'n'; 300_000]).expect("foreign");
+    let _daemon = env.start_daemon();
+    let (rotate, keep) = (256u64 << 10, 1u64 << 20);
+    let mut rec = {
+        let mut c = env.command(&bin("sensor-replay"), "record");
+        c.args(["record", "--config"])
+            .arg(env.dir.join("nav.toml"))
+            .arg("--out-dir")
+            .arg(&out)
+            .args(["--rotate-bytes", "256K", "--keep-bytes", "1M"]);
+        Proc(c.spawn().expect("record"))
+    };
+    env.wait_for(
+        "record",
+        &format!("subscribed to {}/*", env.cfg.prefix),
+        Duration::from_secs(20),
+    );
+    let mut play = env.play(&log, "8");
+    let t0 = Instant::now();
+    let mut worst = 0;
+    while play.0.try_wait().expect("play").is_none() {
+        assert!(t0.elapsed() < Duration::from_secs(120), "play hangs");
+        let total: u64 = list_pieces(&out).iter().map(|p| p.bytes).sum();
+        worst = worst.max(total);
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    assert_eq!(wait(&mut play.0, Duration::from_secs(5)), Some(0));
+    std::thread::sleep(Duration::from_millis(300));
+    sigterm(rec.0.id());
+    assert_eq!(wait(&mut rec.0, Duration::from_secs(20)), Some(0));
+    let err = env.read("record.err");
+    let summary = env.read("record.out");
+    // Slack of one batch of records over a rotation (a cycle of data,
+    // longer when the scheduler stalls the recorder).
+    assert!(
+        worst <= keep + rotate + (128 << 10),
+        "the pieces held {worst} bytes: {err}"
+    );
+    let pieces = list_pieces(&out);
+    let seqs: Vec<u64> = pieces.iter().map(|p| p.seq).collect();
+    assert!(seqs.len() >= 3, "{seqs:?}: {summary}");
+    assert!(seqs[0] > 1, "nothing was removed: {seqs:?}: {err}");
+    assert!(seqs.windows(2).all(|w| w[1] == w[0] + 1), "{seqs:?}");
+    assert!(
+        err.contains("removed") && err.contains("--keep-bytes"),
+        "{err}"
+    );
+    assert!(
+        out.join("operator-notes.txt").exists(),
+        "a foreign file was removed"
+    );
+    assert!(summary.contains("; 0 records lost"), "{summary}");
+    let paths: Vec<PathBuf> = pieces.into_iter().map(|p| p.path).collect();
+    check_pieces_navigate_alone(&env, &paths);
+}
+
+/// The recorder on an 8 MiB tmpfs that fills up mid-flight: the daemon and
+/// the replay lose nothing (the recorder keeps draining), the recorder
+/// says so once, counts what it could not write, resumes in a new piece
+/// when space returns, and prints the count at exit. The tmpfs is mounted
+/// in a user and mount namespace (`unshare -rm`); the test reaches it
+/// through `/proc/PID/root`.
+#[test]
+fn a_full_tmpfs_is_reported_counted_and_survived_and_the_replay_loses_nothing() {
+    let unshare_ok = Command::new("unshare")
+        .args(["-rm", "true"])
+        .stderr(Stdio::null())
+        .status()
+        .is_ok_and(|s| s.success());
+    if !unshare_ok {
+        eprintln!(
+            "SKIPPED: no user and mount namespaces here (unshare -rm); the full disk is tested \
+             with an injected writer in sensor-replay's pieces tests"
+        );
+        return;
+    }
+    let env = Env::new("fulldisk");
+    let log = short_log(&env.dir, 40.0);
+    let mnt = env.dir.join("mnt");
+    std::fs::create_dir_all(&mnt).expect("mnt");
+    let pidfile = env.dir.join("rec.pid");
+    let _daemon = env.start_daemon();
+    // The shell keeps the namespace (and the tmpfs) alive after the
+    // recorder exits, until the test has copied the pieces out.
+    let script = format!(
+        "mount -t tmpfs -o size=8m tmpfs '{mnt}' || exit 97; \
+         '{rec}' record --config '{cfg}' --out-dir '{mnt}' --rotate-bytes 1M & \
+         echo $! > '{pid}'; wait $!; echo \"exit $?\" >&2; sleep 60",
+        mnt = mnt.display(),
+        rec = bin("sensor-replay").display(),
+        cfg = env.dir.join("nav.toml").display(),
+        pid = pidfile.display()
+    );
+    let mut ns = {
+        let mut c = env.command(Path::new("unshare"), "record");
+        c.args(["-rm", "sh", "-c", &script]);
+        Proc(c.spawn().expect("unshare"))
+    };
+    env.wait_for("record", "subscribed", Duration::from_secs(20));
+    let rec_pid: u32 = env.read("rec.pid").trim().parse().expect("recorder pid");
+    let inside = PathBuf::from(format!("/proc/{}/root{}", ns.0.id(), mnt.display()));
+    let mut play = env.play(&log, "4");
+    // Let it write a while, then fill the file system.
+    env.wait_for("record", "effective settings", Duration::from_secs(20));
+    std::thread::sleep(Duration::from_secs(2));
+    let filler = inside.join("filler");
+    {
+        use std::io::Write;
+        let mut f = std::fs::File::create(&filler).expect("filler");
+        let block = vec![0u8; 64 << 10];
+        while f.write_all(&block).is_ok() {}
+        let _ = f.sync_all();
+    }
+    env.wait_for("record", "cannot write", Duration::from_secs(20));
+    std::thread::sleep(Duration::from_secs(2));
+    std::fs::remove_file(&filler).expect("free the space");
+    env.wait_for("record", "writing again", Duration::from_secs(20));
+    assert_eq!(wait(&mut play.0, Duration::from_secs(120)), Some(0));
+    std::thread::sleep(Duration::from_millis(300));
+    sigterm(rec_pid);
+    env.wait_for("record", "exit 0", Duration::from_secs(20));
+    let pieces: Vec<PathBuf> = list_pieces(&inside)
+        .into_iter()
+        .map(|p| {
+            let to = env.dir.join(p.path.file_name().expect("name"));
+            std::fs::copy(&p.path, &to).expect("copy out");
+            to
+        })
+        .collect();
+    let _ = ns.0.kill();
+    let _ = ns.0.wait();
+    let err = env.read("record.err");
+    let out = env.read("record.out");
+    assert_eq!(
+        err.matches("cannot write").count(),
+        1,
+        "the full disk is reported once: {err}"
+    );
+    let lost: u64 = out
+        .split("; ")
+        .nth(1)
+        .and_then(|s| s.split_whitespace().next())
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("no lost count: {out}"));
+    assert!(lost > 0, "{out}");
+    // The replay lost nothing: no subscriber (the recorder included) held it up.
+    let play_out = env.read("play.out");
+    assert!(play_out.contains(", 0 samples lost"), "{play_out}");
+    assert!(pieces.len() >= 2, "no new piece after the full disk: {err}");
+    // The piece written after the disk had room again navigates alone.
+    let last = pieces.last().expect("pieces").clone();
+    check_pieces_navigate_alone(&env, &[last]);
+    // The torn piece still reads up to its tear.
+    let (records, _) = msgs::navlog::read_all(&std::fs::read(&pieces[0]).expect("piece"));
+    assert!(records.len() > 100, "{}", records.len());
+}
