@@ -14,6 +14,8 @@ use polarnav::session::{Event, Input, Session, SessionSettings, Sink, Stream};
 use sensor_replay::scenario::Scenario;
 use sensor_replay::simulate::{SimOptions, simulate};
 
+pub mod harness;
+
 /// A command running the `nav-daemon` binary `bin` as deployed
 /// (systemd/nav-daemon.service: CPUSchedulingPolicy=fifo): under
 /// `chrt -f 50` when this machine permits it. Returns the command and

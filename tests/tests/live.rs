@@ -3,7 +3,7 @@
 //! prefix and iceoryx2 root, and a deadline on every wait.
 
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Stdio};
+use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 use msgs::Solution;
@@ -11,200 +11,24 @@ use msgs::navlog::Record;
 use polarnav::session;
 use polarnav::solution_csv;
 use polarnav_config::{CliOverrides, ConfigFile, effective};
-use polarnav_ipc::{TransportConfig, remove_isolated};
+use polarnav_tests::harness::{Env, Proc, short_log, short_log_of, terminate, wait};
 use polarnav_tests::{bin, check_mcap, python, repo};
 use sensor_replay::scenario::Scenario;
 use sensor_replay::simulate::{SimOptions, simulate};
 
-struct Env {
-    dir: PathBuf,
-    cfg: TransportConfig,
-    _machine: Machine,
+/// What `nav-daemon batch` computes on `log` with `env`'s configuration:
+/// the same session with the same effective settings (file, then the
+/// log's header), in process, solutions read directly.
+fn batch_solutions(env: &Env, log: &Path) -> Vec<Solution> {
+    let file = ConfigFile::load(&env.dir.join("nav.toml")).expect("config");
+    navigate_log(&std::fs::read(log).expect("log"), &file)
 }
 
-/// Tests share the machine; one that loads it on purpose (CPU burners) runs
-/// alone, so that the others' timing assertions measure the daemon.
-static MACHINE: std::sync::RwLock<()> = std::sync::RwLock::new(());
-
-#[allow(dead_code)]
-enum Machine {
-    Shared(std::sync::RwLockReadGuard<'static, ()>),
-    Alone(std::sync::RwLockWriteGuard<'static, ()>),
-}
-
-impl Env {
-    fn new(tag: &str) -> Self {
-        let m = Machine::Shared(MACHINE.read().unwrap_or_else(|e| e.into_inner()));
-        Self::with_machine(tag, m)
-    }
-
-    /// An environment that has the machine to itself while it lives.
-    fn alone(tag: &str) -> Self {
-        let m = Machine::Alone(MACHINE.write().unwrap_or_else(|e| e.into_inner()));
-        Self::with_machine(tag, m)
-    }
-
-    fn with_machine(tag: &str, machine: Machine) -> Self {
-        let cfg = TransportConfig::isolated(tag);
-        let dir = std::env::temp_dir().join(format!("polarnav-live-{tag}-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).expect("dir");
-        std::fs::write(
-            dir.join("nav.toml"),
-            format!("prefix = \"{}\"\n", cfg.prefix),
-        )
-        .expect("config");
-        Self {
-            dir,
-            cfg,
-            _machine: machine,
-        }
-    }
-
-    fn command(&self, binary: &str, log: &str) -> Command {
-        self.command_for(&bin(binary), log)
-    }
-
-    /// `program` with this environment's iceoryx2 isolation, its output in `<log>.out` / `<log>.err`.
-    fn command_for(&self, program: &Path, log: &str) -> Command {
-        let mut c = Command::new(program);
-        c.env(
-            "POLARNAV_IOX_PREFIX",
-            self.cfg.iox_prefix.as_deref().expect("isolated"),
-        )
-        .env(
-            "POLARNAV_IOX_ROOT",
-            self.cfg.iox_root.as_ref().expect("isolated"),
-        )
-        .env("RUST_LOG", "info")
-        .stdin(Stdio::null())
-        .stdout(std::fs::File::create(self.dir.join(format!("{log}.out"))).expect("log"))
-        .stderr(std::fs::File::create(self.dir.join(format!("{log}.err"))).expect("log"));
-        c
-    }
-
-    /// Waits until `log`'s stderr contains `text`.
-    fn wait_for(&self, log: &str, text: &str, deadline: Duration) {
-        let path = self.dir.join(format!("{log}.err"));
-        let t0 = Instant::now();
-        while t0.elapsed() < deadline {
-            if std::fs::read_to_string(&path).is_ok_and(|s| s.contains(text)) {
-                return;
-            }
-            std::thread::sleep(Duration::from_millis(20));
-        }
-        panic!(
-            "{log} did not print {text:?} within {deadline:?}: {}",
-            std::fs::read_to_string(&path).unwrap_or_default()
-        );
-    }
-}
-
-impl Drop for Env {
-    fn drop(&mut self) {
-        remove_isolated(&self.cfg);
-        let _ = std::fs::remove_dir_all(&self.dir);
-    }
-}
-
-impl Env {
-    /// Starts nav-daemon with this environment's configuration and waits until its services are open.
-    fn start_daemon(&self, log: &str, extra_env: Option<(&str, &Path)>) -> Proc {
-        let mut c = self.command("nav-daemon", log);
-        c.arg("--config").arg(self.dir.join("nav.toml"));
-        if let Some((k, v)) = extra_env {
-            c.env(k, v);
-        }
-        let child = Proc(c.spawn().expect("nav-daemon"));
-        self.wait_for(log, "services open", Duration::from_secs(20));
-        child
-    }
-
-    /// What `nav-daemon batch` computes on `log` with this environment's
-    /// configuration: the same session with the same effective settings
-    /// (file, then the log's header), in process, solutions read directly.
-    fn batch_solutions(&self, log: &Path) -> Vec<Solution> {
-        let file = ConfigFile::load(&self.dir.join("nav.toml")).expect("config");
-        navigate_log(&std::fs::read(log).expect("log"), &file)
-    }
-
-    fn batch_rows(&self, log: &Path) -> Vec<solution_csv::Row> {
-        self.batch_solutions(log)
-            .iter()
-            .map(solution_csv::Row::from_solution)
-            .collect()
-    }
-
-    /// Starts the flight recorder writing `path` and waits until it has subscribed.
-    fn start_recorder(&self, path: &Path) -> Proc {
-        let child = self
-            .command("sensor-replay", "record")
-            .args(["record", "--prefix", &self.cfg.prefix, "--out"])
-            .arg(path)
-            .spawn()
-            .map(Proc)
-            .expect("recorder");
-        self.wait_for("record", "subscribed", Duration::from_secs(20));
-        child
-    }
-
-    /// Starts a replay of `log_file` at `speed`.
-    fn start_play(&self, log: &str, log_file: &Path, speed: &str) -> Proc {
-        self.command("sensor-replay", log)
-            .arg("play")
-            .arg(log_file)
-            .args(["--speed", speed, "--prefix", &self.cfg.prefix])
-            .spawn()
-            .map(Proc)
-            .expect("play")
-    }
-}
-
-/// A child process that is killed when dropped, so a failing test leaves
-/// nothing running.
-struct Proc(Child);
-
-impl std::ops::Deref for Proc {
-    type Target = Child;
-    fn deref(&self) -> &Child {
-        &self.0
-    }
-}
-
-impl std::ops::DerefMut for Proc {
-    fn deref_mut(&mut self) -> &mut Child {
-        &mut self.0
-    }
-}
-
-impl Drop for Proc {
-    fn drop(&mut self) {
-        if let Ok(None) = self.0.try_wait() {
-            let _ = self.0.kill();
-            let _ = self.0.wait();
-        }
-    }
-}
-
-/// Sends SIGTERM and waits for the exit status within `deadline` (SIGKILL after it).
-fn terminate(child: &mut Child, deadline: Duration) -> Option<i32> {
-    let _ = Command::new("kill")
-        .arg("-TERM")
-        .arg(child.id().to_string())
-        .status();
-    wait(child, deadline)
-}
-
-fn wait(child: &mut Child, deadline: Duration) -> Option<i32> {
-    let t0 = Instant::now();
-    while t0.elapsed() < deadline {
-        if let Some(s) = child.try_wait().expect("wait") {
-            return s.code();
-        }
-        std::thread::sleep(Duration::from_millis(20));
-    }
-    let _ = child.kill();
-    let _ = child.wait();
-    panic!("process {} did not exit within {deadline:?}", child.id());
+fn batch_rows(env: &Env, log: &Path) -> Vec<solution_csv::Row> {
+    batch_solutions(env, log)
+        .iter()
+        .map(solution_csv::Row::from_solution)
+        .collect()
 }
 
 /// The session over a navlog's records with the settings `batch` would use
@@ -255,26 +79,6 @@ fn row_state(r: &solution_csv::Row) -> [f64; 13] {
         r.q_b_e[2],
         r.q_b_e[3],
     ]
-}
-
-fn short_log(dir: &Path, seconds: f64) -> PathBuf {
-    short_log_of(dir, seconds, "config/scenarios/transpolar.toml")
-}
-
-fn short_log_of(dir: &Path, seconds: f64, scenario: &str) -> PathBuf {
-    let text = std::fs::read_to_string(repo(scenario))
-        .expect("scenario")
-        .replace("duration_s = 4480.0", &format!("duration_s = {seconds}"));
-    let s = Scenario::parse(&text, "short").expect("scenario");
-    let log = dir.join("flight.navlog");
-    simulate(
-        &s,
-        &text,
-        SimOptions::default(),
-        std::fs::File::create(&log).expect("create"),
-    )
-    .expect("simulate");
-    log
 }
 
 #[test]
@@ -1176,7 +980,7 @@ fn python_consumer_receives_solution_and_status() {
         "{printed}"
     );
 
-    let rows = env.batch_rows(&log);
+    let rows = batch_rows(&env, &log);
     let text = std::fs::read_to_string(&csv).expect("python csv");
     let mut received = 0;
     let mut worst: f64 = 0.0;
@@ -1579,7 +1383,7 @@ fn paper_sim_live_equals_batch_bit_for_bit_and_the_recording_reproduces_it() {
     let (rec_records, report) = msgs::navlog::read_all(&recording);
     assert!(report.is_clean(), "{report}");
     let live = recorded_solutions(&rec_records);
-    let batch = env.batch_solutions(&log);
+    let batch = batch_solutions(&env, &log);
     // Every solution the recorder received equals batch's at the same time,
     // bit for bit. (A recorder starved of CPU can lose some to its
     // subscriber buffer's overflow; the daemon published them all.)

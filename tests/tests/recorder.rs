@@ -5,142 +5,19 @@
 //! the prefix from the daemon's configuration, and a full tmpfs.
 
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Stdio};
+use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 use msgs::navlog::Record;
-use polarnav_ipc::{TransportConfig, remove_isolated};
-use polarnav_tests::{bin, repo};
+use polarnav_tests::bin;
+use polarnav_tests::harness::{Env, Proc, short_log, wait};
 use sensor_replay::pieces::list_pieces;
-use sensor_replay::scenario::Scenario;
-use sensor_replay::simulate::{SimOptions, simulate};
-
-struct Env {
-    dir: PathBuf,
-    cfg: TransportConfig,
-}
-
-impl Env {
-    fn new(tag: &str) -> Self {
-        let cfg = TransportConfig::isolated(tag);
-        let dir = std::env::temp_dir().join(format!("polarnav-rec-{tag}-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&dir);
-        std::fs::create_dir_all(&dir).expect("dir");
-        std::fs::write(
-            dir.join("nav.toml"),
-            format!("prefix = \"{}\"\n", cfg.prefix),
-        )
-        .expect("config");
-        Self { dir, cfg }
-    }
-
-    /// `program` with this environment's iceoryx2 isolation, output in `<log>.out` / `<log>.err`.
-    fn command(&self, program: &Path, log: &str) -> Command {
-        let mut c = Command::new(program);
-        c.env(
-            "POLARNAV_IOX_PREFIX",
-            self.cfg.iox_prefix.as_deref().expect("isolated"),
-        )
-        .env(
-            "POLARNAV_IOX_ROOT",
-            self.cfg.iox_root.as_ref().expect("isolated"),
-        )
-        .env("RUST_LOG", "info")
-        .stdin(Stdio::null())
-        .stdout(std::fs::File::create(self.dir.join(format!("{log}.out"))).expect("log"))
-        .stderr(std::fs::File::create(self.dir.join(format!("{log}.err"))).expect("log"));
-        c
-    }
-
-    fn read(&self, log: &str) -> String {
-        std::fs::read_to_string(self.dir.join(log)).unwrap_or_default()
-    }
-
-    /// Waits until `log`'s stderr contains `text`.
-    fn wait_for(&self, log: &str, text: &str, deadline: Duration) {
-        let t0 = Instant::now();
-        while t0.elapsed() < deadline {
-            if self.read(&format!("{log}.err")).contains(text) {
-                return;
-            }
-            std::thread::sleep(Duration::from_millis(20));
-        }
-        panic!(
-            "{log} did not print {text:?} within {deadline:?}: {}",
-            self.read(&format!("{log}.err"))
-        );
-    }
-
-    fn start_daemon(&self) -> Proc {
-        let mut c = self.command(&bin("nav-daemon"), "daemon");
-        c.arg("--config").arg(self.dir.join("nav.toml"));
-        let p = Proc(c.spawn().expect("nav-daemon"));
-        self.wait_for("daemon", "services open", Duration::from_secs(20));
-        p
-    }
-
-    fn play(&self, log: &Path, speed: &str) -> Proc {
-        let mut c = self.command(&bin("sensor-replay"), "play");
-        c.arg("play")
-            .arg(log)
-            .args(["--speed", speed, "--prefix", &self.cfg.prefix]);
-        Proc(c.spawn().expect("play"))
-    }
-}
-
-impl Drop for Env {
-    fn drop(&mut self) {
-        remove_isolated(&self.cfg);
-        let _ = std::fs::remove_dir_all(&self.dir);
-    }
-}
-
-/// A child killed when dropped, so a failing test leaves nothing running.
-struct Proc(Child);
-
-impl Drop for Proc {
-    fn drop(&mut self) {
-        if let Ok(None) = self.0.try_wait() {
-            let _ = self.0.kill();
-            let _ = self.0.wait();
-        }
-    }
-}
-
-fn wait(child: &mut Child, deadline: Duration) -> Option<i32> {
-    let t0 = Instant::now();
-    while t0.elapsed() < deadline {
-        if let Some(s) = child.try_wait().expect("wait") {
-            return s.code();
-        }
-        std::thread::sleep(Duration::from_millis(20));
-    }
-    let _ = child.kill();
-    let _ = child.wait();
-    panic!("process {} did not exit within {deadline:?}", child.id());
-}
 
 fn sigterm(pid: u32) {
     let _ = Command::new("kill")
         .arg("-TERM")
         .arg(pid.to_string())
         .status();
-}
-
-fn short_log(dir: &Path, seconds: f64) -> PathBuf {
-    let text = std::fs::read_to_string(repo("config/scenarios/transpolar.toml"))
-        .expect("scenario")
-        .replace("duration_s = 4480.0", &format!("duration_s = {seconds}"));
-    let s = Scenario::parse(&text, "short").expect("scenario");
-    let log = dir.join("flight.navlog");
-    simulate(
-        &s,
-        &text,
-        SimOptions::default(),
-        std::fs::File::create(&log).expect("create"),
-    )
-    .expect("simulate");
-    log
 }
 
 /// Every piece reads clean, starts with a header and an init, and
@@ -203,10 +80,10 @@ fn rotated_pieces_keep_the_retention_bound_and_each_navigates_alone() {
     let out = env.dir.join("recordings");
     std::fs::create_dir_all(&out).expect("dir");
     std::fs::write(out.join("operator-notes.txt"), vec![b'n'; 300_000]).expect("foreign");
-    let _daemon = env.start_daemon();
+    let _daemon = env.start_daemon("daemon", None);
     let (rotate, keep) = (256u64 << 10, 1u64 << 20);
     let mut rec = {
-        let mut c = env.command(&bin("sensor-replay"), "record");
+        let mut c = env.command("sensor-replay", "record");
         c.args(["record", "--config"])
             .arg(env.dir.join("nav.toml"))
             .arg("--out-dir")
@@ -219,7 +96,7 @@ fn rotated_pieces_keep_the_retention_bound_and_each_navigates_alone() {
         &format!("subscribed to {}/*", env.cfg.prefix),
         Duration::from_secs(20),
     );
-    let mut play = env.play(&log, "8");
+    let mut play = env.start_play("play", &log, "8");
     let t0 = Instant::now();
     let mut worst = 0;
     while play.0.try_wait().expect("play").is_none() {
@@ -283,7 +160,7 @@ fn a_full_tmpfs_is_reported_counted_and_survived_and_the_replay_loses_nothing() 
     let mnt = env.dir.join("mnt");
     std::fs::create_dir_all(&mnt).expect("mnt");
     let pidfile = env.dir.join("rec.pid");
-    let _daemon = env.start_daemon();
+    let _daemon = env.start_daemon("daemon", None);
     // The shell keeps the namespace (and the tmpfs) alive after the
     // recorder exits, until the test has copied the pieces out.
     let script = format!(
@@ -296,14 +173,14 @@ fn a_full_tmpfs_is_reported_counted_and_survived_and_the_replay_loses_nothing() 
         pid = pidfile.display()
     );
     let mut ns = {
-        let mut c = env.command(Path::new("unshare"), "record");
+        let mut c = env.command_for(Path::new("unshare"), "record");
         c.args(["-rm", "sh", "-c", &script]);
         Proc(c.spawn().expect("unshare"))
     };
     env.wait_for("record", "subscribed", Duration::from_secs(20));
     let rec_pid: u32 = env.read("rec.pid").trim().parse().expect("recorder pid");
     let inside = PathBuf::from(format!("/proc/{}/root{}", ns.0.id(), mnt.display()));
-    let mut play = env.play(&log, "4");
+    let mut play = env.start_play("play", &log, "4");
     // Let it write a while, then fill the file system.
     env.wait_for("record", "effective settings", Duration::from_secs(20));
     std::thread::sleep(Duration::from_secs(2));

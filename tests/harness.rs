@@ -1,0 +1,219 @@
+//! The harness of the multi-process tests: each test's own iceoryx2
+//! service prefix and root, its processes' output in files, a deadline on
+//! every wait, and children that die with the test.
+
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+use polarnav_ipc::{TransportConfig, remove_isolated};
+use sensor_replay::scenario::Scenario;
+use sensor_replay::simulate::{SimOptions, simulate};
+
+use crate::bin;
+
+#[derive(Debug)]
+pub struct Env {
+    pub dir: PathBuf,
+    pub cfg: TransportConfig,
+    _machine: Machine,
+}
+
+/// Tests share the machine; one that loads it on purpose (CPU burners) runs
+/// alone, so that the others' timing assertions measure the daemon.
+static MACHINE: std::sync::RwLock<()> = std::sync::RwLock::new(());
+
+#[allow(dead_code)]
+#[derive(Debug)]
+pub enum Machine {
+    Shared(std::sync::RwLockReadGuard<'static, ()>),
+    Alone(std::sync::RwLockWriteGuard<'static, ()>),
+}
+
+impl Env {
+    pub fn new(tag: &str) -> Self {
+        let m = Machine::Shared(MACHINE.read().unwrap_or_else(|e| e.into_inner()));
+        Self::with_machine(tag, m)
+    }
+
+    /// An environment that has the machine to itself while it lives.
+    pub fn alone(tag: &str) -> Self {
+        let m = Machine::Alone(MACHINE.write().unwrap_or_else(|e| e.into_inner()));
+        Self::with_machine(tag, m)
+    }
+
+    pub fn with_machine(tag: &str, machine: Machine) -> Self {
+        let cfg = TransportConfig::isolated(tag);
+        let dir = std::env::temp_dir().join(format!("polarnav-live-{tag}-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("dir");
+        std::fs::write(
+            dir.join("nav.toml"),
+            format!("prefix = \"{}\"\n", cfg.prefix),
+        )
+        .expect("config");
+        Self {
+            dir,
+            cfg,
+            _machine: machine,
+        }
+    }
+
+    pub fn command(&self, binary: &str, log: &str) -> Command {
+        self.command_for(&bin(binary), log)
+    }
+
+    /// `program` with this environment's iceoryx2 isolation, its output in `<log>.out` / `<log>.err`.
+    pub fn command_for(&self, program: &Path, log: &str) -> Command {
+        let mut c = Command::new(program);
+        c.env(
+            "POLARNAV_IOX_PREFIX",
+            self.cfg.iox_prefix.as_deref().expect("isolated"),
+        )
+        .env(
+            "POLARNAV_IOX_ROOT",
+            self.cfg.iox_root.as_ref().expect("isolated"),
+        )
+        .env("RUST_LOG", "info")
+        .stdin(Stdio::null())
+        .stdout(std::fs::File::create(self.dir.join(format!("{log}.out"))).expect("log"))
+        .stderr(std::fs::File::create(self.dir.join(format!("{log}.err"))).expect("log"));
+        c
+    }
+
+    /// A file of this environment's directory, empty if it is missing.
+    pub fn read(&self, name: &str) -> String {
+        std::fs::read_to_string(self.dir.join(name)).unwrap_or_default()
+    }
+
+    /// Waits until `log`'s stderr contains `text`.
+    pub fn wait_for(&self, log: &str, text: &str, deadline: Duration) {
+        let path = self.dir.join(format!("{log}.err"));
+        let t0 = Instant::now();
+        while t0.elapsed() < deadline {
+            if std::fs::read_to_string(&path).is_ok_and(|s| s.contains(text)) {
+                return;
+            }
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        panic!(
+            "{log} did not print {text:?} within {deadline:?}: {}",
+            std::fs::read_to_string(&path).unwrap_or_default()
+        );
+    }
+}
+
+impl Drop for Env {
+    fn drop(&mut self) {
+        remove_isolated(&self.cfg);
+        let _ = std::fs::remove_dir_all(&self.dir);
+    }
+}
+
+impl Env {
+    /// Starts nav-daemon with this environment's configuration and waits until its services are open.
+    pub fn start_daemon(&self, log: &str, extra_env: Option<(&str, &Path)>) -> Proc {
+        let mut c = self.command("nav-daemon", log);
+        c.arg("--config").arg(self.dir.join("nav.toml"));
+        if let Some((k, v)) = extra_env {
+            c.env(k, v);
+        }
+        let child = Proc(c.spawn().expect("nav-daemon"));
+        self.wait_for(log, "services open", Duration::from_secs(20));
+        child
+    }
+
+    /// Starts the flight recorder writing `path` and waits until it has subscribed.
+    pub fn start_recorder(&self, path: &Path) -> Proc {
+        let child = self
+            .command("sensor-replay", "record")
+            .args(["record", "--prefix", &self.cfg.prefix, "--out"])
+            .arg(path)
+            .spawn()
+            .map(Proc)
+            .expect("recorder");
+        self.wait_for("record", "subscribed", Duration::from_secs(20));
+        child
+    }
+
+    /// Starts a replay of `log_file` at `speed`.
+    pub fn start_play(&self, log: &str, log_file: &Path, speed: &str) -> Proc {
+        self.command("sensor-replay", log)
+            .arg("play")
+            .arg(log_file)
+            .args(["--speed", speed, "--prefix", &self.cfg.prefix])
+            .spawn()
+            .map(Proc)
+            .expect("play")
+    }
+}
+
+/// A child process that is killed when dropped, so a failing test leaves
+/// nothing running.
+#[derive(Debug)]
+pub struct Proc(pub Child);
+
+impl std::ops::Deref for Proc {
+    type Target = Child;
+    fn deref(&self) -> &Child {
+        &self.0
+    }
+}
+
+impl std::ops::DerefMut for Proc {
+    fn deref_mut(&mut self) -> &mut Child {
+        &mut self.0
+    }
+}
+
+impl Drop for Proc {
+    fn drop(&mut self) {
+        if let Ok(None) = self.0.try_wait() {
+            let _ = self.0.kill();
+            let _ = self.0.wait();
+        }
+    }
+}
+
+/// Sends SIGTERM and waits for the exit status within `deadline` (SIGKILL after it).
+pub fn terminate(child: &mut Child, deadline: Duration) -> Option<i32> {
+    let _ = Command::new("kill")
+        .arg("-TERM")
+        .arg(child.id().to_string())
+        .status();
+    wait(child, deadline)
+}
+
+pub fn wait(child: &mut Child, deadline: Duration) -> Option<i32> {
+    let t0 = Instant::now();
+    while t0.elapsed() < deadline {
+        if let Some(s) = child.try_wait().expect("wait") {
+            return s.code();
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let _ = child.kill();
+    let _ = child.wait();
+    panic!("process {} did not exit within {deadline:?}", child.id());
+}
+
+/// The first `seconds` of `transpolar.toml`, simulated into `dir`.
+pub fn short_log(dir: &Path, seconds: f64) -> PathBuf {
+    short_log_of(dir, seconds, "config/scenarios/transpolar.toml")
+}
+
+/// The first `seconds` of `scenario` (which must say `duration_s = 4480.0`).
+pub fn short_log_of(dir: &Path, seconds: f64, scenario: &str) -> PathBuf {
+    let text = std::fs::read_to_string(crate::repo(scenario))
+        .expect("scenario")
+        .replace("duration_s = 4480.0", &format!("duration_s = {seconds}"));
+    let s = Scenario::parse(&text, "short").expect("scenario");
+    let log = dir.join("flight.navlog");
+    simulate(
+        &s,
+        &text,
+        SimOptions::default(),
+        std::fs::File::create(&log).expect("create"),
+    )
+    .expect("simulate");
+    log
+}
