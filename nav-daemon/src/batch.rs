@@ -234,7 +234,7 @@ impl<W: Write> Sink for CsvSink<'_, W> {
 
 /// Runs the session over `log`, writing the solution CSV to `out`.
 /// `log_name` names the log in errors.
-pub fn run<R: BufRead, W: Write>(
+pub fn run<R: BufRead + Send, W: Write>(
     log: R,
     log_name: &str,
     out: W,
@@ -244,8 +244,13 @@ pub fn run<R: BufRead, W: Write>(
     run_to(log, log_name, Output::Csv(out), file, opts)
 }
 
+/// Records per chunk handed from the decoding thread to the session, and
+/// chunks decoded ahead: about 2 MB of records in flight.
+const CHUNK_RECORDS: usize = 4096;
+const CHUNKS_AHEAD: usize = 2;
+
 /// Runs the session over `log`, writing the solution to `out` (CSV or MCAP).
-pub fn run_to<R: BufRead, W: Write>(
+pub fn run_to<R: BufRead + Send, W: Write>(
     log: R,
     log_name: &str,
     out: Output<W>,
@@ -312,12 +317,67 @@ pub fn run_to<R: BufRead, W: Write>(
     if let Some(rec) = &first {
         push(rec, &mut session, &mut sink);
     }
-    while let Some(rec) = reader.next_record().map_err(read_err)? {
-        push(&rec, &mut session, &mut sink);
-        if let Some(e) = sink.error.take() {
-            return Err(e.into());
+    // The rest of the log is read and decoded on a second thread, a chunk
+    // of records ahead of the session (the navigator's work and the
+    // decoding overlap on two cores); chunks go back to it for reuse, so
+    // the steady state allocates nothing more than decoding itself does.
+    let (read, sink_error) = std::thread::scope(|scope| {
+        let (full_tx, full_rx) = std::sync::mpsc::sync_channel::<Vec<Record>>(CHUNKS_AHEAD);
+        let (empty_tx, empty_rx) = std::sync::mpsc::sync_channel::<Vec<Record>>(CHUNKS_AHEAD + 2);
+        let decoder = scope.spawn(move || {
+            loop {
+                let mut chunk = empty_rx
+                    .try_recv()
+                    .unwrap_or_else(|_| Vec::with_capacity(CHUNK_RECORDS));
+                chunk.clear();
+                let mut end = Ok(false);
+                while chunk.len() < CHUNK_RECORDS {
+                    match reader.next_record() {
+                        Ok(Some(r)) => chunk.push(r),
+                        Ok(None) => {
+                            end = Ok(true);
+                            break;
+                        }
+                        Err(e) => {
+                            end = Err(e);
+                            break;
+                        }
+                    }
+                }
+                // A closed channel: the session stopped on an output error.
+                let sent = full_tx.send(chunk).is_ok();
+                match end {
+                    Ok(false) if sent => {}
+                    Ok(_) => return Ok(reader.report().clone()),
+                    Err(e) => return Err(e),
+                }
+            }
+        });
+        let mut sink_error = None;
+        for mut chunk in full_rx.iter() {
+            for rec in chunk.drain(..) {
+                push(&rec, &mut session, &mut sink);
+                if let Some(e) = sink.error.take() {
+                    sink_error = Some(e);
+                    break;
+                }
+            }
+            if sink_error.is_some() {
+                break;
+            }
+            // The decoder may have finished: a failed return is harmless.
+            let _ = empty_tx.try_send(chunk);
         }
+        drop(full_rx);
+        let read = decoder
+            .join()
+            .unwrap_or_else(|p| std::panic::resume_unwind(p));
+        (read, sink_error)
+    });
+    if let Some(e) = sink_error {
+        return Err(e.into());
     }
+    let read = read.map_err(read_err)?;
     session.finish(&mut sink);
     if let Some(e) = sink.error.take() {
         return Err(e.into());
@@ -345,7 +405,7 @@ pub fn run_to<R: BufRead, W: Write>(
     }
     let (first_t_ns, last_t_ns) = session.span_ns();
     Ok(BatchReport {
-        read: reader.report().clone(),
+        read,
         rows: sink.rows,
         switches: sink.switches,
         effective: eff,
