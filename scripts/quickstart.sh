@@ -45,9 +45,12 @@ pids=()
 grep -E "clean exit|frame switch" "$out/daemon.log" | sed 's/\x1b\[[0-9;]*m//g' | tail -3
 tail -1 "$out/record.log"
 
-echo "== accuracy of the live solution"
+echo "== accuracy of the live solution, and its switch transients against a never-switching run"
 $B/sensor-replay export "$out/live.navlog" --solution-csv "$out/live.csv"
-$B/sensor-replay eval --log "$out/flight.navlog" --solution "$out/live.csv" --out "$out"
+# The transient of a switch is what it changes: the same log navigated
+# without ever switching is the reference (the experiments' measure).
+$B/nav-daemon batch --config "$out/nav-daemon.toml" --log "$out/flight.navlog" --no-switch --out "$out/never-switch.csv" 2>&1 | grep -E "^batch:"
+$B/sensor-replay eval --log "$out/flight.navlog" --solution "$out/live.csv" --compare "$out/never-switch.csv" --out "$out"
 
 echo "== the live solution against batch on the same log"
 $B/nav-daemon batch --config "$out/nav-daemon.toml" --log "$out/flight.navlog" --out "$out/batch.csv" 2>&1 | grep -E "^batch:"
