@@ -537,13 +537,28 @@ mod tests {
 
     #[test]
     #[allow(clippy::float_cmp)] // copies of the same decimal literals: exact
-    fn the_shipped_config_says_it_uses_the_navigation_preset() {
+    fn the_shipped_config_is_what_the_readme_says_table_1_with_constant_biases() {
         let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config/nav-daemon.toml");
         let c = Config::load(&path).expect("shipped config");
-        assert_eq!(c.filter.preset, Some(SensorGrade::Navigation));
+        assert_eq!(c.filter.preset, None);
+        // The built-in defaults (papers/001 Table 1), written out.
+        assert_eq!(c.filter, FilterSettings::default());
         assert_eq!(
-            c.filter,
-            SensorGrade::Navigation.apply(&FilterSettings::default())
+            (
+                c.filter.arw_dpsh,
+                c.filter.vrw_ug_psqhz,
+                c.filter.gyro_bias_dph,
+                c.filter.accel_bias_ug
+            ),
+            (0.001, 10.0, 0.01, 100.0)
+        );
+        assert_eq!(
+            (
+                c.filter.gyro_bias_instability_dph,
+                c.filter.accel_bias_instability_ug
+            ),
+            (0.0, 0.0),
+            "constant biases"
         );
     }
 
