@@ -336,9 +336,11 @@ pub fn read(path: &std::path::Path) -> Result<Vec<Row>, ReadCsvError> {
 
 /// Parses solution CSV text; `p` names its origin in errors. Columns are found
 /// by header name: any order, unknown columns ignored; a missing column is an
-/// error naming it.
+/// error naming it. A leading UTF-8 byte-order mark (spreadsheets' "CSV
+/// UTF-8" writes one) is not part of the first column's name.
 pub fn parse(text: &str, p: &str) -> Result<Vec<Row>, ReadCsvError> {
     let p = p.to_owned();
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     let mut lines = text.lines();
     let Some(head) = lines.next() else {
         return Err(ReadCsvError::Header { path: p });
@@ -461,6 +463,28 @@ mod tests {
         assert!((rows[0].t_s - 1.5).abs() < 1e-12);
         assert!((rows[0].lat_deg - 1.2f64.to_degrees()).abs() < 1e-9);
         assert!(rows[0].sigma_enu_m[0].is_nan());
+        std::fs::remove_dir_all(&dir).ok();
+    }
+
+    #[test]
+    fn a_byte_order_mark_reads_like_none() {
+        let mut s = Solution {
+            t_ns: 2_000_000_000,
+            ..Default::default()
+        };
+        s.lat_rad = 1.4;
+        let mut buf = Vec::new();
+        write_row(&mut buf, &s).expect("write");
+        let plain = format!("{HEADER}\n{}", String::from_utf8(buf).expect("utf8"));
+        let dir = std::env::temp_dir().join(format!("polarnav-bom-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("dir");
+        let (with, without) = (dir.join("bom.csv"), dir.join("plain.csv"));
+        std::fs::write(&with, format!("\u{feff}{plain}")).expect("write bom");
+        std::fs::write(&without, &plain).expect("write plain");
+        let a = read(&with).expect("a BOM is accepted");
+        let b = read(&without).expect("plain");
+        assert_eq!(a, b);
+        assert_eq!(a.len(), 1);
         std::fs::remove_dir_all(&dir).ok();
     }
 
