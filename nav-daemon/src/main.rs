@@ -191,6 +191,17 @@ fn main() -> ExitCode {
                 Ok(f) => BufReader::with_capacity(1 << 20, f),
                 Err(e) => return usage(format!("{log_name}: cannot open: {e}")),
             };
+            // An output directory that does not exist is bad usage (exit 2, as
+            // DESIGN's CLI section says), not a failure of the run.
+            if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty())
+                && !dir.is_dir()
+            {
+                return usage(format!(
+                    "--out {}: cannot create: directory {} does not exist",
+                    out.display(),
+                    dir.display()
+                ));
+            }
             // The format by the extension: `.mcap` writes MCAP, anything else the CSV.
             let is_mcap = out
                 .extension()
