@@ -14,7 +14,10 @@ use polarnav_config::{AidSet, CliOverrides, ConfigFile, Conversion, SensorGrade,
 #[command(
     name = "nav-daemon",
     version,
-    about = "polarnav navigation daemon (SINS/SRS/CNS/baro, g/G frame switching)"
+    about = "polarnav navigation daemon (SINS/SRS/CNS/baro, g/G frame switching)",
+    after_help = "Without a subcommand, nav-daemon runs the live navigation service: it \
+        reads its inputs from and publishes its solution over iceoryx2 under the \
+        configuration's prefix until SIGINT or SIGTERM (the systemd unit starts it so)."
 )]
 struct Cli {
     /// Configuration file (default: $PWD/config/nav-daemon.toml, then /etc/polarnav/nav-daemon.toml).
@@ -35,6 +38,7 @@ enum Cmd {
     /// Run the navigator over a navlog as fast as possible and write the solution
     /// (CSV, or MCAP for Foxglove and PlotJuggler when the name ends in .mcap).
     Batch {
+        /// The navlog to navigate (simulated, imported or recorded).
         #[arg(long)]
         log: PathBuf,
         /// Solution file: `.csv` (default format) or `.mcap` (every input stream,
@@ -318,5 +322,46 @@ fn main() -> ExitCode {
                 }
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::CommandFactory;
+
+    /// The arguments (path of subcommands, then id) and subcommands without help text.
+    fn undocumented(cmd: &clap::Command, path: &str, out: &mut Vec<String>) {
+        for a in cmd.get_arguments() {
+            if a.get_help().is_none() && a.get_long_help().is_none() {
+                out.push(format!("{path} {}", a.get_id()));
+            }
+        }
+        for s in cmd.get_subcommands() {
+            let sub = format!("{path} {}", s.get_name());
+            if s.get_about().is_none() && s.get_long_about().is_none() {
+                out.push(sub.clone());
+            }
+            undocumented(s, &sub, out);
+        }
+    }
+
+    #[test]
+    fn help_says_that_no_subcommand_runs_the_live_service() {
+        let mut cmd = Cli::command();
+        for help in [cmd.render_help(), cmd.render_long_help()] {
+            let text = help.to_string();
+            assert!(
+                text.contains("Without a subcommand, nav-daemon runs the live navigation service"),
+                "{text}"
+            );
+        }
+    }
+
+    #[test]
+    fn every_argument_and_subcommand_has_help_text() {
+        let mut missing = Vec::new();
+        undocumented(&Cli::command(), "nav-daemon", &mut missing);
+        assert!(missing.is_empty(), "no help text for {missing:?}");
     }
 }

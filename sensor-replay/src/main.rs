@@ -27,10 +27,13 @@ struct Cli {
 enum Cmd {
     /// Simulate a scenario into a navlog (IMU, aids, init, truth).
     Simulate {
+        /// Scenario file (TOML), e.g. config/scenarios/polar-crossing.toml.
         #[arg(long)]
         scenario: PathBuf,
+        /// The navlog to write.
         #[arg(long)]
         out: PathBuf,
+        /// Random seed of the sensor errors and noise (same seed, same flight).
         #[arg(long, default_value_t = 1)]
         seed: u64,
         /// Error-free sensors and initial state.
@@ -42,6 +45,7 @@ enum Cmd {
     },
     /// Publish a navlog's init and sensor records over iceoryx2 at wall-clock rate.
     Play {
+        /// The navlog to publish.
         log: PathBuf,
         /// Time scale (2 = twice as fast).
         #[arg(long, default_value_t = 1.0)]
@@ -66,6 +70,7 @@ enum Cmd {
     /// Fault campaign: every scenario in DIR simulated with and without its
     /// [faults], navigated by batch, and judged (exit 1 if any fails).
     Campaign {
+        /// Directory of fault scenarios (every *.toml in it).
         #[arg(long, default_value = "config/scenarios/faults")]
         dir: PathBuf,
     },
@@ -130,7 +135,10 @@ enum Cmd {
     },
     /// Export a navlog's truth (and more) to text formats.
     Export {
+        /// The navlog to export.
         log: PathBuf,
+        /// Write the log's truth as CSV (t_s, geodetic and ECEF position,
+        /// ECEF velocity, body→ECEF quaternion).
         #[arg(long)]
         truth_csv: Option<PathBuf>,
         /// Write the log's solution records (e.g. a recorded live run) as a solution CSV.
@@ -147,10 +155,13 @@ enum Cmd {
     },
     /// Import KF-GINS text logs (IMU increments FRD, NED truth).
     ImportKfgins {
+        /// KF-GINS imu.txt: time, angle and velocity increments (body FRD).
         #[arg(long)]
         imu: PathBuf,
+        /// KF-GINS truth.nav: time, latitude, longitude, height, NED velocity, roll, pitch, yaw.
         #[arg(long)]
         truth: PathBuf,
+        /// The navlog to write.
         #[arg(long)]
         out: PathBuf,
         #[command(flatten)]
@@ -158,7 +169,9 @@ enum Cmd {
     },
     /// Import a PSINS text IMU file (e.g. ../shared/datasets/psins-lasergyro/lasergyro.imu).
     ImportPsins {
+        /// PSINS text IMU file (header, then one sample per line).
         file: PathBuf,
+        /// The navlog to write.
         #[arg(long)]
         out: PathBuf,
         #[command(flatten)]
@@ -166,6 +179,7 @@ enum Cmd {
     },
     /// Accuracy of a solution against the log's truth, with figures.
     Eval {
+        /// The navlog of the flight, whose truth the solution is judged against.
         #[arg(long)]
         log: PathBuf,
         /// The solution CSV, or the MCAP file of `nav-daemon batch --out F.mcap`
@@ -746,5 +760,34 @@ fn main() -> ExitCode {
             eprintln!("error: {msg}");
             ExitCode::from(code)
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::CommandFactory;
+
+    /// The arguments (path of subcommands, then id) and subcommands without help text.
+    fn undocumented(cmd: &clap::Command, path: &str, out: &mut Vec<String>) {
+        for a in cmd.get_arguments() {
+            if a.get_help().is_none() && a.get_long_help().is_none() {
+                out.push(format!("{path} {}", a.get_id()));
+            }
+        }
+        for s in cmd.get_subcommands() {
+            let sub = format!("{path} {}", s.get_name());
+            if s.get_about().is_none() && s.get_long_about().is_none() {
+                out.push(sub.clone());
+            }
+            undocumented(s, &sub, out);
+        }
+    }
+
+    #[test]
+    fn every_argument_and_subcommand_has_help_text() {
+        let mut missing = Vec::new();
+        undocumented(&Cli::command(), "sensor-replay", &mut missing);
+        assert!(missing.is_empty(), "no help text for {missing:?}");
     }
 }
