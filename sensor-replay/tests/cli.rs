@@ -51,3 +51,18 @@ fn eval_names_a_navlog_passed_as_the_solution_and_exits_2() {
     assert!(!err.contains("valid UTF-8"), "{err}");
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn listen_into_a_file_writes_plain_lines_without_escapes() {
+    // Nothing publishes on this prefix: listen shows "none yet" and stops.
+    let prefix = format!("sr-listen-plain-{}", std::process::id());
+    let o = Command::new(env!("CARGO_BIN_EXE_sensor-replay"))
+        .args(["listen", "--duration", "0.6", "--prefix", &prefix])
+        .output()
+        .expect("run");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(0), "{err}");
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(out.contains("solution: none yet"), "{out:?}");
+    assert!(!o.stdout.contains(&0x1b), "escape in {out:?}");
+}
