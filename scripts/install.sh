@@ -6,8 +6,9 @@
 #   DESTDIR=/tmp/stage scripts/install.sh      # stage for a package or image
 #   BIN_DIR=target/aarch64-unknown-linux-gnu/release DESTDIR=... scripts/install.sh
 #
-# PREFIX (default /usr/local) holds bin/ and share/doc/polarnav/; the units
-# expect /usr/local/bin. An existing /etc/polarnav/nav-daemon.toml is kept
+# PREFIX (default /usr/local) holds bin/ and share/doc/polarnav/; the
+# installed units start $PREFIX/bin/... and name $PREFIX/share/doc/polarnav
+# (the units in systemd/ say /usr/local, rewritten here). An existing /etc/polarnav/nav-daemon.toml is kept
 # (the shipped one is installed beside it as nav-daemon.toml.dist). Without
 # DESTDIR, on a machine run by systemd, the user, group and directories are
 # created and systemd reloaded; nothing is enabled or started.
@@ -16,6 +17,16 @@ cd "$(dirname "$0")/.."
 DESTDIR=${DESTDIR:-}
 PREFIX=${PREFIX:-/usr/local}
 BIN_DIR=${BIN_DIR:-target/release}
+# PREFIX goes into the units' ExecStart= and sed's replacement: an absolute
+# path of plain characters only.
+case "$PREFIX" in
+  /*) ;;
+  *) echo "install: PREFIX must be an absolute path, got '$PREFIX'" >&2; exit 2 ;;
+esac
+case "$PREFIX" in
+  *[!A-Za-z0-9/._+-]*) echo "install: PREFIX may hold only A-Z a-z 0-9 / . _ + -, got '$PREFIX'" >&2; exit 2 ;;
+esac
+PREFIX=${PREFIX%/}
 
 for b in nav-daemon sensor-replay; do
   [ -x "$BIN_DIR/$b" ] || { echo "install: $BIN_DIR/$b not built (cargo build --release)" >&2; exit 2; }
@@ -24,8 +35,15 @@ install -d -m 0755 "$DESTDIR$PREFIX/bin" "$DESTDIR$PREFIX/share/doc/polarnav" \
   "$DESTDIR/etc/systemd/system" "$DESTDIR/etc/sysusers.d" "$DESTDIR/etc/tmpfiles.d"
 install -d -m 0755 "$DESTDIR/etc/polarnav"
 install -m 0755 "$BIN_DIR/nav-daemon" "$BIN_DIR/sensor-replay" "$DESTDIR$PREFIX/bin/"
-install -m 0644 systemd/nav-daemon.service systemd/nav-recorder.service \
-  systemd/sensor-replay@.service "$DESTDIR/etc/systemd/system/"
+units="nav-daemon.service nav-recorder.service sensor-replay@.service"
+for u in $units; do
+  # The units start the binaries where this script puts them.
+  sed -e "s|/usr/local/bin/|$PREFIX/bin/|g" \
+      -e "s|file:/usr/local/share/doc/polarnav/|file:$PREFIX/share/doc/polarnav/|g" \
+      "systemd/$u" >"$DESTDIR/etc/systemd/system/$u.tmp"
+  chmod 0644 "$DESTDIR/etc/systemd/system/$u.tmp"
+  mv "$DESTDIR/etc/systemd/system/$u.tmp" "$DESTDIR/etc/systemd/system/$u"
+done
 install -m 0644 systemd/polarnav.sysusers "$DESTDIR/etc/sysusers.d/polarnav.conf"
 install -m 0644 systemd/polarnav.tmpfiles "$DESTDIR/etc/tmpfiles.d/polarnav.conf"
 install -m 0644 README.md "$DESTDIR$PREFIX/share/doc/polarnav/README.md"
