@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Installs polarnav as a system service: binaries, configuration, systemd
-# units, sysusers.d/tmpfiles.d entries and documentation.
+# units, sysusers.d/tmpfiles.d entries, documentation, shell completions
+# (bash, zsh, fish) and manual pages.
 #
 #   cargo build --release && sudo scripts/install.sh
 #   DESTDIR=/tmp/stage scripts/install.sh      # stage for a package or image
@@ -54,10 +55,26 @@ if [ -e "$DESTDIR/etc/polarnav/nav-daemon.toml" ]; then
 else
   install -m 0644 config/nav-daemon.toml "$DESTDIR/etc/polarnav/nav-daemon.toml"
 fi
-# The installed configuration must pass the daemon's own check (skipped for
+# The installed configuration must pass the daemon's own check, and the
+# binaries write their shell completions and manual pages (both skipped for
 # a binary of another architecture, which cannot run here).
 if "$DESTDIR$PREFIX/bin/nav-daemon" --version >/dev/null 2>&1; then
   "$DESTDIR$PREFIX/bin/nav-daemon" --check-config "$DESTDIR/etc/polarnav/nav-daemon.toml" >/dev/null
+  share="$DESTDIR$PREFIX/share"
+  install -d -m 0755 "$share/bash-completion/completions" "$share/zsh/site-functions" \
+    "$share/fish/vendor_completions.d" "$share/man/man1"
+  for b in nav-daemon sensor-replay; do
+    "$DESTDIR$PREFIX/bin/$b" completions bash >"$share/bash-completion/completions/$b"
+    "$DESTDIR$PREFIX/bin/$b" completions zsh >"$share/zsh/site-functions/_$b"
+    "$DESTDIR$PREFIX/bin/$b" completions fish >"$share/fish/vendor_completions.d/$b.fish"
+    "$DESTDIR$PREFIX/bin/$b" man >"$share/man/man1/$b.1"
+  done
+  chmod 0644 "$share/bash-completion/completions/"{nav-daemon,sensor-replay} \
+    "$share/zsh/site-functions/"_{nav-daemon,sensor-replay} \
+    "$share/fish/vendor_completions.d/"{nav-daemon,sensor-replay}.fish \
+    "$share/man/man1/"{nav-daemon,sensor-replay}.1
+else
+  echo "install: $BIN_DIR/nav-daemon does not run here: configuration not checked, no completions or man pages (run 'nav-daemon completions bash' and 'nav-daemon man' on the target)"
 fi
 if [ -z "$DESTDIR" ] && [ -d /run/systemd/system ]; then
   systemd-sysusers /etc/sysusers.d/polarnav.conf

@@ -77,6 +77,27 @@ enum Cmd {
         #[arg(long)]
         preset: Option<String>,
     },
+    /// Print the shell completion script (e.g. `nav-daemon completions bash >
+    /// /usr/share/bash-completion/completions/nav-daemon`).
+    Completions {
+        /// The shell to complete in.
+        #[arg(value_enum)]
+        shell: clap_complete::Shell,
+    },
+    /// Print the manual page (roff; `nav-daemon man > nav-daemon.1`).
+    Man,
+}
+
+/// Writes the completion script of `shell` for nav-daemon.
+fn completions(shell: clap_complete::Shell, out: &mut dyn std::io::Write) {
+    use clap::CommandFactory;
+    clap_complete::generate(shell, &mut Cli::command(), "nav-daemon", out);
+}
+
+/// Writes nav-daemon's manual page (roff).
+fn man(out: &mut dyn std::io::Write) -> std::io::Result<()> {
+    use clap::CommandFactory;
+    clap_mangen::Man::new(Cli::command()).render(out)
 }
 
 fn find_config(explicit: Option<&PathBuf>) -> Result<ConfigFile, (String, i32)> {
@@ -110,6 +131,23 @@ fn find_config(explicit: Option<&PathBuf>) -> Result<ConfigFile, (String, i32)> 
 fn main() -> ExitCode {
     polarnav_ipc::logging::init("nav-daemon");
     let cli = Cli::parse();
+    // Neither needs a configuration.
+    match &cli.cmd {
+        Some(Cmd::Completions { shell }) => {
+            completions(*shell, &mut std::io::stdout());
+            return ExitCode::SUCCESS;
+        }
+        Some(Cmd::Man) => {
+            return match man(&mut std::io::stdout()) {
+                Ok(()) => ExitCode::SUCCESS,
+                Err(e) => {
+                    eprintln!("error: man: {e}");
+                    ExitCode::from(1)
+                }
+            };
+        }
+        _ => {}
+    }
     if let Some(path) = &cli.check_config {
         // Exactly the validation the daemon runs at start.
         let cli_overrides = CliOverrides {
@@ -267,6 +305,7 @@ fn main() -> ExitCode {
                 }
             }
         }
+        Some(Cmd::Completions { .. } | Cmd::Man) => ExitCode::SUCCESS,
         None => {
             let stop = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
             let flag = std::sync::Arc::clone(&stop);
@@ -356,6 +395,36 @@ mod tests {
                 "{text}"
             );
         }
+    }
+
+    #[test]
+    fn bash_completion_knows_the_subcommands_and_options() {
+        let mut out = Vec::new();
+        completions(clap_complete::Shell::Bash, &mut out);
+        let text = String::from_utf8(out).expect("utf8");
+        for word in [
+            "nav-daemon",
+            "batch",
+            "completions",
+            "man",
+            "--log",
+            "--check-config",
+        ] {
+            assert!(text.contains(word), "{word} missing");
+        }
+    }
+
+    #[test]
+    fn man_page_is_roff_naming_the_program() {
+        let mut out = Vec::new();
+        man(&mut out).expect("render");
+        let text = String::from_utf8(out).expect("utf8");
+        assert!(text.starts_with('.'), "{text}");
+        assert!(
+            text.lines().any(|l| l.starts_with(".TH nav-daemon 1")),
+            "{text}"
+        );
+        assert!(text.contains("batch"), "{text}");
     }
 
     #[test]

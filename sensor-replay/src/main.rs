@@ -177,6 +177,15 @@ enum Cmd {
         #[command(flatten)]
         aids: AidArgs,
     },
+    /// Print the shell completion script (e.g. `sensor-replay completions bash >
+    /// /usr/share/bash-completion/completions/sensor-replay`).
+    Completions {
+        /// The shell to complete in.
+        #[arg(value_enum)]
+        shell: clap_complete::Shell,
+    },
+    /// Print the manual page (roff; `sensor-replay man > sensor-replay.1`).
+    Man,
     /// Accuracy of a solution against the log's truth, with figures.
     Eval {
         /// The navlog of the flight, whose truth the solution is judged against.
@@ -274,9 +283,26 @@ fn report_import(out: &std::path::Path, s: &interop::ImportSummary) {
 /// A failure with its exit status (2 bad input, 1 other).
 struct Fail(u8, String);
 
+/// Writes the completion script of `shell` for sensor-replay.
+fn completions(shell: clap_complete::Shell, out: &mut dyn Write) {
+    use clap::CommandFactory;
+    clap_complete::generate(shell, &mut Cli::command(), "sensor-replay", out);
+}
+
+/// Writes sensor-replay's manual page (roff).
+fn man(out: &mut dyn Write) -> std::io::Result<()> {
+    use clap::CommandFactory;
+    clap_mangen::Man::new(Cli::command()).render(out)
+}
+
 fn run(cli: Cli) -> Result<(), Fail> {
     let bad = |m: String| Fail(2, m);
     match cli.cmd {
+        Cmd::Completions { shell } => {
+            completions(shell, &mut std::io::stdout());
+            Ok(())
+        }
+        Cmd::Man => man(&mut std::io::stdout()).map_err(|e| Fail(1, format!("man: {e}"))),
         Cmd::Simulate {
             scenario,
             out,
@@ -782,6 +808,37 @@ mod tests {
             }
             undocumented(s, &sub, out);
         }
+    }
+
+    #[test]
+    fn bash_completion_knows_the_subcommands_and_options() {
+        let mut out = Vec::new();
+        completions(clap_complete::Shell::Bash, &mut out);
+        let text = String::from_utf8(out).expect("utf8");
+        for word in [
+            "sensor-replay",
+            "simulate",
+            "eval",
+            "listen",
+            "completions",
+            "man",
+            "--scenario",
+        ] {
+            assert!(text.contains(word), "{word} missing");
+        }
+    }
+
+    #[test]
+    fn man_page_is_roff_naming_the_program() {
+        let mut out = Vec::new();
+        man(&mut out).expect("render");
+        let text = String::from_utf8(out).expect("utf8");
+        assert!(text.starts_with('.'), "{text}");
+        assert!(
+            text.lines().any(|l| l.starts_with(".TH sensor-replay 1")),
+            "{text}"
+        );
+        assert!(text.contains("simulate"), "{text}");
     }
 
     #[test]

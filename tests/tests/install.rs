@@ -63,3 +63,30 @@ fn installed_units_start_the_binaries_under_the_chosen_prefix() {
     assert_eq!(n, 3, "one ExecStart per unit");
     std::fs::remove_dir_all(&stage).ok();
 }
+
+#[test]
+fn completions_and_man_pages_are_installed_under_the_prefix() {
+    let stage = install("share", "/usr");
+    let share = stage.join("usr/share");
+    for b in ["nav-daemon", "sensor-replay"] {
+        let bash = std::fs::read_to_string(share.join("bash-completion/completions").join(b))
+            .expect("bash completion");
+        assert!(bash.contains("completions") && bash.contains("man"), "{b}");
+        assert!(
+            share.join(format!("zsh/site-functions/_{b}")).is_file(),
+            "{b} zsh"
+        );
+        assert!(
+            share
+                .join(format!("fish/vendor_completions.d/{b}.fish"))
+                .is_file(),
+            "{b} fish"
+        );
+        let page = std::fs::read_to_string(share.join(format!("man/man1/{b}.1"))).expect("man");
+        assert!(
+            page.lines().any(|l| l.starts_with(&format!(".TH {b} 1"))),
+            "{b}: {page}"
+        );
+    }
+    std::fs::remove_dir_all(&stage).ok();
+}
