@@ -1,13 +1,15 @@
 #!/usr/bin/env bash
 # Installs polarnav as a system service: binaries, configuration, systemd
-# units, sysusers.d/tmpfiles.d entries and documentation.
+# units, sysusers.d/tmpfiles.d entries, documentation, shell completions
+# (bash, zsh, fish) and manual pages.
 #
 #   cargo build --release && sudo scripts/install.sh
 #   DESTDIR=/tmp/stage scripts/install.sh      # stage for a package or image
 #   BIN_DIR=target/aarch64-unknown-linux-gnu/release DESTDIR=... scripts/install.sh
 #
-# PREFIX (default /usr/local) holds bin/ and share/doc/polarnav/; the units
-# expect /usr/local/bin. An existing /etc/polarnav/nav-daemon.toml is kept
+# PREFIX (default /usr/local) holds bin/ and share/doc/polarnav/; the
+# installed units start $PREFIX/bin/... and name $PREFIX/share/doc/polarnav
+# (the units in systemd/ say /usr/local, rewritten here). An existing /etc/polarnav/nav-daemon.toml is kept
 # (the shipped one is installed beside it as nav-daemon.toml.dist). Without
 # DESTDIR, on a machine run by systemd, the user, group and directories are
 # created and systemd reloaded; nothing is enabled or started.
@@ -16,6 +18,16 @@ cd "$(dirname "$0")/.."
 DESTDIR=${DESTDIR:-}
 PREFIX=${PREFIX:-/usr/local}
 BIN_DIR=${BIN_DIR:-target/release}
+# PREFIX goes into the units' ExecStart= and sed's replacement: an absolute
+# path of plain characters only.
+case "$PREFIX" in
+  /*) ;;
+  *) echo "install: PREFIX must be an absolute path, got '$PREFIX'" >&2; exit 2 ;;
+esac
+case "$PREFIX" in
+  *[!A-Za-z0-9/._+-]*) echo "install: PREFIX may hold only A-Z a-z 0-9 / . _ + -, got '$PREFIX'" >&2; exit 2 ;;
+esac
+PREFIX=${PREFIX%/}
 
 for b in nav-daemon sensor-replay; do
   [ -x "$BIN_DIR/$b" ] || { echo "install: $BIN_DIR/$b not built (cargo build --release)" >&2; exit 2; }
@@ -24,8 +36,15 @@ install -d -m 0755 "$DESTDIR$PREFIX/bin" "$DESTDIR$PREFIX/share/doc/polarnav" \
   "$DESTDIR/etc/systemd/system" "$DESTDIR/etc/sysusers.d" "$DESTDIR/etc/tmpfiles.d"
 install -d -m 0755 "$DESTDIR/etc/polarnav"
 install -m 0755 "$BIN_DIR/nav-daemon" "$BIN_DIR/sensor-replay" "$DESTDIR$PREFIX/bin/"
-install -m 0644 systemd/nav-daemon.service systemd/nav-recorder.service \
-  systemd/sensor-replay@.service "$DESTDIR/etc/systemd/system/"
+units="nav-daemon.service nav-recorder.service sensor-replay@.service"
+for u in $units; do
+  # The units start the binaries where this script puts them.
+  sed -e "s|/usr/local/bin/|$PREFIX/bin/|g" \
+      -e "s|file:/usr/local/share/doc/polarnav/|file:$PREFIX/share/doc/polarnav/|g" \
+      "systemd/$u" >"$DESTDIR/etc/systemd/system/$u.tmp"
+  chmod 0644 "$DESTDIR/etc/systemd/system/$u.tmp"
+  mv "$DESTDIR/etc/systemd/system/$u.tmp" "$DESTDIR/etc/systemd/system/$u"
+done
 install -m 0644 systemd/polarnav.sysusers "$DESTDIR/etc/sysusers.d/polarnav.conf"
 install -m 0644 systemd/polarnav.tmpfiles "$DESTDIR/etc/tmpfiles.d/polarnav.conf"
 install -m 0644 README.md "$DESTDIR$PREFIX/share/doc/polarnav/README.md"
@@ -36,10 +55,26 @@ if [ -e "$DESTDIR/etc/polarnav/nav-daemon.toml" ]; then
 else
   install -m 0644 config/nav-daemon.toml "$DESTDIR/etc/polarnav/nav-daemon.toml"
 fi
-# The installed configuration must pass the daemon's own check (skipped for
+# The installed configuration must pass the daemon's own check, and the
+# binaries write their shell completions and manual pages (both skipped for
 # a binary of another architecture, which cannot run here).
 if "$DESTDIR$PREFIX/bin/nav-daemon" --version >/dev/null 2>&1; then
   "$DESTDIR$PREFIX/bin/nav-daemon" --check-config "$DESTDIR/etc/polarnav/nav-daemon.toml" >/dev/null
+  share="$DESTDIR$PREFIX/share"
+  install -d -m 0755 "$share/bash-completion/completions" "$share/zsh/site-functions" \
+    "$share/fish/vendor_completions.d" "$share/man/man1"
+  for b in nav-daemon sensor-replay; do
+    "$DESTDIR$PREFIX/bin/$b" completions bash >"$share/bash-completion/completions/$b"
+    "$DESTDIR$PREFIX/bin/$b" completions zsh >"$share/zsh/site-functions/_$b"
+    "$DESTDIR$PREFIX/bin/$b" completions fish >"$share/fish/vendor_completions.d/$b.fish"
+    "$DESTDIR$PREFIX/bin/$b" man >"$share/man/man1/$b.1"
+  done
+  chmod 0644 "$share/bash-completion/completions/"{nav-daemon,sensor-replay} \
+    "$share/zsh/site-functions/"_{nav-daemon,sensor-replay} \
+    "$share/fish/vendor_completions.d/"{nav-daemon,sensor-replay}.fish \
+    "$share/man/man1/"{nav-daemon,sensor-replay}.1
+else
+  echo "install: $BIN_DIR/nav-daemon does not run here: configuration not checked, no completions or man pages (run 'nav-daemon completions bash' and 'nav-daemon man' on the target)"
 fi
 if [ -z "$DESTDIR" ] && [ -d /run/systemd/system ]; then
   systemd-sysusers /etc/sysusers.d/polarnav.conf

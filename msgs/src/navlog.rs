@@ -432,6 +432,18 @@ pub fn first_init(records: &[Record]) -> Option<InitState> {
     })
 }
 
+/// True when `bytes`, the start of a file, begin with a navlog header record
+/// (its first frame decodes to a [`Header`] with [`MAGIC`]): how a reader of
+/// another format recognizes a navlog passed by mistake. Reads at most one
+/// frame's worth of `bytes`.
+pub fn starts_as_navlog(bytes: &[u8]) -> bool {
+    let head = &bytes[..bytes.len().min(MAX_FRAME_BYTES + 1)];
+    matches!(
+        NavlogReader::new(head).next_record(),
+        Ok(Some(Record::Header(h))) if h.magic == MAGIC
+    )
+}
+
 /// Reads every intact record of a whole byte buffer (convenience for tests and small files).
 pub fn read_all(bytes: &[u8]) -> (Vec<Record>, ReadReport) {
     let mut reader = NavlogReader::new(bytes);

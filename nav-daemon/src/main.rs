@@ -14,7 +14,10 @@ use polarnav_config::{AidSet, CliOverrides, ConfigFile, Conversion, SensorGrade,
 #[command(
     name = "nav-daemon",
     version,
-    about = "polarnav navigation daemon (SINS/SRS/CNS/baro, g/G frame switching)"
+    about = "polarnav navigation daemon (SINS/SRS/CNS/baro, g/G frame switching)",
+    after_help = "Without a subcommand, nav-daemon runs the live navigation service: it \
+        reads its inputs from and publishes its solution over iceoryx2 under the \
+        configuration's prefix until SIGINT or SIGTERM (the systemd unit starts it so)."
 )]
 struct Cli {
     /// Configuration file (default: $PWD/config/nav-daemon.toml, then /etc/polarnav/nav-daemon.toml).
@@ -35,6 +38,7 @@ enum Cmd {
     /// Run the navigator over a navlog as fast as possible and write the solution
     /// (CSV, or MCAP for Foxglove and PlotJuggler when the name ends in .mcap).
     Batch {
+        /// The navlog to navigate (simulated, imported or recorded).
         #[arg(long)]
         log: PathBuf,
         /// Solution file: `.csv` (default format) or `.mcap` (every input stream,
@@ -73,6 +77,27 @@ enum Cmd {
         #[arg(long)]
         preset: Option<String>,
     },
+    /// Print the shell completion script (e.g. `nav-daemon completions bash >
+    /// /usr/share/bash-completion/completions/nav-daemon`).
+    Completions {
+        /// The shell to complete in.
+        #[arg(value_enum)]
+        shell: clap_complete::Shell,
+    },
+    /// Print the manual page (roff; `nav-daemon man > nav-daemon.1`).
+    Man,
+}
+
+/// Writes the completion script of `shell` for nav-daemon.
+fn completions(shell: clap_complete::Shell, out: &mut dyn std::io::Write) {
+    use clap::CommandFactory;
+    clap_complete::generate(shell, &mut Cli::command(), "nav-daemon", out);
+}
+
+/// Writes nav-daemon's manual page (roff).
+fn man(out: &mut dyn std::io::Write) -> std::io::Result<()> {
+    use clap::CommandFactory;
+    clap_mangen::Man::new(Cli::command()).render(out)
 }
 
 fn find_config(explicit: Option<&PathBuf>) -> Result<ConfigFile, (String, i32)> {
@@ -106,6 +131,23 @@ fn find_config(explicit: Option<&PathBuf>) -> Result<ConfigFile, (String, i32)> 
 fn main() -> ExitCode {
     polarnav_ipc::logging::init("nav-daemon");
     let cli = Cli::parse();
+    // Neither needs a configuration.
+    match &cli.cmd {
+        Some(Cmd::Completions { shell }) => {
+            completions(*shell, &mut std::io::stdout());
+            return ExitCode::SUCCESS;
+        }
+        Some(Cmd::Man) => {
+            return match man(&mut std::io::stdout()) {
+                Ok(()) => ExitCode::SUCCESS,
+                Err(e) => {
+                    eprintln!("error: man: {e}");
+                    ExitCode::from(1)
+                }
+            };
+        }
+        _ => {}
+    }
     if let Some(path) = &cli.check_config {
         // Exactly the validation the daemon runs at start.
         let cli_overrides = CliOverrides {
@@ -191,6 +233,17 @@ fn main() -> ExitCode {
                 Ok(f) => BufReader::with_capacity(1 << 20, f),
                 Err(e) => return usage(format!("{log_name}: cannot open: {e}")),
             };
+            // An output directory that does not exist is bad usage (exit 2, as
+            // DESIGN's CLI section says), not a failure of the run.
+            if let Some(dir) = out.parent().filter(|d| !d.as_os_str().is_empty())
+                && !dir.is_dir()
+            {
+                return usage(format!(
+                    "--out {}: cannot create: directory {} does not exist",
+                    out.display(),
+                    dir.display()
+                ));
+            }
             // The format by the extension: `.mcap` writes MCAP, anything else the CSV.
             let is_mcap = out
                 .extension()
@@ -252,6 +305,7 @@ fn main() -> ExitCode {
                 }
             }
         }
+        Some(Cmd::Completions { .. } | Cmd::Man) => ExitCode::SUCCESS,
         None => {
             let stop = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
             let flag = std::sync::Arc::clone(&stop);
@@ -307,5 +361,76 @@ fn main() -> ExitCode {
                 }
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::CommandFactory;
+
+    /// The arguments (path of subcommands, then id) and subcommands without help text.
+    fn undocumented(cmd: &clap::Command, path: &str, out: &mut Vec<String>) {
+        for a in cmd.get_arguments() {
+            if a.get_help().is_none() && a.get_long_help().is_none() {
+                out.push(format!("{path} {}", a.get_id()));
+            }
+        }
+        for s in cmd.get_subcommands() {
+            let sub = format!("{path} {}", s.get_name());
+            if s.get_about().is_none() && s.get_long_about().is_none() {
+                out.push(sub.clone());
+            }
+            undocumented(s, &sub, out);
+        }
+    }
+
+    #[test]
+    fn help_says_that_no_subcommand_runs_the_live_service() {
+        let mut cmd = Cli::command();
+        for help in [cmd.render_help(), cmd.render_long_help()] {
+            let text = help.to_string();
+            assert!(
+                text.contains("Without a subcommand, nav-daemon runs the live navigation service"),
+                "{text}"
+            );
+        }
+    }
+
+    #[test]
+    fn bash_completion_knows_the_subcommands_and_options() {
+        let mut out = Vec::new();
+        completions(clap_complete::Shell::Bash, &mut out);
+        let text = String::from_utf8(out).expect("utf8");
+        for word in [
+            "nav-daemon",
+            "batch",
+            "completions",
+            "man",
+            "--log",
+            "--check-config",
+        ] {
+            assert!(text.contains(word), "{word} missing");
+        }
+    }
+
+    #[test]
+    fn man_page_is_roff_naming_the_program() {
+        let mut out = Vec::new();
+        man(&mut out).expect("render");
+        let text = String::from_utf8(out).expect("utf8");
+        assert!(text.starts_with('.'), "{text}");
+        assert!(
+            text.lines().any(|l| l.starts_with(".TH nav-daemon 1")),
+            "{text}"
+        );
+        assert!(text.contains("batch"), "{text}");
+    }
+
+    #[test]
+    fn every_argument_and_subcommand_has_help_text() {
+        let mut missing = Vec::new();
+        undocumented(&Cli::command(), "nav-daemon", &mut missing);
+        assert!(missing.is_empty(), "no help text for {missing:?}");
     }
 }

@@ -436,3 +436,25 @@ const INIT_OK_BUT_PITCH: &str = "[init]\nlat_deg = 80\nlon_deg = 0\nh_m = 18000\
 const INIT_OK_BUT_SIGMA_TILT: &str = "[init]\nlat_deg = 80\nlon_deg = 0\nh_m = 18000\nheading_deg = 0\nsigma_pos_h_m = 10\nsigma_pos_v_m = 10\nsigma_vel_mps = 0.1\nsigma_tilt_arcmin = 1e6\nsigma_heading_arcmin = 3\n";
 const INIT_OK_BUT_SIGMA_ZERO: &str = "[init]\nlat_deg = 80\nlon_deg = 0\nh_m = 18000\nheading_deg = 0\nsigma_pos_h_m = 0\nsigma_pos_v_m = 10\nsigma_vel_mps = 0.1\nsigma_tilt_arcmin = 1\nsigma_heading_arcmin = 3\n";
 const INIT_OK_BUT_LON: &str = "[init]\nlat_deg = 80\nlon_deg = 1e300\nh_m = 18000\nheading_deg = 0\nsigma_pos_h_m = 10\nsigma_pos_v_m = 10\nsigma_vel_mps = 0.1\nsigma_tilt_arcmin = 1\nsigma_heading_arcmin = 3\n";
+
+#[test]
+fn batch_out_into_a_missing_directory_is_bad_usage_naming_the_path() {
+    let dir = temp_dir("missing-out");
+    let log = dir.join("in.navlog");
+    std::fs::write(&log, stationary_log(10, true)).expect("write log");
+    for name in ["out.csv", "out.mcap"] {
+        let out = dir.join("no-such-dir").join(name);
+        let o = bin()
+            .args(["batch", "--log"])
+            .arg(&log)
+            .arg("--out")
+            .arg(&out)
+            .output()
+            .expect("run nav-daemon");
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(2), "{name}: {err}");
+        assert!(err.contains(&*out.to_string_lossy()), "{name}: {err}");
+        assert!(err.contains("does not exist"), "{name}: {err}");
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}

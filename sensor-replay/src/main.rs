@@ -27,10 +27,13 @@ struct Cli {
 enum Cmd {
     /// Simulate a scenario into a navlog (IMU, aids, init, truth).
     Simulate {
+        /// Scenario file (TOML), e.g. config/scenarios/polar-crossing.toml.
         #[arg(long)]
         scenario: PathBuf,
+        /// The navlog to write.
         #[arg(long)]
         out: PathBuf,
+        /// Random seed of the sensor errors and noise (same seed, same flight).
         #[arg(long, default_value_t = 1)]
         seed: u64,
         /// Error-free sensors and initial state.
@@ -42,6 +45,7 @@ enum Cmd {
     },
     /// Publish a navlog's init and sensor records over iceoryx2 at wall-clock rate.
     Play {
+        /// The navlog to publish.
         log: PathBuf,
         /// Time scale (2 = twice as fast).
         #[arg(long, default_value_t = 1.0)]
@@ -66,6 +70,7 @@ enum Cmd {
     /// Fault campaign: every scenario in DIR simulated with and without its
     /// [faults], navigated by batch, and judged (exit 1 if any fails).
     Campaign {
+        /// Directory of fault scenarios (every *.toml in it).
         #[arg(long, default_value = "config/scenarios/faults")]
         dir: PathBuf,
     },
@@ -130,7 +135,10 @@ enum Cmd {
     },
     /// Export a navlog's truth (and more) to text formats.
     Export {
+        /// The navlog to export.
         log: PathBuf,
+        /// Write the log's truth as CSV (t_s, geodetic and ECEF position,
+        /// ECEF velocity, body→ECEF quaternion).
         #[arg(long)]
         truth_csv: Option<PathBuf>,
         /// Write the log's solution records (e.g. a recorded live run) as a solution CSV.
@@ -147,10 +155,13 @@ enum Cmd {
     },
     /// Import KF-GINS text logs (IMU increments FRD, NED truth).
     ImportKfgins {
+        /// KF-GINS imu.txt: time, angle and velocity increments (body FRD).
         #[arg(long)]
         imu: PathBuf,
+        /// KF-GINS truth.nav: time, latitude, longitude, height, NED velocity, roll, pitch, yaw.
         #[arg(long)]
         truth: PathBuf,
+        /// The navlog to write.
         #[arg(long)]
         out: PathBuf,
         #[command(flatten)]
@@ -158,14 +169,26 @@ enum Cmd {
     },
     /// Import a PSINS text IMU file (e.g. ../shared/datasets/psins-lasergyro/lasergyro.imu).
     ImportPsins {
+        /// PSINS text IMU file (header, then one sample per line).
         file: PathBuf,
+        /// The navlog to write.
         #[arg(long)]
         out: PathBuf,
         #[command(flatten)]
         aids: AidArgs,
     },
+    /// Print the shell completion script (e.g. `sensor-replay completions bash >
+    /// /usr/share/bash-completion/completions/sensor-replay`).
+    Completions {
+        /// The shell to complete in.
+        #[arg(value_enum)]
+        shell: clap_complete::Shell,
+    },
+    /// Print the manual page (roff; `sensor-replay man > sensor-replay.1`).
+    Man,
     /// Accuracy of a solution against the log's truth, with figures.
     Eval {
+        /// The navlog of the flight, whose truth the solution is judged against.
         #[arg(long)]
         log: PathBuf,
         /// The solution CSV, or the MCAP file of `nav-daemon batch --out F.mcap`
@@ -260,9 +283,26 @@ fn report_import(out: &std::path::Path, s: &interop::ImportSummary) {
 /// A failure with its exit status (2 bad input, 1 other).
 struct Fail(u8, String);
 
+/// Writes the completion script of `shell` for sensor-replay.
+fn completions(shell: clap_complete::Shell, out: &mut dyn Write) {
+    use clap::CommandFactory;
+    clap_complete::generate(shell, &mut Cli::command(), "sensor-replay", out);
+}
+
+/// Writes sensor-replay's manual page (roff).
+fn man(out: &mut dyn Write) -> std::io::Result<()> {
+    use clap::CommandFactory;
+    clap_mangen::Man::new(Cli::command()).render(out)
+}
+
 fn run(cli: Cli) -> Result<(), Fail> {
     let bad = |m: String| Fail(2, m);
     match cli.cmd {
+        Cmd::Completions { shell } => {
+            completions(shell, &mut std::io::stdout());
+            Ok(())
+        }
+        Cmd::Man => man(&mut std::io::stdout()).map_err(|e| Fail(1, format!("man: {e}"))),
         Cmd::Simulate {
             scenario,
             out,
@@ -746,5 +786,65 @@ fn main() -> ExitCode {
             eprintln!("error: {msg}");
             ExitCode::from(code)
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::CommandFactory;
+
+    /// The arguments (path of subcommands, then id) and subcommands without help text.
+    fn undocumented(cmd: &clap::Command, path: &str, out: &mut Vec<String>) {
+        for a in cmd.get_arguments() {
+            if a.get_help().is_none() && a.get_long_help().is_none() {
+                out.push(format!("{path} {}", a.get_id()));
+            }
+        }
+        for s in cmd.get_subcommands() {
+            let sub = format!("{path} {}", s.get_name());
+            if s.get_about().is_none() && s.get_long_about().is_none() {
+                out.push(sub.clone());
+            }
+            undocumented(s, &sub, out);
+        }
+    }
+
+    #[test]
+    fn bash_completion_knows_the_subcommands_and_options() {
+        let mut out = Vec::new();
+        completions(clap_complete::Shell::Bash, &mut out);
+        let text = String::from_utf8(out).expect("utf8");
+        for word in [
+            "sensor-replay",
+            "simulate",
+            "eval",
+            "listen",
+            "completions",
+            "man",
+            "--scenario",
+        ] {
+            assert!(text.contains(word), "{word} missing");
+        }
+    }
+
+    #[test]
+    fn man_page_is_roff_naming_the_program() {
+        let mut out = Vec::new();
+        man(&mut out).expect("render");
+        let text = String::from_utf8(out).expect("utf8");
+        assert!(text.starts_with('.'), "{text}");
+        assert!(
+            text.lines().any(|l| l.starts_with(".TH sensor-replay 1")),
+            "{text}"
+        );
+        assert!(text.contains("simulate"), "{text}");
+    }
+
+    #[test]
+    fn every_argument_and_subcommand_has_help_text() {
+        let mut missing = Vec::new();
+        undocumented(&Cli::command(), "sensor-replay", &mut missing);
+        assert!(missing.is_empty(), "no help text for {missing:?}");
     }
 }

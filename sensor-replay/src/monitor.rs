@@ -1,5 +1,6 @@
 //! `sensor-replay listen`: the live monitor (like `px4 listener`).
 
+use std::io::{IsTerminal, Write};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
@@ -114,7 +115,19 @@ pub fn render(sol: Option<&Solution>, st: Option<&Status>, solutions_per_s: f64)
     s
 }
 
-/// Shows the newest solution and status in place until stopped.
+/// One update of the monitor as written to stdout: on a terminal the screen
+/// redrawn in place (cursor home, clear); elsewhere (a file, a pipe) plain
+/// lines with a blank line between updates, no escape sequences.
+pub fn update(screen: &str, terminal: bool) -> String {
+    if terminal {
+        format!("\x1b[H\x1b[2J{screen}")
+    } else {
+        format!("{screen}\n")
+    }
+}
+
+/// Shows the newest solution and status until stopped: in place on a
+/// terminal, as successive blocks of plain lines otherwise.
 pub fn listen(
     cfg: &TransportConfig,
     stop: &AtomicBool,
@@ -123,6 +136,7 @@ pub fn listen(
     let node = polarnav_ipc::node(cfg, "sensor-replay-listen")?;
     let sol = TopicSubscriber::<Solution>::new(&node, cfg, Topic::Solution)?;
     let st = TopicSubscriber::<Status>::new(&node, cfg, Topic::Status)?;
+    let terminal = std::io::stdout().is_terminal();
     let start = Instant::now();
     let (mut last_sol, mut last_st) = (None, None);
     let mut count = 0u64;
@@ -138,12 +152,10 @@ pub fn listen(
             count = 0;
             window = Instant::now();
         }
-        // Cursor home and clear: redraw in place.
         print!(
-            "\x1b[H\x1b[2J{}",
-            render(last_sol.as_ref(), last_st.as_ref(), rate)
+            "{}",
+            update(&render(last_sol.as_ref(), last_st.as_ref(), rate), terminal)
         );
-        use std::io::Write;
         let _ = std::io::stdout().flush();
     }
     Ok(())
@@ -179,5 +191,14 @@ mod tests {
         );
         assert!(text.contains("rx      300"), "{text}");
         assert!(render(None, None, 0.0).contains("none yet"));
+    }
+
+    #[test]
+    fn only_a_terminal_gets_redraw_escapes() {
+        let screen = render(None, None, 0.0);
+        assert!(update(&screen, true).starts_with("\x1b[H"));
+        let plain = update(&screen, false);
+        assert!(!plain.contains('\x1b'), "{plain:?}");
+        assert!(plain.starts_with(&screen));
     }
 }

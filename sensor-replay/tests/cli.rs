@@ -24,3 +24,45 @@ fn a_bad_prefix_is_refused_by_every_subcommand_that_takes_one() {
         }
     }
 }
+
+#[test]
+fn eval_names_a_navlog_passed_as_the_solution_and_exits_2() {
+    let dir = std::env::temp_dir().join(format!("sr-cli-navlog-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("dir");
+    let log = dir.join("flight.navlog");
+    let mut bytes = Vec::new();
+    let header = msgs::navlog::Header::new("test", "scenario", 1, "");
+    let mut w = msgs::navlog::NavlogWriter::new(&mut bytes, header).expect("writer");
+    w.write(&msgs::navlog::Record::Imu(Default::default()))
+        .expect("record");
+    w.finish().expect("finish");
+    std::fs::write(&log, &bytes).expect("write");
+    let o = Command::new(env!("CARGO_BIN_EXE_sensor-replay"))
+        .arg("eval")
+        .arg("--log")
+        .arg(&log)
+        .arg("--solution")
+        .arg(&log)
+        .output()
+        .expect("run");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(2), "{err}");
+    assert!(err.contains("is a navlog, not a solution CSV"), "{err}");
+    assert!(!err.contains("valid UTF-8"), "{err}");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn listen_into_a_file_writes_plain_lines_without_escapes() {
+    // Nothing publishes on this prefix: listen shows "none yet" and stops.
+    let prefix = format!("sr-listen-plain-{}", std::process::id());
+    let o = Command::new(env!("CARGO_BIN_EXE_sensor-replay"))
+        .args(["listen", "--duration", "0.6", "--prefix", &prefix])
+        .output()
+        .expect("run");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(0), "{err}");
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(out.contains("solution: none yet"), "{out:?}");
+    assert!(!o.stdout.contains(&0x1b), "escape in {out:?}");
+}

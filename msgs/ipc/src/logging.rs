@@ -6,6 +6,7 @@
 
 use std::io::IsTerminal;
 
+use tracing_journald::{Priority, PriorityMappings};
 use tracing_subscriber::layer::SubscriberExt;
 use tracing_subscriber::util::SubscriberInitExt;
 
@@ -34,6 +35,20 @@ pub fn stderr_is_journal() -> bool {
     std::fs::metadata("/proc/self/fd/2").is_ok_and(|m| m.dev() == dev && m.ino() == ino)
 }
 
+/// The journal priority of each tracing level: syslog's meaning, so that
+/// `journalctl -p notice` (or `-p warning`) shows what needs attention and
+/// not the routine INFO lines (the settings dump at start). tracing-journald's
+/// default gives INFO priority 5, notice.
+pub fn journal_priorities() -> PriorityMappings {
+    PriorityMappings {
+        error: Priority::Error,
+        warn: Priority::Warning,
+        info: Priority::Informational,
+        debug: Priority::Debug,
+        trace: Priority::Debug,
+    }
+}
+
 /// Installs the process's log subscriber; `identifier` is the journal's
 /// `SYSLOG_IDENTIFIER`. Returns where the lines go.
 pub fn init(identifier: &str) -> LogOutput {
@@ -44,7 +59,11 @@ pub fn init(identifier: &str) -> LogOutput {
             Ok(layer) => {
                 tracing_subscriber::registry()
                     .with(filter())
-                    .with(layer.with_syslog_identifier(identifier.to_owned()))
+                    .with(
+                        layer
+                            .with_syslog_identifier(identifier.to_owned())
+                            .with_priority_mappings(journal_priorities()),
+                    )
                     .init();
                 return LogOutput::Journal;
             }
@@ -61,5 +80,22 @@ pub fn init(identifier: &str) -> LogOutput {
         LogOutput::Terminal
     } else {
         LogOutput::Plain
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn info_goes_to_the_journal_as_informational_not_notice() {
+        let m = journal_priorities();
+        // syslog numbers, as `journalctl -p` takes them.
+        let n = |p: Priority| p as u8 - b'0';
+        assert_eq!(n(m.error), 3);
+        assert_eq!(n(m.warn), 4);
+        assert_eq!(n(m.info), 6, "INFO must not pass `journalctl -p notice`");
+        assert_eq!(n(m.debug), 7);
+        assert_eq!(n(m.trace), 7);
     }
 }

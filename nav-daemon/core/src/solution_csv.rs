@@ -312,6 +312,20 @@ pub enum ReadCsvError {
         path: String,
         source: std::io::Error,
     },
+    /// The file is a navlog (a flight's inputs), not a solution: compute
+    /// the solution with `nav-daemon batch` first.
+    #[error(
+        "{path} is a navlog, not a solution CSV or MCAP: run `nav-daemon batch --log {path} --out run.csv` first"
+    )]
+    Navlog { path: String },
+    /// The file is an MCAP file not named `*.mcap`, so it was taken for a CSV.
+    #[error("{path} is an MCAP file, not a solution CSV: name it *.mcap")]
+    Mcap { path: String },
+    /// The file is not text (binary data at byte `at`): not a solution CSV.
+    #[error(
+        "{path} is not a solution CSV or MCAP: binary data at byte {at} (expected UTF-8 text starting with the header t_s,frame,...)"
+    )]
+    NotText { path: String, at: usize },
     #[error("{path}: empty file, expected the solution CSV header")]
     Header { path: String },
     #[error("{path}: header has no column {column:?}")]
@@ -327,18 +341,31 @@ pub enum ReadCsvError {
 /// Reads a solution CSV written by [`write_row`].
 pub fn read(path: &std::path::Path) -> Result<Vec<Row>, ReadCsvError> {
     let p = path.display().to_string();
-    let text = std::fs::read_to_string(path).map_err(|source| ReadCsvError::Io {
+    let bytes = std::fs::read(path).map_err(|source| ReadCsvError::Io {
         path: p.clone(),
         source,
+    })?;
+    // The wrong file is named for what it is, not only as invalid UTF-8.
+    if msgs::navlog::starts_as_navlog(&bytes) {
+        return Err(ReadCsvError::Navlog { path: p });
+    }
+    if bytes.starts_with(b"\x89MCAP") {
+        return Err(ReadCsvError::Mcap { path: p });
+    }
+    let text = String::from_utf8(bytes).map_err(|e| ReadCsvError::NotText {
+        path: p.clone(),
+        at: e.utf8_error().valid_up_to(),
     })?;
     parse(&text, &p)
 }
 
 /// Parses solution CSV text; `p` names its origin in errors. Columns are found
 /// by header name: any order, unknown columns ignored; a missing column is an
-/// error naming it.
+/// error naming it. A leading UTF-8 byte-order mark (spreadsheets' "CSV
+/// UTF-8" writes one) is not part of the first column's name.
 pub fn parse(text: &str, p: &str) -> Result<Vec<Row>, ReadCsvError> {
     let p = p.to_owned();
+    let text = text.strip_prefix('\u{feff}').unwrap_or(text);
     let mut lines = text.lines();
     let Some(head) = lines.next() else {
         return Err(ReadCsvError::Header { path: p });
@@ -461,6 +488,56 @@ mod tests {
         assert!((rows[0].t_s - 1.5).abs() < 1e-12);
         assert!((rows[0].lat_deg - 1.2f64.to_degrees()).abs() < 1e-9);
         assert!(rows[0].sigma_enu_m[0].is_nan());
+        std::fs::remove_dir_all(&dir).ok();
+    }
+
+    #[test]
+    fn a_navlog_is_named_as_a_navlog_not_as_bad_utf8() {
+        let mut log = Vec::new();
+        let header = msgs::navlog::Header::new("test", "scenario", 1, "");
+        let mut w = msgs::navlog::NavlogWriter::new(&mut log, header).expect("writer");
+        w.write(&msgs::navlog::Record::Imu(Default::default()))
+            .expect("record");
+        w.finish().expect("finish");
+        let dir = std::env::temp_dir().join(format!("polarnav-navlog-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("dir");
+        let path = dir.join("flight.navlog");
+        std::fs::write(&path, &log).expect("write");
+        let e = read(&path).expect_err("a navlog is no solution");
+        assert!(matches!(e, ReadCsvError::Navlog { .. }), "{e:?}");
+        let m = e.to_string();
+        assert!(m.contains("is a navlog"), "{m}");
+        assert!(m.contains("nav-daemon batch --log"), "{m}");
+        // Other binary data: named as not a solution CSV, with where.
+        let bin = dir.join("x.csv");
+        std::fs::write(&bin, b"t_s\n\xff\xfe").expect("write");
+        let m = read(&bin).expect_err("binary").to_string();
+        assert!(
+            m.contains("not a solution CSV") && m.contains("byte 4"),
+            "{m}"
+        );
+        std::fs::remove_dir_all(&dir).ok();
+    }
+
+    #[test]
+    fn a_byte_order_mark_reads_like_none() {
+        let mut s = Solution {
+            t_ns: 2_000_000_000,
+            ..Default::default()
+        };
+        s.lat_rad = 1.4;
+        let mut buf = Vec::new();
+        write_row(&mut buf, &s).expect("write");
+        let plain = format!("{HEADER}\n{}", String::from_utf8(buf).expect("utf8"));
+        let dir = std::env::temp_dir().join(format!("polarnav-bom-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).expect("dir");
+        let (with, without) = (dir.join("bom.csv"), dir.join("plain.csv"));
+        std::fs::write(&with, format!("\u{feff}{plain}")).expect("write bom");
+        std::fs::write(&without, &plain).expect("write plain");
+        let a = read(&with).expect("a BOM is accepted");
+        let b = read(&without).expect("plain");
+        assert_eq!(a, b);
+        assert_eq!(a.len(), 1);
         std::fs::remove_dir_all(&dir).ok();
     }
 
