@@ -248,8 +248,9 @@ pub fn transients_markdown(title: &str, t: &[SwitchTransient]) -> String {
     let mut m = format!(
         "### {title}: error drift around each switch (largest deviation of the error from its 60 s pre-switch trend within 200 s after)\n\n\
          This is the filter's own wander over 200 s, not the switch: the switch's transient is the \
-         deviation from a never-switching run of the same log (`nav-daemon batch --no-switch`, given \
-         to `eval --compare`), in the table after the figures.\n\n"
+         deviation from a run of the same log without that switch, given to `eval --compare` \
+         (`nav-daemon batch --force-switch 0`: the grid frame throughout; `--no-switch` where the \
+         flight stays away from the pole), in the table after the figures.\n\n"
     );
     if t.is_empty() {
         m.push_str("no frame switch\n");
@@ -319,7 +320,8 @@ pub fn deviation_after_switches(a: &[Row], b: &[Row], after_s: f64) -> Vec<RunDe
 pub fn deviation_markdown(t: &[RunDeviation], after_s: f64) -> String {
     let mut m = format!(
         "### Switch transients: solution against compare after each switch of solution (max over {after_s:.0} s)\n\n\
-         With compare a never-switching run of the same log, this is what the switch itself changed.\n\n"
+         With compare a run of the same log without the switch (grid throughout, or geographic \
+         throughout away from the pole), this is what the switch itself changed.\n\n"
     );
     if t.is_empty() {
         m.push_str("no frame switch in solution\n");
