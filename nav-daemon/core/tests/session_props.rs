@@ -1415,3 +1415,43 @@ fn aid_arrival_order_within_an_epoch_does_not_change_the_solution() {
         );
     }
 }
+
+/// KNOWN DEFECT, open (found by the property above in CI on 2026-11-25;
+/// its minimal case, pinned here; run with `-- --ignored`): an init
+/// stamped one period before the genuine line, a hair off the polar axis
+/// (x = 1e-308 m, y = 1e-150 m), a CNS fix, then one sample of a second
+/// publisher 1 ms ahead. The covariance is repaired in the grid frame
+/// (`ErrorState::repair`: P₀ built in g at the geodetic point, then
+/// converted), which at latitude 90° exactly gives σ east = 0 (north and
+/// up 1000 m): the geographic P₀ is singular there. The repair should
+/// build P₀ in the grid frame directly. Ignored so that CI stays a signal
+/// of regressions while it is open; the random property still finds it
+/// now and then.
+#[test]
+#[ignore = "known defect: covariance repair at latitude 90° exactly gives σ east = 0 (see the comment)"]
+fn an_init_a_hair_off_the_polar_axis_then_a_second_publisher_keeps_sigma_positive() {
+    let mut wild = vec![None; 16];
+    wild[0] = Some(1.112_536_929_253_600_7e-308);
+    wild[1] = Some(1.348_825_649_853_351_2e-150);
+    wild[8] = Some(1.259_689_362_172_209_6e-206);
+    let ops = [
+        Op::One(InputOp::Init(InitSpec {
+            stamp: Stamp::Gen(-1),
+            seq: None,
+            content: InitContent::Wild(wild),
+        })),
+        Op::One(InputOp::Cns(CnsSpec {
+            stamp: Stamp::Gen(0),
+            seq: None,
+            lat: None,
+            lon: None,
+            sigma: None,
+        })),
+        Op::SecondPublisher {
+            offset: 1_000_000,
+            n: 1,
+            block: 1,
+        },
+    ];
+    ok(run_case(0.0, 20, &ops));
+}
