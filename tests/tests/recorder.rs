@@ -181,9 +181,17 @@ fn a_full_tmpfs_is_reported_counted_and_survived_and_the_replay_loses_nothing() 
     let rec_pid: u32 = env.read("rec.pid").trim().parse().expect("recorder pid");
     let inside = PathBuf::from(format!("/proc/{}/root{}", ns.0.id(), mnt.display()));
     let mut play = env.start_play("play", &log, "4");
-    // Let it write a while, then fill the file system.
+    // Let it write a first 256 KiB, then fill the file system.
     env.wait_for("record", "effective settings", Duration::from_secs(20));
-    std::thread::sleep(Duration::from_secs(2));
+    let t0 = Instant::now();
+    while list_pieces(&inside).iter().map(|p| p.bytes).sum::<u64>() < 256 << 10 {
+        assert!(
+            t0.elapsed() < Duration::from_secs(30),
+            "the recorder wrote nothing: {}",
+            env.read("record.err")
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    }
     let filler = inside.join("filler");
     {
         use std::io::Write;
