@@ -1416,19 +1416,14 @@ fn aid_arrival_order_within_an_epoch_does_not_change_the_solution() {
     }
 }
 
-/// KNOWN DEFECT, open (found by the property above in CI on 2026-11-25;
-/// its minimal case, pinned here; run with `-- --ignored`): an init
-/// stamped one period before the genuine line, a hair off the polar axis
-/// (x = 1e-308 m, y = 1e-150 m), a CNS fix, then one sample of a second
-/// publisher 1 ms ahead. The covariance is repaired in the grid frame
-/// (`ErrorState::repair`: P₀ built in g at the geodetic point, then
-/// converted), which at latitude 90° exactly gives σ east = 0 (north and
-/// up 1000 m): the geographic P₀ is singular there. The repair should
-/// build P₀ in the grid frame directly. Ignored so that CI stays a signal
-/// of regressions while it is open; the random property still finds it
-/// now and then.
+/// Regression (found by the property above in CI on 2026-11-25; its
+/// minimal case): an init stamped one period before the genuine line, a
+/// hair off the polar axis (x = 1e-308 m, y = 1e-150 m), a CNS fix, then
+/// one sample of a second publisher 1 ms ahead. The covariance is then
+/// repaired in the grid frame at latitude 90° exactly; built in g and
+/// converted, that P₀ had σ east = 0 (g's δλ is singular there). It is now
+/// stated in G directly (`initial_covariance`).
 #[test]
-#[ignore = "known defect: covariance repair at latitude 90° exactly gives σ east = 0 (see the comment)"]
 fn an_init_a_hair_off_the_polar_axis_then_a_second_publisher_keeps_sigma_positive() {
     let mut wild = vec![None; 16];
     wild[0] = Some(1.112_536_929_253_600_7e-308);

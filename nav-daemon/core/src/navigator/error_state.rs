@@ -48,12 +48,7 @@ impl ErrorState {
         f: &FilterSettings,
     ) -> Self {
         let bias_sigma = BiasSigma::from_settings(f);
-        let mut p = initial_covariance(&nav_g.geodetic(), init, &bias_sigma);
-        if kind == FrameKind::Grid {
-            let phi = phi_to(FrameKind::Grid, nav_g);
-            p = phi * p * phi.transpose();
-            filter::symmetrize(&mut p);
-        }
+        let p = initial_covariance(kind, &nav_g.geodetic(), init, &bias_sigma);
         Self {
             p,
             gyro_bias: Vector3::zeros(),
@@ -129,16 +124,7 @@ impl ErrorState {
             sigma_heading_rad: REPAIR_SIGMA.2,
             ..Default::default()
         };
-        let geo_nav = nominal.nav().converted(FrameKind::Geographic);
-        let p_g = initial_covariance(&geo_nav.geodetic(), &wide, &self.bias_sigma);
-        self.p = match nominal.kind() {
-            FrameKind::Geographic => p_g,
-            FrameKind::Grid => {
-                let phi = phi_to(FrameKind::Grid, &geo_nav);
-                phi * p_g * phi.transpose()
-            }
-        };
-        filter::symmetrize(&mut self.p);
+        self.p = initial_covariance(nominal.kind(), &nominal.geo(), &wide, &self.bias_sigma);
         self.repairs += 1;
     }
 
@@ -259,10 +245,23 @@ impl BiasSigma {
     }
 }
 
-/// P₀ in the geographic frame at `geo`, from the init record's σ (floored at
-/// [`INIT_SIGMA_FLOOR`]) and the configured bias uncertainty; a start in G
-/// converts it with Φ ([`ErrorState::new`]).
-fn initial_covariance(geo: &earth::Geodetic, init: &InitState, b: &BiasSigma) -> Mat15 {
+/// P₀ in frame `kind` at `geo`, from the init record's σ (floored at
+/// [`INIT_SIGMA_FLOOR`]) and the configured bias uncertainty: uncorrelated,
+/// horizontally isotropic in velocity, tilt and position.
+///
+/// In G it is stated in G directly (δr^e = C_e^gᵀ [E, N, U] with E, N σ_h
+/// and U σ_v; φ and δv diagonal, which a rotation about up leaves as they
+/// are), not as a g-frame P₀ converted with Φ: g's δλ is singular at the
+/// pole, and the converted P then has no east variance at all at latitude
+/// 90° exactly (found by `adversarial_inputs_keep_the_session_sound`).
+/// Away from the pole the two differ only by the δσ coupling Φ adds
+/// between δλ and heading, which is no knowledge the init ever had.
+fn initial_covariance(
+    kind: FrameKind,
+    geo: &earth::Geodetic,
+    init: &InitState,
+    b: &BiasSigma,
+) -> Mat15 {
     let mut p = Mat15::zeros();
     let sq = |x: f64| x * x;
     let f = INIT_SIGMA_FLOOR;
@@ -300,14 +299,20 @@ fn initial_covariance(geo: &earth::Geodetic, init: &InitState, b: &BiasSigma) ->
     set_diag(idx::BA, [sq(b.accel_mps2); 3]);
     let (h, v) = (sq(init.sigma_pos_h_m), sq(init.sigma_pos_v_m));
     let (rm, rn) = earth::radii(geo.lat_rad);
-    let pos = Matrix3::from_diagonal(&Vector3::new(
-        h / sq(rm + geo.h_m),
-        // Within one position σ of the pole the longitude is unknown by up
-        // to a radian, not more (the parallel's radius is held at least
-        // that σ, and 1 m).
-        h / sq(((rn + geo.h_m) * geo.lat_rad.cos()).max(init.sigma_pos_h_m.max(1.0))),
-        v,
-    ));
+    let pos = match kind {
+        FrameKind::Grid => {
+            let c = frames::c_e_g(geo.lat_rad, geo.lon_rad);
+            c.transpose() * Matrix3::from_diagonal(&Vector3::new(h, h, v)) * c
+        }
+        FrameKind::Geographic => Matrix3::from_diagonal(&Vector3::new(
+            h / sq(rm + geo.h_m),
+            // Within one position σ of the pole the longitude is unknown by up
+            // to a radian, not more (the parallel's radius is held at least
+            // that σ, and 1 m).
+            h / sq(((rn + geo.h_m) * geo.lat_rad.cos()).max(init.sigma_pos_h_m.max(1.0))),
+            v,
+        )),
+    };
     p.fixed_view_mut::<3, 3>(idx::DP, idx::DP).copy_from(&pos);
     // Variances of zero (an exact init) would make P singular: floor them.
     for i in 0..15 {
@@ -319,6 +324,61 @@ fn initial_covariance(geo: &earth::Geodetic, init: &InitState, b: &BiasSigma) ->
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// P₀ stated in G directly has the position block of the g-frame P₀
+    /// converted with Φ (δr = T3 δp exactly) away from the pole, and at the
+    /// pole itself, where g's δλ is singular, σ east = σ north = σ_h.
+    #[test]
+    fn grid_p0_matches_the_converted_one_off_the_pole_and_stays_full_rank_on_it() {
+        let init = InitState {
+            sigma_pos_h_m: 30.0,
+            sigma_pos_v_m: 5.0,
+            sigma_vel_h_mps: 0.5,
+            sigma_vel_v_mps: 0.2,
+            sigma_tilt_rad: 1e-3,
+            sigma_heading_rad: 1e-2,
+            ..Default::default()
+        };
+        let b = BiasSigma {
+            gyro_rps: 1e-7,
+            accel_mps2: 1e-3,
+        };
+        for &(lat_deg, lon_deg) in &[(80.0_f64, 30.0_f64), (-86.0, -120.0), (89.0, 179.0)] {
+            let geo = earth::Geodetic {
+                lat_rad: lat_deg.to_radians(),
+                lon_rad: lon_deg.to_radians(),
+                h_m: 18_000.0,
+            };
+            let p_g = initial_covariance(FrameKind::Geographic, &geo, &init, &b);
+            let nav = AnyNav::Geographic(crate::mech::Nav {
+                q_b_n: nalgebra::UnitQuaternion::identity(),
+                v_n: Vector3::new(120.0, -40.0, 1.0),
+                pos: geo,
+            });
+            let phi = phi_to(FrameKind::Grid, &nav);
+            let converted = phi * p_g * phi.transpose();
+            let direct = initial_covariance(FrameKind::Grid, &geo, &init, &b);
+            let a = converted.fixed_view::<3, 3>(idx::DP, idx::DP).into_owned();
+            let d = direct.fixed_view::<3, 3>(idx::DP, idx::DP).into_owned();
+            assert!((a - d).norm() < 1e-9 * a.norm(), "{lat_deg}: {a} vs {d}");
+        }
+        let pole = earth::Geodetic {
+            lat_rad: std::f64::consts::FRAC_PI_2,
+            lon_rad: 0.3,
+            h_m: 18_000.0,
+        };
+        let p = initial_covariance(FrameKind::Grid, &pole, &init, &b);
+        let c = frames::c_e_g(pole.lat_rad, pole.lon_rad);
+        let enu = c * p.fixed_view::<3, 3>(idx::DP, idx::DP) * c.transpose();
+        for (i, want) in [30.0, 30.0, 5.0].iter().enumerate() {
+            assert!(
+                (enu[(i, i)].sqrt() - want).abs() < 1e-9 * want,
+                "axis {i}: {}",
+                enu[(i, i)].sqrt()
+            );
+        }
+        assert!(covariance_usable(&p));
+    }
 
     /// The hand-written check agrees with nalgebra's Cholesky (an
     /// independent factorization) on matrices that are clearly positive
