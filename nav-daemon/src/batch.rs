@@ -15,6 +15,7 @@ use polarnav::align::{AlignError, Alignment};
 use polarnav::navigator::SwitchEvent;
 use polarnav::row_interval::RowInterval;
 use polarnav::session::{Event, InitCounters, Input, PerStream, Session, Sink, Stream};
+use polarnav::smoother::{FileStore, SmoothReport, Smoother};
 
 use crate::events::log_event;
 use polarnav::solution_csv;
@@ -43,6 +44,10 @@ pub struct BatchOptions {
     /// Write one solution per this interval of sensor time (and every
     /// first, switch, reset and last row) instead of every one.
     pub every: Option<RowInterval>,
+    /// Write the fixed-interval smoothed solution instead of the forward
+    /// one (`polarnav::smoother`), keeping its tape in a temporary file in
+    /// this directory beyond the first chunk.
+    pub smooth: Option<std::path::PathBuf>,
 }
 
 /// What a batch run did.
@@ -63,6 +68,8 @@ pub struct BatchReport {
     /// The session's status at the end, with every record of the log
     /// accounted for: per stream `received = accepted + rejected_* + not_used`.
     pub status: msgs::Status,
+    /// What the smoother did, with `--smooth`.
+    pub smoothed: Option<SmoothReport>,
 }
 
 impl BatchReport {
@@ -140,20 +147,16 @@ struct CsvSink<'a, W: Write> {
     gaps_logged: PerStream<u32>,
     every: Option<RowInterval>,
     csv: solution_csv::RowWriter,
+    /// With `--smooth`: the forward run's tape and solutions, written
+    /// smoothed at the end instead of as they come.
+    smoother: Option<Smoother<FileStore>>,
 }
 
 /// Rejections logged per stream before the rest are only counted (status).
 const REJECTIONS_LOGGED: u32 = 10;
 
-impl<W: Write> Sink for CsvSink<'_, W> {
-    fn wants_solution(&mut self, t_ns: u64, must: bool) -> bool {
-        self.every.as_mut().is_none_or(|e| e.take(t_ns, must))
-    }
-
-    fn solution(&mut self, s: &msgs::Solution) {
-        if self.error.is_some() {
-            return;
-        }
+impl<W: Write> CsvSink<'_, W> {
+    fn write(&mut self, s: &msgs::Solution) {
         match &mut self.out {
             Output::Csv(w) => {
                 if let Err(e) = self.csv.write(w, s) {
@@ -164,6 +167,9 @@ impl<W: Write> Sink for CsvSink<'_, W> {
             Output::Mcap(m) => m.channels().solution(s),
         }
         self.rows += 1;
+    }
+
+    fn progress(&mut self, s: &msgs::Solution) {
         if self.progress_ns > 0 && s.t_ns >= self.next_progress_ns {
             self.next_progress_ns = s.t_ns.saturating_add(self.progress_ns);
             let frame = msgs::WireFrame::from_u8(s.frame).map_or('?', msgs::WireFrame::letter);
@@ -176,6 +182,31 @@ impl<W: Write> Sink for CsvSink<'_, W> {
                 s.heading_rad.to_degrees()
             );
         }
+    }
+}
+
+impl<W: Write> Sink for CsvSink<'_, W> {
+    fn wants_solution(&mut self, t_ns: u64, must: bool) -> bool {
+        self.every.as_mut().is_none_or(|e| e.take(t_ns, must))
+    }
+
+    fn tape(&mut self, records: &[u8]) {
+        if let Some(sm) = &mut self.smoother {
+            sm.records(records);
+        }
+    }
+
+    fn solution(&mut self, s: &msgs::Solution) {
+        if self.error.is_some() {
+            return;
+        }
+        if let Some(sm) = &mut self.smoother {
+            sm.solution(s);
+            self.progress(s);
+            return;
+        }
+        self.write(s);
+        self.progress(s);
     }
 
     fn event(&mut self, e: &Event) {
@@ -285,7 +316,14 @@ pub fn run_to<R: BufRead + Send, W: Write>(
         gaps_logged: PerStream::default(),
         every: opts.every,
         csv: solution_csv::RowWriter::new(),
+        smoother: match &opts.smooth {
+            Some(dir) => Some(Smoother::new(FileStore::new_in(dir)?)),
+            None => None,
+        },
     };
+    if sink.smoother.is_some() {
+        session.keep_smoother_tape();
+    }
     match &mut sink.out {
         Output::Csv(w) => writeln!(w, "{}", solution_csv::HEADER)?,
         Output::Mcap(m) => {
@@ -396,6 +434,27 @@ pub fn run_to<R: BufRead + Send, W: Write>(
         return Err(BatchError::NoInit(log_name.to_owned()));
     };
     let covariance_repairs = nav.covariance_repairs();
+    let smoothed = match sink.smoother.take() {
+        Some(sm) => {
+            if progress_ns > 0 {
+                eprintln!("batch: forward pass done; smoothing (backward pass)");
+            }
+            let report = sm.finish(|s| {
+                sink.write(s);
+                sink.error.take().map_or(Ok(()), Err)
+            })?;
+            tracing::info!(
+                "{log_name}: smoothed {} solutions ({} passed through where nothing was learned, {} failed backward steps, tape {:.1} MB, {} chunks stored)",
+                report.solutions,
+                report.passed_through,
+                report.failed_steps,
+                report.tape_bytes as f64 / 1e6,
+                report.stored_chunks
+            );
+            Some(report)
+        }
+        None => None,
+    };
     match sink.out {
         Output::Csv(mut w) => w.flush()?,
         Output::Mcap(mut m) => {
@@ -416,5 +475,6 @@ pub fn run_to<R: BufRead + Send, W: Write>(
         time_resyncs: session.time_resyncs(),
         covariance_repairs,
         status: session.status(),
+        smoothed,
     })
 }

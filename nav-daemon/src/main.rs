@@ -76,6 +76,13 @@ enum Cmd {
         /// (over the configuration's and the log header's `[filter]` noise keys).
         #[arg(long)]
         preset: Option<String>,
+        /// Write the fixed-interval smoothed solution (Rauch–Tung–Striebel over
+        /// the forward run, through frame switches; breaks at resets) in the
+        /// forward solution's columns. Beyond 16 MiB its record goes to an
+        /// unnamed temporary file in the output's directory (about 0.45 GB
+        /// per flight hour at 200 Hz); memory stays under about 100 MB.
+        #[arg(long)]
+        smooth: bool,
     },
     /// Print the shell completion script (e.g. `nav-daemon completions bash >
     /// /usr/share/bash-completion/completions/nav-daemon`).
@@ -185,6 +192,7 @@ fn main() -> ExitCode {
             align,
             preset,
             every,
+            smooth,
         }) => {
             let usage = |m: String| {
                 eprintln!("error: {m}");
@@ -227,6 +235,10 @@ fn main() -> ExitCode {
                 },
                 progress_every_s: progress,
                 every,
+                smooth: smooth.then(|| match out.parent() {
+                    Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+                    _ => PathBuf::from("."),
+                }),
             };
             let log_name = log.display().to_string();
             let input = match File::open(&log) {

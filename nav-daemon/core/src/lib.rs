@@ -28,5 +28,6 @@ pub mod navigator;
 pub mod row_interval;
 pub mod session;
 pub mod settings;
+pub mod smoother;
 pub mod solution_csv;
 pub mod switch;

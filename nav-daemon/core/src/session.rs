@@ -408,6 +408,10 @@ pub trait Sink {
     fn solution(&mut self, s: &Solution);
     /// A decision worth a log line (rate-limit recurring ones).
     fn event(&mut self, _e: &Event) {}
+    /// The smoother's record ([`crate::smoother`]), when the session keeps
+    /// one ([`Session::keep_smoother_tape`]): whole records in order, each
+    /// batch delivered before the solution that follows it.
+    fn tape(&mut self, _records: &[u8]) {}
 }
 
 /// A sink that keeps nothing (for benches and tests that read the session).
@@ -485,6 +489,8 @@ impl SeqTracker {
 pub struct Session {
     settings: SessionSettings,
     nav: Option<Navigator>,
+    /// Whether navigators keep the smoother's record.
+    smoother_tape: bool,
     /// Alignment in progress: the init it started from and the accumulator.
     aligning: Option<(InitState, AlignmentAccumulator)>,
     /// A checkpoint to resume from if the IMU continues from it.
@@ -530,6 +536,7 @@ impl Session {
             solution_pending: false,
             marks: None,
             imu_lost: false,
+            smoother_tape: false,
             resumed: false,
             reinits: 0,
             resyncs: 0,
@@ -643,6 +650,22 @@ impl Session {
         self.emit_pending(false, sink);
     }
 
+    /// Keeps the record a smoother needs from the next navigator on (and
+    /// the current one's from now), delivered through [`Sink::tape`]. For
+    /// `batch --smooth`; the live loop keeps none.
+    pub fn keep_smoother_tape(&mut self) {
+        self.smoother_tape = true;
+        self.enable_tape();
+    }
+
+    fn enable_tape(&mut self) {
+        if self.smoother_tape
+            && let Some(n) = &mut self.nav
+        {
+            n.enable_tape();
+        }
+    }
+
     /// The IMU stopped (live: no sample for several periods, by the wall
     /// clock). Reported only: status marks the IMU lost and no aid fresh
     /// until the next IMU sample. Nothing is decided on it: aids ahead of
@@ -660,6 +683,10 @@ impl Session {
     pub fn finish(&mut self, sink: &mut impl Sink) {
         self.fuse_due(sink);
         self.emit_pending(true, sink);
+        if let Some(n) = &mut self.nav {
+            n.end_tape();
+            n.drain_tape(|r| sink.tape(r));
+        }
         self.drain_queue(sink);
         self.refute_candidates(sink);
         if let Some(i) = self.held_init.take() {
@@ -809,6 +836,7 @@ impl Session {
             }
             None => {
                 self.nav = Some(Navigator::new(&init, cfg));
+                self.enable_tape();
                 self.first_t_ns.get_or_insert(init.t_ns);
                 sink.event(&Event::Started {
                     source,
@@ -843,6 +871,7 @@ impl Session {
             let newer_init = self.held_init.is_some_and(|i| i.t_ns > c.t_ns);
             if continues && !newer_init {
                 self.nav = Some(Navigator::from_checkpoint(&c, &self.settings.navigator));
+                self.enable_tape();
                 self.resumed = true;
                 self.first_t_ns.get_or_insert(c.t_ns);
                 // An init no newer than the checkpoint describes an older state.
@@ -1084,7 +1113,8 @@ impl Session {
         if !std::mem::take(&mut self.solution_pending) {
             return;
         }
-        let Some(n) = &self.nav else { return };
+        let Some(n) = &mut self.nav else { return };
+        n.drain_tape(|r| sink.tape(r));
         let marks = (n.switch_count(), n.last_reset().count, self.reinits);
         let must = last || self.marks != Some(marks);
         self.marks = Some(marks);

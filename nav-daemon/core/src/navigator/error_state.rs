@@ -14,6 +14,7 @@ use crate::filter::{self, ProcessNoise, UpdateOutcome};
 use crate::frames;
 use crate::mech::{AnyNav, FrameKind, Increment, Nominal};
 use crate::settings::FilterSettings;
+use crate::smoother;
 use crate::switch;
 
 use super::INIT_SIGMA_FLOOR;
@@ -34,6 +35,14 @@ pub(super) struct ErrorState {
     pub(super) repairs: u64,
     /// Propagations so far (part of the navigator's work count).
     pub(super) propagations: u64,
+    /// The smoother's record of every change of P and every correction,
+    /// when one is kept ([`crate::smoother`]; drained by the session).
+    pub(super) tape: Option<Vec<u8>>,
+    /// Sensor time (ns) of the nominal state as the increments advance it,
+    /// set to the IMU stamp after each sample, and that of the last
+    /// propagation: the ends of a propagation's interval on the tape.
+    pub(super) clock_ns: f64,
+    last_propagation_ns: f64,
 }
 
 impl ErrorState {
@@ -60,6 +69,32 @@ impl ErrorState {
             bias_sigma,
             repairs: 0,
             propagations: 0,
+            tape: None,
+            clock_ns: 0.0,
+            last_propagation_ns: 0.0,
+        }
+    }
+
+    /// Sets the tape clock to the sensor time `t_ns` (after each IMU
+    /// sample, and at a start or re-synchronization, `restart`).
+    pub(super) fn set_clock(&mut self, t_ns: u64, restart: bool) {
+        self.clock_ns = t_ns as f64;
+        if restart {
+            self.last_propagation_ns = self.clock_ns;
+        }
+    }
+
+    /// Records a correction fed back.
+    pub(super) fn tape_update(&mut self, dx: &nalgebra::SVector<f64, 15>) {
+        if let Some(t) = &mut self.tape {
+            smoother::write::update(t, dx);
+        }
+    }
+
+    /// Records a break with P as it is now: no information flows back past it.
+    pub(super) fn tape_break(&mut self) {
+        if let Some(t) = &mut self.tape {
+            smoother::write::brk(t, &self.p);
         }
     }
 
@@ -80,6 +115,7 @@ impl ErrorState {
     /// Adds one increment to the interval; true when a propagation is due.
     pub(super) fn accumulate(&mut self, inc: &Increment) -> bool {
         self.acc_dt += inc.dt_s;
+        self.clock_ns += inc.dt_s * 1e9;
         self.acc_dv_b += inc.d_v;
         self.acc_dt >= self.interval_s * (1.0 - 1e-9)
     }
@@ -94,6 +130,19 @@ impl ErrorState {
         let f_b = self.acc_dv_b / self.acc_dt;
         let mut f = nominal.nav().error_dynamics(&f_b);
         self.noise.add_bias_dynamics(&mut f);
+        if let Some(t) = &mut self.tape {
+            smoother::write::propagate(
+                t,
+                self.last_propagation_ns,
+                self.clock_ns,
+                self.acc_dt,
+                &f_b,
+                nominal.nav(),
+                &self.noise,
+                &self.p,
+            );
+        }
+        self.last_propagation_ns = self.clock_ns;
         filter::propagate(&mut self.p, &f, &self.noise, self.acc_dt);
         // The bias estimates are the mean of Gauss–Markov processes: they
         // decay as e^(−Δt/τ) between updates, so that the error δb = b̂ − b
@@ -125,11 +174,15 @@ impl ErrorState {
             ..Default::default()
         };
         self.p = initial_covariance(nominal.kind(), &nominal.geo(), &wide, &self.bias_sigma);
+        self.tape_break();
         self.repairs += 1;
     }
 
     /// P = Φ P Φᵀ for a switch from the state `before` to frame `to`.
     pub(super) fn convert(&mut self, to: FrameKind, before: &AnyNav) {
+        if let Some(t) = &mut self.tape {
+            smoother::write::convert(t, to, before, &self.p);
+        }
         let phi = phi_to(to, before);
         self.p = phi * self.p * phi.transpose();
         filter::symmetrize(&mut self.p);
@@ -148,12 +201,16 @@ impl ErrorState {
             .position_error_to_enu(&frames::c_e_g(geo.lat_rad, geo.lon_rad));
         let m_inv = m.try_inverse().unwrap_or_else(Matrix3::identity);
         let add_p = m_inv * m_inv.transpose() * var_p;
+        let before = self.tape.is_some().then_some(self.p);
         for i in 0..3 {
             self.p[(idx::DV + i, idx::DV + i)] += var_v;
             self.p[(idx::PHI + i, idx::PHI + i)] += var_phi;
             for j in 0..3 {
                 self.p[(idx::DP + i, idx::DP + j)] += add_p[(i, j)];
             }
+        }
+        if let (Some(t), Some(before)) = (&mut self.tape, before) {
+            smoother::write::add(t, &before, &self.p);
         }
     }
 
@@ -177,7 +234,7 @@ impl ErrorState {
 
 /// Φ of the parameter conversion from `from` (a state in the other frame)
 /// to `to` (papers/001 eqs 32–38).
-pub(super) fn phi_to(to: FrameKind, from: &AnyNav) -> Mat15 {
+pub(crate) fn phi_to(to: FrameKind, from: &AnyNav) -> Mat15 {
     let geo = from.geodetic();
     let v_grid = match (from, &from.converted(FrameKind::Grid)) {
         (AnyNav::Grid(g), _) | (_, AnyNav::Grid(g)) => g.v_n,

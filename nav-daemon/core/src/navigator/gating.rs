@@ -188,6 +188,7 @@ impl Navigator {
         self.history.correct(oldest, &phi, &dv, &dp);
         self.err.gyro_bias += part(idx::BG);
         self.err.accel_bias += part(idx::BA);
+        self.err.tape_update(dx);
     }
 
     /// After a rejection: if the aid's streak has lasted `reset_after_s` and
@@ -232,6 +233,8 @@ impl Navigator {
     ) {
         // σ at most 10⁴ times what P said: beyond, the state is unknown anyway.
         const KAPPA_MAX: f64 = 1e8;
+        // The smoother carries nothing back across a reset.
+        self.err.tape_break();
         let before = self.err.p;
         let old = self.solution();
         let o = which.observed_block();

@@ -156,7 +156,10 @@ impl Navigator {
     /// time order start again.
     pub fn resync(&mut self, t_ns: u64) {
         self.propagate_covariance();
+        // The time elapsed is unknown: the smoother carries nothing back.
+        self.err.tape_break();
         self.t_ns = t_ns;
+        self.err.set_clock(t_ns, true);
         self.history.clear();
         for c in [
             &mut self.aids.srs,

@@ -28,8 +28,9 @@ mod gating;
 mod history;
 mod imu_input;
 mod recovery;
-mod report;
+pub(crate) mod report;
 use error_state::ErrorState;
+pub(crate) use error_state::phi_to;
 use gating::AidGate;
 pub use history::HISTORY as STATE_HISTORY_LEN;
 use history::History;
@@ -301,8 +302,41 @@ impl Navigator {
             n.counters.last_t_ns = 0;
         }
         fresh.reset = self.reset;
+        // The smoother's record goes on, broken here: nothing learned after
+        // a new init says anything about the state before it.
+        self.err.tape_break();
+        fresh.err.tape = self.err.tape.take();
+        fresh.err.set_clock(fresh.t_ns, true);
         *self = fresh;
         self.record_reset(&old);
+    }
+
+    /// Keeps the smoother's record from now on ([`crate::smoother`]),
+    /// starting with a break at the current state.
+    pub fn enable_tape(&mut self) {
+        if self.err.tape.is_none() {
+            self.err.tape = Some(Vec::new());
+            self.err.set_clock(self.t_ns, true);
+            self.err.tape_break();
+        }
+    }
+
+    /// Ends the smoother's record with a break at the current state (the end
+    /// of the inputs: nothing is learned after it).
+    pub fn end_tape(&mut self) {
+        self.err.tape_break();
+    }
+
+    /// The smoother's records since the last call (whole records, in the
+    /// order they happened); empty when no record is kept. The buffer keeps
+    /// its capacity, so the steady state allocates nothing.
+    pub fn drain_tape(&mut self, mut to: impl FnMut(&[u8])) {
+        if let Some(t) = &mut self.err.tape
+            && !t.is_empty()
+        {
+            to(t);
+            t.clear();
+        }
     }
 
     /// Records the step from `old` to the current state as a reset.
@@ -474,6 +508,7 @@ impl Navigator {
         }
         self.integrate(&inc);
         self.t_ns = s.t_ns;
+        self.err.set_clock(s.t_ns, false);
         self.seq += 1;
         self.history.push(self.t_ns, self.nominal.nav());
 

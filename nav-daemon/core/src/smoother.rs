@@ -1,0 +1,730 @@
+//! Fixed-interval smoother: the Rauch–Tung–Striebel backward pass over the
+//! forward filter's own record, for the flight-test reference trajectory.
+//!
+//! **Why RTS and not a forward–backward (two-filter) combination.** The
+//! backward filter of a two-filter smoother needs a second, independent
+//! navigation solution run backward in time: a reverse mechanization, its
+//! own frame switches at the pole and an information-form start with no
+//! prior. RTS needs nothing the forward filter has not already computed: per
+//! covariance interval its P before and after propagation and the
+//! transition Φ, and per update the correction fed back. Its backward pass
+//! is linear algebra on 15×15 matrices per covariance interval (not per IMU
+//! sample), and a frame switch is one more transition (Φ of papers/001 eqs
+//! 30–38, no noise), so the backward pass carries the error state and
+//! covariance through exactly the forward pass's parameter conversion.
+//!
+//! **The record (tape).** The navigator appends, in the order they happen:
+//! - a propagation: the nominal state, mean specific force, interval and
+//!   process noise it used, and P before it; Φ and P after are recomputed
+//!   here with the same functions, bit for bit (a third of the bytes of
+//!   storing them);
+//! - a frame conversion: the state before it, the new frame and P before;
+//! - an addition to P alone (the covariance of a coasted gap): P before and
+//!   after, Φ = I;
+//! - an update: the correction δx fed back into the nominal state;
+//! - a break, where no information may flow back (a re-initialization, a
+//!   reset to an aid, a covariance repair, a time re-synchronization, the
+//!   end): P there;
+//!
+//! and the driver appends each forward solution in its place among them.
+//!
+//! **The backward pass.** With closed-loop feedback the forward error
+//! estimate is zero after every update, so the smoothed error of the state
+//! before an update at k is that after it plus the correction (e⁻ = e⁺ +
+//! δx), and across a transition e_k = C e_{k+1}⁻, P^s_k = P_k + C (P^s_{k+1}
+//! − P_{k+1}⁻) Cᵀ with C = P_k Φᵀ (P_{k+1}⁻)⁻¹, formed through a Cholesky
+//! factor of P⁻ scaled to unit diagonal. A solution between two
+//! propagations takes e interpolated linearly in time between the ends of
+//! its interval and the P^s of the interval's start (the forward solution
+//! there reports the unpropagated P as well). Each smoothed solution is the
+//! forward nominal corrected by e, the way the filter feeds a correction
+//! back, with σ from P^s. Where nothing can be learned (after the last
+//! update, before a break) the forward solution is passed through as it is.
+//! A step whose algebra fails (P⁻ not positive definite, a non-finite or
+//! non-positive result) becomes a break and is counted.
+//!
+//! **Memory.** The tape is kept in chunks of [`CHUNK_BYTES`]; every chunk
+//! but the newest goes to a [`ChunkStore`] (a temporary file in `batch`).
+//! The backward pass runs twice over the chunks from the last to the first,
+//! first keeping only the backward state at each chunk boundary, then once
+//! per chunk in forward order from its boundary state to produce that
+//! chunk's smoothed solutions in time order: peak memory is about two
+//! chunks and their solutions, whatever the flight's length. The tape takes
+//! about 1 KB per covariance interval and 0.5 KB per solution: at 200 Hz
+//! with a 0.1 s interval about 0.45 GB per flight hour on disk.
+
+use std::io::{Read, Seek, SeekFrom, Write};
+
+use msgs::Solution;
+use nalgebra::{SVector, UnitQuaternion, Vector3};
+
+use crate::earth::Geodetic;
+use crate::error_model::{Mat15, idx};
+use crate::filter::{self, ProcessNoise};
+use crate::mech::{AnyNav, FrameKind, Nav, Nominal};
+use crate::navigator::report::navigation_solution;
+
+/// Bytes of tape held in memory before a chunk goes to the store (16 MiB:
+/// about 20 s of a 200 Hz flight).
+pub const CHUNK_BYTES: usize = 16 << 20;
+
+type Vec15 = SVector<f64, 15>;
+
+/// Record kinds (the last byte of a record).
+mod tag {
+    pub const PROPAGATE: u8 = 1;
+    pub const CONVERT: u8 = 2;
+    pub const ADD: u8 = 3;
+    pub const UPDATE: u8 = 4;
+    pub const BREAK: u8 = 5;
+    pub const SOLUTION: u8 = 6;
+}
+
+/// Writing records: a payload, then its length (u32) and its tag, so that
+/// the tape reads backward as easily as forward.
+pub(crate) mod write {
+    use super::*;
+
+    fn f64s(buf: &mut Vec<u8>, xs: &[f64]) {
+        for x in xs {
+            buf.extend_from_slice(&x.to_le_bytes());
+        }
+    }
+
+    /// The upper triangle of a symmetric P (120 values).
+    fn sym(buf: &mut Vec<u8>, p: &Mat15) {
+        for i in 0..15 {
+            for j in i..15 {
+                buf.extend_from_slice(&p[(i, j)].to_le_bytes());
+            }
+        }
+    }
+
+    fn nav(buf: &mut Vec<u8>, n: &AnyNav) {
+        let (kind, q, v, pos) = match n {
+            AnyNav::Geographic(s) => (
+                0.0,
+                s.q_b_n,
+                s.v_n,
+                [s.pos.lat_rad, s.pos.lon_rad, s.pos.h_m],
+            ),
+            AnyNav::Grid(s) => (1.0, s.q_b_n, s.v_n, [s.pos.x, s.pos.y, s.pos.z]),
+        };
+        let q = q.into_inner();
+        f64s(buf, &[kind, q.w, q.i, q.j, q.k, v.x, v.y, v.z]);
+        f64s(buf, &pos);
+    }
+
+    fn end(buf: &mut Vec<u8>, start: usize, t: u8) {
+        let len = (buf.len() - start) as u32;
+        buf.extend_from_slice(&len.to_le_bytes());
+        buf.push(t);
+    }
+
+    /// A propagation over `dt` s from `t_b` to `t_a` (ns of sensor time).
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn propagate(
+        buf: &mut Vec<u8>,
+        t_b: f64,
+        t_a: f64,
+        dt: f64,
+        f_b: &Vector3<f64>,
+        n: &AnyNav,
+        noise: &ProcessNoise,
+        p_b: &Mat15,
+    ) {
+        let start = buf.len();
+        f64s(buf, &[t_b, t_a, dt, f_b.x, f_b.y, f_b.z]);
+        nav(buf, n);
+        f64s(
+            buf,
+            &[
+                noise.arw,
+                noise.vrw,
+                noise.gyro_bias_sigma,
+                noise.gyro_bias_tau_s,
+                noise.accel_bias_sigma,
+                noise.accel_bias_tau_s,
+            ],
+        );
+        sym(buf, p_b);
+        end(buf, start, tag::PROPAGATE);
+    }
+
+    /// A frame conversion to `to` from the state `before`.
+    pub(crate) fn convert(buf: &mut Vec<u8>, to: FrameKind, before: &AnyNav, p_b: &Mat15) {
+        let start = buf.len();
+        f64s(buf, &[f64::from(u8::from(to == FrameKind::Grid))]);
+        nav(buf, before);
+        sym(buf, p_b);
+        end(buf, start, tag::CONVERT);
+    }
+
+    /// An addition to P alone (Φ = I).
+    pub(crate) fn add(buf: &mut Vec<u8>, p_b: &Mat15, p_a: &Mat15) {
+        let start = buf.len();
+        sym(buf, p_b);
+        sym(buf, p_a);
+        end(buf, start, tag::ADD);
+    }
+
+    /// A correction fed back.
+    pub(crate) fn update(buf: &mut Vec<u8>, dx: &Vec15) {
+        let start = buf.len();
+        f64s(buf, dx.as_slice());
+        end(buf, start, tag::UPDATE);
+    }
+
+    /// A break, with P there.
+    pub(crate) fn brk(buf: &mut Vec<u8>, p: &Mat15) {
+        let start = buf.len();
+        sym(buf, p);
+        end(buf, start, tag::BREAK);
+    }
+
+    /// A forward solution, all of it (passed through where nothing is learned).
+    pub(crate) fn solution(buf: &mut Vec<u8>, s: &Solution) {
+        let start = buf.len();
+        // Serialization of a plain struct of numbers into a Vec cannot fail.
+        let bytes = postcard::to_stdvec(s).unwrap_or_default();
+        buf.extend_from_slice(&bytes);
+        end(buf, start, tag::SOLUTION);
+    }
+}
+
+/// One record read back.
+enum Record {
+    Propagate {
+        t_b: f64,
+        t_a: f64,
+        phi: Mat15,
+        p_b: Mat15,
+        p_a: Mat15,
+    },
+    Convert {
+        phi: Mat15,
+        p_b: Mat15,
+        p_a: Mat15,
+    },
+    Add {
+        p_b: Mat15,
+        p_a: Mat15,
+    },
+    Update(Vec15),
+    Break(Mat15),
+    Solution(Box<Solution>),
+}
+
+struct Cursor<'a> {
+    b: &'a [u8],
+}
+
+impl Cursor<'_> {
+    fn f64(&mut self) -> Option<f64> {
+        let (x, rest) = self.b.split_first_chunk::<8>()?;
+        self.b = rest;
+        Some(f64::from_le_bytes(*x))
+    }
+    fn sym(&mut self) -> Option<Mat15> {
+        let mut p = Mat15::zeros();
+        for i in 0..15 {
+            for j in i..15 {
+                let x = self.f64()?;
+                p[(i, j)] = x;
+                p[(j, i)] = x;
+            }
+        }
+        Some(p)
+    }
+    fn nav(&mut self) -> Option<AnyNav> {
+        let mut a = [0.0; 11];
+        for x in &mut a {
+            *x = self.f64()?;
+        }
+        let q = UnitQuaternion::new_unchecked(nalgebra::Quaternion::new(a[1], a[2], a[3], a[4]));
+        let v_n = Vector3::new(a[5], a[6], a[7]);
+        Some(if a[0] == 0.0 {
+            AnyNav::Geographic(Nav {
+                q_b_n: q,
+                v_n,
+                pos: Geodetic::new(a[8], a[9], a[10]),
+            })
+        } else {
+            AnyNav::Grid(Nav {
+                q_b_n: q,
+                v_n,
+                pos: Vector3::new(a[8], a[9], a[10]),
+            })
+        })
+    }
+}
+
+/// The record ending at `end` of `buf` and where it starts; None if the
+/// tape is damaged (which only a defect here could cause).
+fn read_back(buf: &[u8], end: usize) -> Option<(Record, usize)> {
+    let t = *buf.get(end.checked_sub(1)?)?;
+    let len_at = end.checked_sub(5)?;
+    let len = u32::from_le_bytes(buf.get(len_at..len_at + 4)?.try_into().ok()?) as usize;
+    let start = len_at.checked_sub(len)?;
+    let mut c = Cursor {
+        b: &buf[start..len_at],
+    };
+    let rec = match t {
+        tag::PROPAGATE => {
+            let (t_b, t_a, dt) = (c.f64()?, c.f64()?, c.f64()?);
+            let f_b = Vector3::new(c.f64()?, c.f64()?, c.f64()?);
+            let nav = c.nav()?;
+            let noise = ProcessNoise {
+                arw: c.f64()?,
+                vrw: c.f64()?,
+                gyro_bias_sigma: c.f64()?,
+                gyro_bias_tau_s: c.f64()?,
+                accel_bias_sigma: c.f64()?,
+                accel_bias_tau_s: c.f64()?,
+            };
+            let p_b = c.sym()?;
+            // The same F, Φ and P⁻ as the forward propagation computed.
+            let mut f = nav.error_dynamics(&f_b);
+            noise.add_bias_dynamics(&mut f);
+            let mut p_a = p_b;
+            filter::propagate(&mut p_a, &f, &noise, dt);
+            Record::Propagate {
+                t_b,
+                t_a,
+                phi: filter::transition(&f, dt),
+                p_b,
+                p_a,
+            }
+        }
+        tag::CONVERT => {
+            let to = if c.f64()? == 0.0 {
+                FrameKind::Geographic
+            } else {
+                FrameKind::Grid
+            };
+            let before = c.nav()?;
+            let p_b = c.sym()?;
+            let phi = crate::navigator::phi_to(to, &before);
+            let mut p_a = phi * p_b * phi.transpose();
+            filter::symmetrize(&mut p_a);
+            Record::Convert { phi, p_b, p_a }
+        }
+        tag::ADD => Record::Add {
+            p_b: c.sym()?,
+            p_a: c.sym()?,
+        },
+        tag::UPDATE => {
+            let mut dx = Vec15::zeros();
+            for x in dx.iter_mut() {
+                *x = c.f64()?;
+            }
+            Record::Update(dx)
+        }
+        tag::BREAK => Record::Break(c.sym()?),
+        tag::SOLUTION => Record::Solution(Box::new(postcard::from_bytes(c.b).ok()?)),
+        _ => return None,
+    };
+    Some((rec, start))
+}
+
+/// Where the chunks of the tape that are not the newest are kept.
+pub trait ChunkStore {
+    /// Keeps chunk number `k` (chunks arrive in order 0, 1, 2, ...).
+    fn put(&mut self, k: usize, bytes: &[u8]) -> std::io::Result<()>;
+    /// Reads chunk `k` back into `buf` (cleared first).
+    fn get(&mut self, k: usize, buf: &mut Vec<u8>) -> std::io::Result<()>;
+}
+
+/// Chunks kept in memory (tests, short logs).
+#[derive(Debug, Default)]
+pub struct MemoryStore(Vec<Vec<u8>>);
+
+impl ChunkStore for MemoryStore {
+    fn put(&mut self, k: usize, bytes: &[u8]) -> std::io::Result<()> {
+        debug_assert_eq!(k, self.0.len());
+        self.0.push(bytes.to_vec());
+        Ok(())
+    }
+    fn get(&mut self, k: usize, buf: &mut Vec<u8>) -> std::io::Result<()> {
+        buf.clear();
+        buf.extend_from_slice(&self.0[k]);
+        Ok(())
+    }
+}
+
+/// Chunks kept in an unnamed temporary file: created in `dir` and removed
+/// from it at once, so that nothing is left behind however the process ends.
+#[derive(Debug)]
+pub struct FileStore {
+    file: std::fs::File,
+    /// (offset, length) of each chunk.
+    chunks: Vec<(u64, usize)>,
+    end: u64,
+}
+
+impl FileStore {
+    pub fn new_in(dir: &std::path::Path) -> std::io::Result<Self> {
+        let nanos = std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map_or(0, |d| d.as_nanos());
+        let path = dir.join(format!(
+            ".polarnav-smoother-{}-{nanos}.tape",
+            std::process::id()
+        ));
+        let file = std::fs::OpenOptions::new()
+            .read(true)
+            .write(true)
+            .create_new(true)
+            .open(&path)?;
+        std::fs::remove_file(&path)?;
+        Ok(Self {
+            file,
+            chunks: Vec::new(),
+            end: 0,
+        })
+    }
+
+    /// Bytes written to the file so far.
+    pub fn bytes(&self) -> u64 {
+        self.end
+    }
+}
+
+impl ChunkStore for FileStore {
+    fn put(&mut self, k: usize, bytes: &[u8]) -> std::io::Result<()> {
+        debug_assert_eq!(k, self.chunks.len());
+        self.file.seek(SeekFrom::Start(self.end))?;
+        self.file.write_all(bytes)?;
+        self.chunks.push((self.end, bytes.len()));
+        self.end += bytes.len() as u64;
+        Ok(())
+    }
+    fn get(&mut self, k: usize, buf: &mut Vec<u8>) -> std::io::Result<()> {
+        let (off, len) = self.chunks[k];
+        buf.clear();
+        buf.resize(len, 0);
+        self.file.seek(SeekFrom::Start(off))?;
+        self.file.read_exact(buf)
+    }
+}
+
+/// What a smoothing run did.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct SmoothReport {
+    /// Solutions written.
+    pub solutions: u64,
+    /// Of them, passed through as the forward ones (nothing to learn).
+    pub passed_through: u64,
+    /// Backward steps whose algebra failed and became breaks.
+    pub failed_steps: u64,
+    /// Tape bytes, and chunks of it that went to the store.
+    pub tape_bytes: u64,
+    pub stored_chunks: usize,
+}
+
+/// The backward state at one place of the tape.
+#[derive(Debug, Clone)]
+struct Back {
+    /// Smoothed error of the nominal state here and its covariance.
+    e: Vec15,
+    ps: Mat15,
+    /// False where nothing has been learned (after the last update, before
+    /// a break): forward solutions pass through.
+    learned: bool,
+    /// The propagation just behind (in time order: the interval ending
+    /// where the tape now stands): its times and smoothed errors at both
+    /// ends, for the solutions inside it.
+    span: Option<(f64, f64, Vec15, Vec15)>,
+    failed: u64,
+}
+
+impl Back {
+    fn new() -> Self {
+        Self {
+            e: Vec15::zeros(),
+            ps: Mat15::zeros(),
+            learned: false,
+            span: None,
+            failed: 0,
+        }
+    }
+
+    /// One record, backward. A solution gives its smoothed version (or
+    /// itself, passed through).
+    fn step(&mut self, rec: Record) -> Option<(Solution, bool)> {
+        match rec {
+            Record::Solution(s) => {
+                if !self.learned {
+                    return Some((*s, true));
+                }
+                let e = match self.span {
+                    Some((t_b, t_a, e_b, e_a)) if t_a > t_b => {
+                        let a = ((s.t_ns as f64 - t_b) / (t_a - t_b)).clamp(0.0, 1.0);
+                        e_b + (e_a - e_b) * a
+                    }
+                    _ => self.e,
+                };
+                Some((smoothed_solution(&s, &e, &self.ps), false))
+            }
+            Record::Update(dx) => {
+                if !self.learned {
+                    self.e = Vec15::zeros();
+                    self.learned = true;
+                }
+                self.e += dx;
+                self.span = None;
+                None
+            }
+            Record::Break(p) => {
+                self.e = Vec15::zeros();
+                self.ps = p;
+                self.learned = false;
+                self.span = None;
+                None
+            }
+            Record::Propagate {
+                t_b,
+                t_a,
+                phi,
+                p_b,
+                p_a,
+            } => {
+                let e_a = self.e;
+                self.transition(&phi, &p_b, &p_a);
+                self.span = Some((t_b, t_a, self.e, e_a));
+                None
+            }
+            Record::Convert { phi, p_b, p_a } => {
+                self.transition(&phi, &p_b, &p_a);
+                self.span = None;
+                None
+            }
+            Record::Add { p_b, p_a } => {
+                self.transition(&Mat15::identity(), &p_b, &p_a);
+                self.span = None;
+                None
+            }
+        }
+    }
+
+    /// e ← C e, P^s ← P_b + C (P^s − P_a) Cᵀ with C = P_b Φᵀ P_a⁻¹.
+    fn transition(&mut self, phi: &Mat15, p_b: &Mat15, p_a: &Mat15) {
+        if !self.learned {
+            self.e = Vec15::zeros();
+            self.ps = *p_b;
+            return;
+        }
+        match rts_step(phi, p_b, p_a, &self.e, &self.ps) {
+            Some((e, ps)) => {
+                self.e = e;
+                self.ps = ps;
+            }
+            None => {
+                self.failed += 1;
+                self.e = Vec15::zeros();
+                self.ps = *p_b;
+                self.learned = false;
+            }
+        }
+    }
+}
+
+/// One RTS step; None when P_a is not positive definite or the result is
+/// not finite with positive variances.
+fn rts_step(
+    phi: &Mat15,
+    p_b: &Mat15,
+    p_a: &Mat15,
+    e_a: &Vec15,
+    ps_a: &Mat15,
+) -> Option<(Vec15, Mat15)> {
+    // P_a scaled to unit diagonal (D P_a D), so that states in rad² and in
+    // m² weigh alike in the factorization.
+    let mut d = Vec15::zeros();
+    for i in 0..15 {
+        let v = p_a[(i, i)];
+        if !(v.is_finite() && v > 0.0) {
+            return None;
+        }
+        d[i] = 1.0 / v.sqrt();
+    }
+    let scaled = Mat15::from_fn(|i, j| p_a[(i, j)] * d[i] * d[j]);
+    let chol = scaled.cholesky()?;
+    // Cᵀ = P_a⁻¹ Φ P_b = D (D P_a D)⁻¹ D Φ P_b.
+    let mut m = phi * p_b;
+    for i in 0..15 {
+        m.row_mut(i).scale_mut(d[i]);
+    }
+    let mut ct = chol.solve(&m);
+    for i in 0..15 {
+        ct.row_mut(i).scale_mut(d[i]);
+    }
+    let c = ct.transpose();
+    let e = c * e_a;
+    let mut ps = p_b + c * (ps_a - p_a) * ct;
+    filter::symmetrize(&mut ps);
+    let sound = e.iter().all(|x| x.is_finite())
+        && ps.iter().all(|x| x.is_finite())
+        && (0..15).all(|i| ps[(i, i)] > 0.0);
+    sound.then_some((e, ps))
+}
+
+/// The forward solution `fwd` corrected by the smoothed error `e`, with σ
+/// from `ps`: the nominal state corrected as the filter feeds a correction
+/// back; time, sequence, flags, counts and reset record as forward.
+fn smoothed_solution(fwd: &Solution, e: &Vec15, ps: &Mat15) -> Solution {
+    let kind = if fwd.frame == msgs::WireFrame::Grid as u8 {
+        FrameKind::Grid
+    } else {
+        FrameKind::Geographic
+    };
+    let [w, x, y, z] = fwd.q_b_e;
+    let q = UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(w, x, y, z));
+    let nav = AnyNav::from_frame_free(
+        kind,
+        &Vector3::from(fwd.r_e_m),
+        &Vector3::from(fwd.v_e_mps),
+        &q,
+    );
+    let mut nominal = Nominal::new(nav);
+    let part = |o: usize| Vector3::new(e[o], e[o + 1], e[o + 2]);
+    nominal.correct(&part(idx::PHI), &part(idx::DV), &part(idx::DP));
+    let gb = Vector3::from(fwd.gyro_bias_rps) + part(idx::BG);
+    let ab = Vector3::from(fwd.accel_bias_mps2) + part(idx::BA);
+    let mut s = navigation_solution(&nominal, ps, &gb, &ab);
+    s.t_ns = fwd.t_ns;
+    s.seq = fwd.seq;
+    s.reset_t_ns = fwd.reset_t_ns;
+    s.reset_delta_pos_e_m = fwd.reset_delta_pos_e_m;
+    s.reset_delta_vel_e_mps = fwd.reset_delta_vel_e_mps;
+    s.reset_delta_heading_rad = fwd.reset_delta_heading_rad;
+    s.flags = fwd.flags;
+    s.switch_count = fwd.switch_count;
+    s.reset_count = fwd.reset_count;
+    s
+}
+
+/// Collects the forward run's tape and solutions, then writes the smoothed
+/// solutions in time order.
+#[derive(Debug)]
+pub struct Smoother<S: ChunkStore> {
+    newest: Vec<u8>,
+    store: S,
+    stored: usize,
+    bytes: u64,
+    chunk_bytes: usize,
+    error: Option<std::io::Error>,
+}
+
+impl<S: ChunkStore> Smoother<S> {
+    pub fn new(store: S) -> Self {
+        Self::with_chunk_bytes(store, CHUNK_BYTES)
+    }
+
+    /// With chunks of `chunk_bytes` (tests use small ones to exercise the store).
+    pub fn with_chunk_bytes(store: S, chunk_bytes: usize) -> Self {
+        Self {
+            newest: Vec::new(),
+            store,
+            stored: 0,
+            bytes: 0,
+            chunk_bytes: chunk_bytes.max(1),
+            error: None,
+        }
+    }
+
+    /// The filter's records since the last call (whole records, in order).
+    pub fn records(&mut self, bytes: &[u8]) {
+        self.newest.extend_from_slice(bytes);
+        self.bytes += bytes.len() as u64;
+        self.spill_if_full();
+    }
+
+    /// A forward solution, in its place among the records.
+    pub fn solution(&mut self, s: &Solution) {
+        let before = self.newest.len();
+        write::solution(&mut self.newest, s);
+        self.bytes += (self.newest.len() - before) as u64;
+        self.spill_if_full();
+    }
+
+    fn spill_if_full(&mut self) {
+        if self.newest.len() < self.chunk_bytes || self.error.is_some() {
+            return;
+        }
+        match self.store.put(self.stored, &self.newest) {
+            Ok(()) => {
+                self.stored += 1;
+                self.newest.clear();
+            }
+            Err(e) => self.error = Some(e),
+        }
+    }
+
+    /// The backward pass: `out` receives every smoothed solution in time
+    /// order (one per forward solution).
+    pub fn finish(
+        mut self,
+        mut out: impl FnMut(&Solution) -> std::io::Result<()>,
+    ) -> std::io::Result<SmoothReport> {
+        if let Some(e) = self.error.take() {
+            return Err(e);
+        }
+        let n = self.stored + 1;
+        let damaged = || std::io::Error::other("smoother tape damaged (a defect: please report)");
+        // Pass 1, last chunk to first: the backward state where each chunk ends.
+        let mut entry = vec![Back::new(); n];
+        let mut back = Back::new();
+        let mut buf = Vec::new();
+        for k in (0..n).rev() {
+            entry[k] = back.clone();
+            let chunk = self.chunk(k, &mut buf)?;
+            let mut end = chunk.len();
+            while end > 0 {
+                let (rec, start) = read_back(chunk, end).ok_or_else(damaged)?;
+                if !matches!(rec, Record::Solution(_)) {
+                    back.step(rec);
+                }
+                end = start;
+            }
+        }
+        // Pass 2, first chunk to last: each chunk's solutions from its entry state.
+        let mut report = SmoothReport {
+            tape_bytes: self.bytes,
+            stored_chunks: self.stored,
+            ..Default::default()
+        };
+        let mut smoothed: Vec<Solution> = Vec::new();
+        for (k, start_state) in entry.into_iter().enumerate() {
+            let mut back = start_state;
+            let failed_before = back.failed;
+            let chunk = self.chunk(k, &mut buf)?;
+            smoothed.clear();
+            let mut end = chunk.len();
+            while end > 0 {
+                let (rec, start) = read_back(chunk, end).ok_or_else(damaged)?;
+                if let Some((s, passed)) = back.step(rec) {
+                    report.passed_through += u64::from(passed);
+                    smoothed.push(s);
+                }
+                end = start;
+            }
+            report.failed_steps += back.failed - failed_before;
+            for s in smoothed.iter().rev() {
+                out(s)?;
+                report.solutions += 1;
+            }
+        }
+        Ok(report)
+    }
+
+    /// Chunk `k`: the newest from memory, the others from the store.
+    fn chunk<'a>(&'a mut self, k: usize, buf: &'a mut Vec<u8>) -> std::io::Result<&'a [u8]> {
+        if k == self.stored {
+            Ok(&self.newest)
+        } else {
+            self.store.get(k, buf)?;
+            Ok(buf)
+        }
+    }
+}
