@@ -79,7 +79,7 @@ enum Cmd {
         /// Write the fixed-interval smoothed solution (Rauch–Tung–Striebel over
         /// the forward run, through frame switches; breaks at resets) in the
         /// forward solution's columns. Beyond 16 MiB its record goes to an
-        /// unnamed temporary file in the output's directory (about 0.45 GB
+        /// unnamed temporary file in the output's directory (about 0.33 GB
         /// per flight hour at 200 Hz); memory stays under about 100 MB.
         #[arg(long)]
         smooth: bool,

@@ -30,6 +30,7 @@ use polarnav::navigator::MAX_BRIDGE_STEPS;
 use polarnav::session::{
     AID_QUEUE, Event, Input, MAX_AID_LEAD_NS, Session, SessionSettings, Sink, TIME_JUMP_CONFIRM,
 };
+use polarnav::smoother::{MemoryStore, Smoother};
 use proptest::prelude::*;
 
 #[path = "common/vehicle.rs"]
@@ -118,16 +119,28 @@ fn check_solution(s: &Solution) -> Result<(), String> {
     Ok(())
 }
 
-/// A sink that checks every solution as it arrives and keeps the events.
+/// A sink that checks every solution as it arrives and keeps the events;
+/// with a smoother, it also keeps the tape and the solutions' times.
 #[derive(Debug, Default)]
 struct Checker {
     solutions: u64,
     first_bad: Option<String>,
     events: Vec<Event>,
+    smoother: Option<Smoother<MemoryStore>>,
+    times: Vec<u64>,
 }
 
 impl Sink for Checker {
+    fn tape(&mut self, records: &[u8]) {
+        if let Some(sm) = &mut self.smoother {
+            sm.records(records);
+        }
+    }
     fn solution(&mut self, s: &Solution) {
+        if let Some(sm) = &mut self.smoother {
+            sm.solution(s);
+            self.times.push(s.t_ns);
+        }
         self.solutions += 1;
         if self.first_bad.is_none()
             && let Err(e) = check_solution(s)
@@ -281,6 +294,53 @@ impl Harness {
         let after = self.session.navigator().map_or(0, |n| n.work());
         self.check(after.saturating_sub(before), true)
             .map_err(|e| format!("after finish: {e}"))
+    }
+
+    /// Keeps the smoother's tape from now on (small chunks, so that the
+    /// chunk boundaries are exercised too).
+    fn with_smoother(mut self) -> Self {
+        self.sink.smoother = Some(Smoother::with_chunk_bytes(MemoryStore::default(), 8 << 10));
+        self.session.keep_smoother_tape();
+        self
+    }
+
+    /// The smoothed run: one solution per forward one, at its time, each
+    /// finite with positive σ.
+    fn check_smoothed(&mut self) -> Result<(), String> {
+        let Some(sm) = self.sink.smoother.take() else {
+            return Ok(());
+        };
+        let times = std::mem::take(&mut self.sink.times);
+        let mut k = 0;
+        let mut bad = None;
+        let report = sm
+            .finish(|s| {
+                if bad.is_none() {
+                    if times.get(k) != Some(&s.t_ns) {
+                        bad = Some(format!(
+                            "smoothed #{k} at {} ns, forward at {:?}",
+                            s.t_ns,
+                            times.get(k)
+                        ));
+                    } else if let Err(e) = check_solution(s) {
+                        bad = Some(format!("smoothed: {e}"));
+                    }
+                }
+                k += 1;
+                Ok(())
+            })
+            .map_err(|e| format!("smoother: {e}"))?;
+        if let Some(b) = bad {
+            return Err(b);
+        }
+        if report.solutions != times.len() as u64 {
+            return Err(format!(
+                "{} smoothed solutions for {} forward",
+                report.solutions,
+                times.len()
+            ));
+        }
+        Ok(())
     }
 
     /// `n` genuine IMU samples continuing the genuine time line, with aids
@@ -891,7 +951,10 @@ fn init_fields_mut(x: &mut InitState) -> Vec<&mut f64> {
 /// The whole property: genuine start, adversarial inputs, finish, genuine
 /// continuation.
 fn run_case(speed_mps: f64, warmup: u64, ops: &[Op]) -> Result<(), String> {
-    let mut h = Harness::new(Truth { speed_mps });
+    run_case_with(Harness::new(Truth { speed_mps }), warmup, ops)
+}
+
+fn run_case_with(mut h: Harness, warmup: u64, ops: &[Op]) -> Result<(), String> {
     h.genuine(warmup)?;
     for (i, op) in ops.iter().enumerate() {
         h.apply(op).map_err(|e| format!("op #{i} {op:?}: {e}"))?;
@@ -922,7 +985,8 @@ fn run_case(speed_mps: f64, warmup: u64, ops: &[Op]) -> Result<(), String> {
             h.t_gen + h.stamp_offset
         ));
     }
-    h.finish()
+    h.finish()?;
+    h.check_smoothed()
 }
 
 /// Proptest cases of the main property (about 5 s in the test profile).
@@ -960,6 +1024,42 @@ fn adversarial_inputs_keep_the_session_sound() {
             runner
                 .run(&strategy, |(speed, warmup, ops)| {
                     run_case(speed, warmup, &ops).map_err(TestCaseError::fail)
+                })
+                .map_err(|e| e.to_string())
+        })
+        .expect("spawn");
+    if let Err(e) = worker.join().expect("no panic in the property") {
+        panic!("{e}");
+    }
+}
+
+/// The smoother over the same adversarial runs (the forward checks hold as
+/// above): as many smoothed solutions as forward ones, at the same times,
+/// every one finite with positive σ, whatever resets, re-inits, repairs,
+/// coasts and resyncs the inputs caused.
+#[test]
+fn adversarial_inputs_keep_the_smoother_sound() {
+    let worker = std::thread::Builder::new()
+        .stack_size(256 << 20)
+        .spawn(|| {
+            let config = ProptestConfig {
+                cases: std::env::var("SESSION_PROPS_CASES")
+                    .ok()
+                    .and_then(|c| c.parse().ok())
+                    .unwrap_or(CASES / 4),
+                failure_persistence: None,
+                ..ProptestConfig::default()
+            };
+            let mut runner = proptest::test_runner::TestRunner::new(config);
+            let strategy = (
+                prop_oneof![Just(0.0f64), Just(250.0)],
+                20u64..200,
+                prop::collection::vec(op(), 1..40),
+            );
+            runner
+                .run(&strategy, |(speed, warmup, ops)| {
+                    let h = Harness::new(Truth { speed_mps: speed }).with_smoother();
+                    run_case_with(h, warmup, &ops).map_err(TestCaseError::fail)
                 })
                 .map_err(|e| e.to_string())
         })
