@@ -196,10 +196,13 @@ fn smoothed_flights_are_twice_as_accurate_as_forward_and_consistent() {
         );
         let f = accuracy(&r.truth, &r.forward);
         let s = accuracy(&r.truth, &r.smoothed);
-        eprintln!(
-            "{rel}: forward {f:?}\n{rel}: smoothed {s:?}\n{:?}",
-            r.report
-        );
+        for (name, a) in [("forward", f), ("smoothed", s)] {
+            eprintln!(
+                "{rel}: {name:8} RMSE horizontal {:.3} m, vertical {:.3} m, velocity {:.4} m/s, tilt {:.3}′, heading {:.3}′; position NEES {:.2}",
+                a.h, a.v, a.vel, a.tilt, a.heading, a.nees
+            );
+        }
+        eprintln!("{rel}: {:?}", r.report);
         let mut check = |ok: bool, what: String| {
             if !ok {
                 failures.push(format!("{rel}: {what}"));
