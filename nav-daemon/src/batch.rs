@@ -200,8 +200,8 @@ impl<W: Write> Sink for CsvSink<'_, W> {
         if self.error.is_some() {
             return;
         }
-        if let Some(sm) = &mut self.smoother {
-            sm.solution(s);
+        if self.smoother.is_some() {
+            // Written smoothed at the end; the session records it on the tape.
             self.progress(s);
             return;
         }

@@ -35,7 +35,6 @@ impl Sink for Collect {
         if self.keep_all {
             self.all_forward.push(*s);
         }
-        self.smoother.solution(s);
     }
 }
 
@@ -72,7 +71,7 @@ fn run(records: &[Record], settings: SessionSettings, keep_all: bool, chunk_byte
     let mut sink = Collect {
         wanted: wanted.clone(),
         forward: vec![None; truth.len()],
-        smoother: Smoother::with_chunk_bytes(MemoryStore::default(), chunk_bytes),
+        smoother: Smoother::with_limits(MemoryStore::default(), chunk_bytes, 0),
         all_forward: Vec::new(),
         keep_all,
     };

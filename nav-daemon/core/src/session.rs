@@ -1119,7 +1119,9 @@ impl Session {
         let must = last || self.marks != Some(marks);
         self.marks = Some(marks);
         if sink.wants_solution(n.t_ns(), must) {
-            sink.solution(&n.solution());
+            let s = n.solution();
+            sink.solution(&s);
+            n.tape_solution(&s);
         }
     }
 

@@ -25,8 +25,10 @@
 //! - a break, where no information may flow back (a re-initialization, a
 //!   reset to an aid, a covariance repair, a time re-synchronization, the
 //!   end): P there;
-//!
-//! and the driver appends each forward solution in its place among them.
+//! - each solution emitted: its time, sequence, flags, counts and reset
+//!   record, and the nominal state and bias estimates it was built from
+//!   (the backward pass rebuilds it with the same function, bit for bit
+//!   where nothing is learned).
 //!
 //! **The backward pass.** With closed-loop feedback the forward error
 //! estimate is zero after every update, so the smoothed error of the state
@@ -43,15 +45,19 @@
 //! A step whose algebra fails (P⁻ not positive definite, a non-finite or
 //! non-positive result) becomes a break and is counted.
 //!
-//! **Memory.** The tape is kept in chunks of [`CHUNK_BYTES`]; every chunk
-//! but the newest goes to a [`ChunkStore`] (a temporary file in `batch`).
-//! The backward pass runs twice over the chunks from the last to the first,
-//! first keeping only the backward state at each chunk boundary, then once
-//! per chunk in forward order from its boundary state to produce that
-//! chunk's smoothed solutions in time order: peak memory is about two
-//! chunks and their solutions, whatever the flight's length. The tape takes
-//! about 1 KB per covariance interval and 0.5 KB per solution: at 200 Hz
-//! with a 0.1 s interval about 0.33 GB per flight hour on disk (measured: 408 MB for the 1.24 h of transpolar.toml).
+//! **Memory.** The tape is kept in chunks of [`CHUNK_BYTES`]; the first
+//! [`MEMORY_BYTES`] of them stay in memory, the later ones go to a
+//! [`ChunkStore`] (an unnamed temporary file in `batch`).
+//! The backward pass runs over the chunks from the last to the first,
+//! keeping only the backward state at each chunk boundary, then once per
+//! chunk in time order from its boundary state (on a second thread, a
+//! chunk ahead of the writing) to produce that chunk's smoothed solutions
+//! in time order: beyond the chunks kept in memory, peak memory is about
+//! three chunks and their solutions, whatever the flight's length. The
+//! tape takes about 1.2 KB per covariance interval and 0.25 KB per
+//! solution: at 200 Hz with a 0.1 s interval about 0.33 GB per flight hour
+//! (measured: 408 MB for the 1.24 h of transpolar.toml), so a 30 h flight
+//! puts about 9.5 GB in the temporary file.
 
 use std::io::{Read, Seek, SeekFrom, Write};
 
@@ -67,6 +73,9 @@ use crate::navigator::report::navigation_solution;
 /// Bytes of tape held in memory before a chunk goes to the store (16 MiB:
 /// about 20 s of a 200 Hz flight).
 pub const CHUNK_BYTES: usize = 16 << 20;
+/// Bytes of tape kept in memory before chunks go to the store (512 MiB:
+/// about 1.5 h of a 200 Hz flight; a 30 h flight then peaks under 1 GB).
+pub const MEMORY_BYTES: usize = 512 << 20;
 
 type Vec15 = SVector<f64, 15>;
 
@@ -182,14 +191,46 @@ pub(crate) mod write {
         end(buf, start, tag::BREAK);
     }
 
-    /// A forward solution, all of it (passed through where nothing is learned).
-    pub(crate) fn solution(buf: &mut Vec<u8>, s: &Solution) {
+    /// A solution emitted: what of it is not navigation (time, sequence,
+    /// flags, counts, reset record) and the nominal state and bias
+    /// estimates it was built from, so that the backward pass rebuilds it
+    /// with the function that built it (bit for bit where nothing is learned).
+    pub(crate) fn solution(
+        buf: &mut Vec<u8>,
+        s: &Solution,
+        n: &AnyNav,
+        gyro_bias: &Vector3<f64>,
+        accel_bias: &Vector3<f64>,
+    ) {
         let start = buf.len();
-        // Serialization of a plain struct of numbers into a Vec cannot fail.
-        let bytes = postcard::to_stdvec(s).unwrap_or_default();
-        buf.extend_from_slice(&bytes);
+        f64s(
+            buf,
+            &[
+                f64::from_bits(s.t_ns),
+                f64::from_bits(s.seq),
+                f64::from_bits(s.reset_t_ns),
+                f64::from(s.flags),
+                f64::from(s.switch_count),
+                f64::from(s.reset_count),
+                s.reset_delta_heading_rad,
+            ],
+        );
+        f64s(buf, &s.reset_delta_pos_e_m);
+        f64s(buf, &s.reset_delta_vel_e_mps);
+        nav(buf, n);
+        f64s(buf, gyro_bias.as_slice());
+        f64s(buf, accel_bias.as_slice());
         end(buf, start, tag::SOLUTION);
     }
+}
+
+/// A solution's record: its non-navigation fields and what it was built from.
+#[derive(Debug, Clone, Copy)]
+struct SolutionRecord {
+    meta: Solution,
+    nav: AnyNav,
+    gyro_bias: Vector3<f64>,
+    accel_bias: Vector3<f64>,
 }
 
 /// One record read back.
@@ -212,7 +253,7 @@ enum Record {
     },
     Update(Vec15),
     Break(Mat15),
-    Solution(Box<Solution>),
+    Solution(SolutionRecord),
 }
 
 struct Cursor<'a> {
@@ -259,13 +300,19 @@ impl Cursor<'_> {
     }
 }
 
-/// The record ending at `end` of `buf` and where it starts; None if the
-/// tape is damaged (which only a defect here could cause).
-fn read_back(buf: &[u8], end: usize) -> Option<(Record, usize)> {
+/// The tag of the record ending at `end` of `buf`, where it starts and
+/// where its payload ends.
+fn frame_back(buf: &[u8], end: usize) -> Option<(u8, usize, usize)> {
     let t = *buf.get(end.checked_sub(1)?)?;
     let len_at = end.checked_sub(5)?;
     let len = u32::from_le_bytes(buf.get(len_at..len_at + 4)?.try_into().ok()?) as usize;
-    let start = len_at.checked_sub(len)?;
+    Some((t, len_at.checked_sub(len)?, len_at))
+}
+
+/// The record ending at `end` of `buf` and where it starts; None if the
+/// tape is damaged (which only a defect here could cause).
+fn read_back(buf: &[u8], end: usize) -> Option<(Record, usize)> {
+    let (t, start, len_at) = frame_back(buf, end)?;
     let mut c = Cursor {
         b: &buf[start..len_at],
     };
@@ -321,7 +368,33 @@ fn read_back(buf: &[u8], end: usize) -> Option<(Record, usize)> {
             Record::Update(dx)
         }
         tag::BREAK => Record::Break(c.sym()?),
-        tag::SOLUTION => Record::Solution(Box::new(postcard::from_bytes(c.b).ok()?)),
+        tag::SOLUTION => {
+            let mut a = [0.0; 13];
+            for x in &mut a {
+                *x = c.f64()?;
+            }
+            let meta = Solution {
+                t_ns: a[0].to_bits(),
+                seq: a[1].to_bits(),
+                reset_t_ns: a[2].to_bits(),
+                flags: a[3] as u32,
+                switch_count: a[4] as u32,
+                reset_count: a[5] as u32,
+                reset_delta_heading_rad: a[6],
+                reset_delta_pos_e_m: [a[7], a[8], a[9]],
+                reset_delta_vel_e_mps: [a[10], a[11], a[12]],
+                ..Default::default()
+            };
+            let nav = c.nav()?;
+            let gyro_bias = Vector3::new(c.f64()?, c.f64()?, c.f64()?);
+            let accel_bias = Vector3::new(c.f64()?, c.f64()?, c.f64()?);
+            Record::Solution(SolutionRecord {
+                meta,
+                nav,
+                gyro_bias,
+                accel_bias,
+            })
+        }
         _ => return None,
     };
     Some((rec, start))
@@ -455,16 +528,16 @@ impl Back {
         match rec {
             Record::Solution(s) => {
                 if !self.learned {
-                    return Some((*s, true));
+                    return Some((solution_of(&s, &Vec15::zeros(), &self.ps), true));
                 }
                 let e = match self.span {
                     Some((t_b, t_a, e_b, e_a)) if t_a > t_b => {
-                        let a = ((s.t_ns as f64 - t_b) / (t_a - t_b)).clamp(0.0, 1.0);
+                        let a = ((s.meta.t_ns as f64 - t_b) / (t_a - t_b)).clamp(0.0, 1.0);
                         e_b + (e_a - e_b) * a
                     }
                     _ => self.e,
                 };
-                Some((smoothed_solution(&s, &e, &self.ps), false))
+                Some((solution_of(&s, &e, &self.ps), false))
             }
             Record::Update(dx) => {
                 if !self.learned {
@@ -569,91 +642,102 @@ fn rts_step(
     sound.then_some((e, ps))
 }
 
-/// The forward solution `fwd` corrected by the smoothed error `e`, with σ
-/// from `ps`: the nominal state corrected as the filter feeds a correction
-/// back; time, sequence, flags, counts and reset record as forward.
-fn smoothed_solution(fwd: &Solution, e: &Vec15, ps: &Mat15) -> Solution {
-    let kind = if fwd.frame == msgs::WireFrame::Grid as u8 {
-        FrameKind::Grid
-    } else {
-        FrameKind::Geographic
-    };
-    let [w, x, y, z] = fwd.q_b_e;
-    let q = UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(w, x, y, z));
-    let nav = AnyNav::from_frame_free(
-        kind,
-        &Vector3::from(fwd.r_e_m),
-        &Vector3::from(fwd.v_e_mps),
-        &q,
-    );
-    let mut nominal = Nominal::new(nav);
+/// The solution of record `r` corrected by the smoothed error `e` (zero:
+/// the forward solution, rebuilt bit for bit), with σ from `ps`: the
+/// nominal state corrected as the filter feeds a correction back, and
+/// built by the function that built the forward one.
+fn solution_of(r: &SolutionRecord, e: &Vec15, ps: &Mat15) -> Solution {
+    let mut nav = r.nav;
     let part = |o: usize| Vector3::new(e[o], e[o + 1], e[o + 2]);
-    nominal.correct(&part(idx::PHI), &part(idx::DV), &part(idx::DP));
-    let gb = Vector3::from(fwd.gyro_bias_rps) + part(idx::BG);
-    let ab = Vector3::from(fwd.accel_bias_mps2) + part(idx::BA);
-    let mut s = navigation_solution(&nominal, ps, &gb, &ab);
-    s.t_ns = fwd.t_ns;
-    s.seq = fwd.seq;
-    s.reset_t_ns = fwd.reset_t_ns;
-    s.reset_delta_pos_e_m = fwd.reset_delta_pos_e_m;
-    s.reset_delta_vel_e_mps = fwd.reset_delta_vel_e_mps;
-    s.reset_delta_heading_rad = fwd.reset_delta_heading_rad;
-    s.flags = fwd.flags;
-    s.switch_count = fwd.switch_count;
-    s.reset_count = fwd.reset_count;
+    let (mut gb, mut ab) = (r.gyro_bias, r.accel_bias);
+    if e.iter().any(|x| *x != 0.0) {
+        nav.correct(&part(idx::PHI), &part(idx::DV), &part(idx::DP));
+        gb += part(idx::BG);
+        ab += part(idx::BA);
+    }
+    let mut s = navigation_solution(&Nominal::new(nav), ps, &gb, &ab);
+    let m = &r.meta;
+    s.t_ns = m.t_ns;
+    s.seq = m.seq;
+    s.reset_t_ns = m.reset_t_ns;
+    s.reset_delta_pos_e_m = m.reset_delta_pos_e_m;
+    s.reset_delta_vel_e_mps = m.reset_delta_vel_e_mps;
+    s.reset_delta_heading_rad = m.reset_delta_heading_rad;
+    s.flags = m.flags;
+    s.switch_count = m.switch_count;
+    s.reset_count = m.reset_count;
     s
 }
 
-/// Collects the forward run's tape and solutions, then writes the smoothed
-/// solutions in time order.
+/// Where a complete chunk of the tape is.
+#[derive(Debug, Clone, Copy)]
+enum Place {
+    Memory(usize),
+    Store(usize),
+}
+
+/// Collects the forward run's tape, then writes the smoothed solutions in
+/// time order.
 #[derive(Debug)]
 pub struct Smoother<S: ChunkStore> {
     newest: Vec<u8>,
+    memory: Vec<Vec<u8>>,
+    places: Vec<Place>,
     store: S,
     stored: usize,
     bytes: u64,
     chunk_bytes: usize,
+    memory_bytes: usize,
     error: Option<std::io::Error>,
 }
 
 impl<S: ChunkStore> Smoother<S> {
+    /// Chunks of [`CHUNK_BYTES`], the first [`MEMORY_BYTES`] of them kept in
+    /// memory and the rest in `store`.
     pub fn new(store: S) -> Self {
-        Self::with_chunk_bytes(store, CHUNK_BYTES)
+        Self::with_limits(store, CHUNK_BYTES, MEMORY_BYTES)
     }
 
-    /// With chunks of `chunk_bytes` (tests use small ones to exercise the store).
-    pub fn with_chunk_bytes(store: S, chunk_bytes: usize) -> Self {
+    /// With chunks of `chunk_bytes`, up to `memory_bytes` of them in memory
+    /// (tests use small ones to exercise the store).
+    pub fn with_limits(store: S, chunk_bytes: usize, memory_bytes: usize) -> Self {
         Self {
             newest: Vec::new(),
+            memory: Vec::new(),
+            places: Vec::new(),
             store,
             stored: 0,
             bytes: 0,
             chunk_bytes: chunk_bytes.max(1),
+            memory_bytes,
             error: None,
         }
     }
 
     /// The filter's records since the last call (whole records, in order).
     pub fn records(&mut self, bytes: &[u8]) {
+        if self.newest.capacity() == 0 {
+            // One allocation per chunk (records arrive a few hundred bytes
+            // at a time; doubling would copy each chunk twice on average).
+            self.newest.reserve(
+                self.chunk_bytes.min(CHUNK_BYTES) + (self.chunk_bytes.min(CHUNK_BYTES) >> 4),
+            );
+        }
         self.newest.extend_from_slice(bytes);
         self.bytes += bytes.len() as u64;
-        self.spill_if_full();
-    }
-
-    /// A forward solution, in its place among the records.
-    pub fn solution(&mut self, s: &Solution) {
-        let before = self.newest.len();
-        write::solution(&mut self.newest, s);
-        self.bytes += (self.newest.len() - before) as u64;
-        self.spill_if_full();
-    }
-
-    fn spill_if_full(&mut self) {
         if self.newest.len() < self.chunk_bytes || self.error.is_some() {
+            return;
+        }
+        let in_memory = self.memory.len() * self.chunk_bytes;
+        if in_memory + self.newest.len() <= self.memory_bytes {
+            self.places.push(Place::Memory(self.memory.len()));
+            let next = Vec::with_capacity(self.chunk_bytes + (self.chunk_bytes >> 4));
+            self.memory.push(std::mem::replace(&mut self.newest, next));
             return;
         }
         match self.store.put(self.stored, &self.newest) {
             Ok(()) => {
+                self.places.push(Place::Store(self.stored));
                 self.stored += 1;
                 self.newest.clear();
             }
@@ -666,11 +750,14 @@ impl<S: ChunkStore> Smoother<S> {
     pub fn finish(
         mut self,
         mut out: impl FnMut(&Solution) -> std::io::Result<()>,
-    ) -> std::io::Result<SmoothReport> {
+    ) -> std::io::Result<SmoothReport>
+    where
+        S: Send,
+    {
         if let Some(e) = self.error.take() {
             return Err(e);
         }
-        let n = self.stored + 1;
+        let n = self.places.len() + 1;
         let damaged = || std::io::Error::other("smoother tape damaged (a defect: please report)");
         // Pass 1, last chunk to first: the backward state where each chunk ends.
         let mut entry = vec![Back::new(); n];
@@ -681,50 +768,76 @@ impl<S: ChunkStore> Smoother<S> {
             let chunk = self.chunk(k, &mut buf)?;
             let mut end = chunk.len();
             while end > 0 {
-                let (rec, start) = read_back(chunk, end).ok_or_else(damaged)?;
-                if !matches!(rec, Record::Solution(_)) {
+                let (t, start, _) = frame_back(chunk, end).ok_or_else(damaged)?;
+                if t != tag::SOLUTION {
+                    let (rec, _) = read_back(chunk, end).ok_or_else(damaged)?;
                     back.step(rec);
                 }
                 end = start;
             }
         }
-        // Pass 2, first chunk to last: each chunk's solutions from its entry state.
+        // Pass 2, first chunk to last: each chunk's solutions from its entry
+        // state, computed on a second thread one chunk ahead of the writing.
         let mut report = SmoothReport {
             tape_bytes: self.bytes,
             stored_chunks: self.stored,
             ..Default::default()
         };
-        let mut smoothed: Vec<Solution> = Vec::new();
-        for (k, start_state) in entry.into_iter().enumerate() {
-            let mut back = start_state;
-            let failed_before = back.failed;
-            let chunk = self.chunk(k, &mut buf)?;
-            smoothed.clear();
-            let mut end = chunk.len();
-            while end > 0 {
-                let (rec, start) = read_back(chunk, end).ok_or_else(damaged)?;
-                if let Some((s, passed)) = back.step(rec) {
-                    report.passed_through += u64::from(passed);
-                    smoothed.push(s);
+        let (failed, passed) = std::thread::scope(|scope| -> std::io::Result<(u64, u64)> {
+            let (tx, rx) = std::sync::mpsc::sync_channel::<std::io::Result<Vec<Solution>>>(1);
+            let this = &mut self;
+            let worker = scope.spawn(move || {
+                let (mut failed, mut passed) = (0, 0);
+                let mut buf = Vec::new();
+                for (k, mut back) in entry.into_iter().enumerate() {
+                    let failed_before = back.failed;
+                    let mut smoothed = Vec::new();
+                    let result = this.chunk(k, &mut buf).and_then(|chunk| {
+                        let mut end = chunk.len();
+                        while end > 0 {
+                            let (rec, start) = read_back(chunk, end).ok_or_else(damaged)?;
+                            if let Some((s, through)) = back.step(rec) {
+                                passed += u64::from(through);
+                                smoothed.push(s);
+                            }
+                            end = start;
+                        }
+                        smoothed.reverse();
+                        Ok(smoothed)
+                    });
+                    failed += back.failed - failed_before;
+                    let stop = result.is_err();
+                    // The writer stopped (an output error): nothing more to do.
+                    if tx.send(result).is_err() || stop {
+                        break;
+                    }
                 }
-                end = start;
+                (failed, passed)
+            });
+            for chunk in rx.iter() {
+                for s in &chunk? {
+                    out(s)?;
+                    report.solutions += 1;
+                }
             }
-            report.failed_steps += back.failed - failed_before;
-            for s in smoothed.iter().rev() {
-                out(s)?;
-                report.solutions += 1;
-            }
-        }
+            Ok(worker
+                .join()
+                .unwrap_or_else(|p| std::panic::resume_unwind(p)))
+        })?;
+        report.failed_steps = failed;
+        report.passed_through = passed;
         Ok(report)
     }
 
-    /// Chunk `k`: the newest from memory, the others from the store.
+    /// Chunk `k`: the newest, one kept in memory, or one from the store.
     fn chunk<'a>(&'a mut self, k: usize, buf: &'a mut Vec<u8>) -> std::io::Result<&'a [u8]> {
-        if k == self.stored {
-            Ok(&self.newest)
-        } else {
-            self.store.get(k, buf)?;
-            Ok(buf)
+        match self.places.get(k) {
+            None => Ok(&self.newest),
+            Some(Place::Memory(i)) => Ok(&self.memory[*i]),
+            Some(Place::Store(i)) => {
+                self.store.get(*i, buf)?;
+                Ok(buf)
+            }
         }
     }
 }

@@ -327,6 +327,20 @@ impl Navigator {
         self.err.tape_break();
     }
 
+    /// Records the solution `s` just emitted of the current state for the
+    /// smoother (nothing when no record is kept).
+    pub fn tape_solution(&mut self, s: &Solution) {
+        if let Some(t) = &mut self.err.tape {
+            crate::smoother::write::solution(
+                t,
+                s,
+                self.nominal.nav(),
+                &self.err.gyro_bias,
+                &self.err.accel_bias,
+            );
+        }
+    }
+
     /// The smoother's records since the last call (whole records, in the
     /// order they happened); empty when no record is kept. The buffer keeps
     /// its capacity, so the steady state allocates nothing.
