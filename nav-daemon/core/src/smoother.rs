@@ -73,9 +73,10 @@ use crate::navigator::report::navigation_solution;
 /// Bytes of tape held in memory before a chunk goes to the store (16 MiB:
 /// about 20 s of a 200 Hz flight).
 pub const CHUNK_BYTES: usize = 16 << 20;
-/// Bytes of tape kept in memory before chunks go to the store (512 MiB:
-/// about 1.5 h of a 200 Hz flight; a 30 h flight then peaks under 1 GB).
-pub const MEMORY_BYTES: usize = 512 << 20;
+/// Bytes of tape kept in memory before chunks go to the store (384 MiB:
+/// about 1.2 h of a 200 Hz flight; with [`CACHE_BYTES`] a flight of any
+/// length then peaks under 1 GB).
+pub const MEMORY_BYTES: usize = 384 << 20;
 
 type Vec15 = SVector<f64, 15>;
 
@@ -309,6 +310,18 @@ fn frame_back(buf: &[u8], end: usize) -> Option<(u8, usize, usize)> {
     Some((t, len_at.checked_sub(len)?, len_at))
 }
 
+/// The interval of a propagation record (None for the other transitions),
+/// read without recomputing anything.
+fn span_of(buf: &[u8], start: usize, t: u8) -> Option<Option<(f64, f64)>> {
+    if t != tag::PROPAGATE {
+        return Some(None);
+    }
+    let mut c = Cursor {
+        b: buf.get(start..)?,
+    };
+    Some(Some((c.f64()?, c.f64()?)))
+}
+
 /// The record ending at `end` of `buf` and where it starts; None if the
 /// tape is damaged (which only a defect here could cause).
 fn read_back(buf: &[u8], end: usize) -> Option<(Record, usize)> {
@@ -495,6 +508,19 @@ pub struct SmoothReport {
     pub stored_chunks: usize,
 }
 
+/// The backward state after one transition record (e, the upper triangle
+/// of P^s), kept from the first pass for the second.
+#[derive(Debug, Clone, Copy)]
+struct Cached {
+    e: Vec15,
+    ps: [f64; 120],
+    learned: bool,
+}
+
+/// Bytes of first-pass results kept for the second pass (256 MiB: about
+/// 2.5 flight hours at 200 Hz, whose second pass then does no algebra).
+pub const CACHE_BYTES: usize = 256 << 20;
+
 /// The backward state at one place of the tape.
 #[derive(Debug, Clone)]
 struct Back {
@@ -578,6 +604,40 @@ impl Back {
                 None
             }
         }
+    }
+
+    /// The state a transition step left, to be applied again in the second
+    /// pass without the algebra.
+    fn after_transition(&self) -> Cached {
+        let mut ps = [0.0; 120];
+        let mut k = 0;
+        for i in 0..15 {
+            for j in i..15 {
+                ps[k] = self.ps[(i, j)];
+                k += 1;
+            }
+        }
+        Cached {
+            e: self.e,
+            ps,
+            learned: self.learned,
+        }
+    }
+
+    /// One transition record, backward, with its result from the first pass.
+    fn step_cached(&mut self, span: Option<(f64, f64)>, c: &Cached) {
+        let e_a = self.e;
+        self.e = c.e;
+        let mut k = 0;
+        for i in 0..15 {
+            for j in i..15 {
+                self.ps[(i, j)] = c.ps[k];
+                self.ps[(j, i)] = c.ps[k];
+                k += 1;
+            }
+        }
+        self.learned = c.learned;
+        self.span = span.map(|(t_b, t_a)| (t_b, t_a, self.e, e_a));
     }
 
     /// e ← C e, P^s ← P_b + C (P^s − P_a) Cᵀ with C = P_b Φᵀ P_a⁻¹.
@@ -688,19 +748,27 @@ pub struct Smoother<S: ChunkStore> {
     bytes: u64,
     chunk_bytes: usize,
     memory_bytes: usize,
+    cache_bytes: usize,
     error: Option<std::io::Error>,
 }
 
 impl<S: ChunkStore> Smoother<S> {
     /// Chunks of [`CHUNK_BYTES`], the first [`MEMORY_BYTES`] of them kept in
-    /// memory and the rest in `store`.
+    /// memory and the rest in `store`, and [`CACHE_BYTES`] of first-pass
+    /// results.
     pub fn new(store: S) -> Self {
-        Self::with_limits(store, CHUNK_BYTES, MEMORY_BYTES)
+        Self::with_limits(store, CHUNK_BYTES, MEMORY_BYTES, CACHE_BYTES)
     }
 
     /// With chunks of `chunk_bytes`, up to `memory_bytes` of them in memory
-    /// (tests use small ones to exercise the store).
-    pub fn with_limits(store: S, chunk_bytes: usize, memory_bytes: usize) -> Self {
+    /// and `cache_bytes` of first-pass results (tests use small ones to
+    /// exercise the store and the second pass's algebra).
+    pub fn with_limits(
+        store: S,
+        chunk_bytes: usize,
+        memory_bytes: usize,
+        cache_bytes: usize,
+    ) -> Self {
         Self {
             newest: Vec::new(),
             memory: Vec::new(),
@@ -710,6 +778,7 @@ impl<S: ChunkStore> Smoother<S> {
             bytes: 0,
             chunk_bytes: chunk_bytes.max(1),
             memory_bytes,
+            cache_bytes,
             error: None,
         }
     }
@@ -759,23 +828,40 @@ impl<S: ChunkStore> Smoother<S> {
         }
         let n = self.places.len() + 1;
         let damaged = || std::io::Error::other("smoother tape damaged (a defect: please report)");
-        // Pass 1, last chunk to first: the backward state where each chunk ends.
+        // Pass 1, last chunk to first: the backward state where each chunk
+        // ends, and the state after each transition while the cache lasts.
         let mut entry = vec![Back::new(); n];
+        let mut cache: Vec<Option<Vec<Cached>>> = vec![None; n];
+        let mut cache_left = self.cache_bytes / size_of::<Cached>();
         let mut back = Back::new();
         let mut buf = Vec::new();
         for k in (0..n).rev() {
             entry[k] = back.clone();
             let chunk = self.chunk(k, &mut buf)?;
+            let mut kept = Vec::new();
             let mut end = chunk.len();
             while end > 0 {
                 let (t, start, _) = frame_back(chunk, end).ok_or_else(damaged)?;
                 if t != tag::SOLUTION {
                     let (rec, _) = read_back(chunk, end).ok_or_else(damaged)?;
+                    let transition = matches!(
+                        rec,
+                        Record::Propagate { .. } | Record::Convert { .. } | Record::Add { .. }
+                    );
                     back.step(rec);
+                    if transition && cache_left > 0 {
+                        kept.push(back.after_transition());
+                        cache_left -= 1;
+                    }
                 }
                 end = start;
             }
+            // A chunk is cached whole or not at all.
+            if cache_left > 0 {
+                cache[k] = Some(kept);
+            }
         }
+        let failed = back.failed;
         // Pass 2, first chunk to last: each chunk's solutions from its entry
         // state, computed on a second thread one chunk ahead of the writing.
         let mut report = SmoothReport {
@@ -783,36 +869,42 @@ impl<S: ChunkStore> Smoother<S> {
             stored_chunks: self.stored,
             ..Default::default()
         };
-        let (failed, passed) = std::thread::scope(|scope| -> std::io::Result<(u64, u64)> {
+        let passed = std::thread::scope(|scope| -> std::io::Result<u64> {
             let (tx, rx) = std::sync::mpsc::sync_channel::<std::io::Result<Vec<Solution>>>(1);
             let this = &mut self;
             let worker = scope.spawn(move || {
-                let (mut failed, mut passed) = (0, 0);
+                let mut passed = 0;
                 let mut buf = Vec::new();
-                for (k, mut back) in entry.into_iter().enumerate() {
-                    let failed_before = back.failed;
+                for ((k, mut back), kept) in entry.into_iter().enumerate().zip(cache) {
                     let mut smoothed = Vec::new();
                     let result = this.chunk(k, &mut buf).and_then(|chunk| {
+                        let mut kept = kept.as_deref().map(<[Cached]>::iter);
                         let mut end = chunk.len();
                         while end > 0 {
-                            let (rec, start) = read_back(chunk, end).ok_or_else(damaged)?;
-                            if let Some((s, through)) = back.step(rec) {
-                                passed += u64::from(through);
-                                smoothed.push(s);
+                            let (t, start, _) = frame_back(chunk, end).ok_or_else(damaged)?;
+                            let transition = matches!(t, tag::PROPAGATE | tag::CONVERT | tag::ADD);
+                            if let (true, Some(it)) = (transition, kept.as_mut()) {
+                                let c = it.next().ok_or_else(damaged)?;
+                                back.step_cached(span_of(chunk, start, t).ok_or_else(damaged)?, c);
+                            } else {
+                                let (rec, _) = read_back(chunk, end).ok_or_else(damaged)?;
+                                if let Some((s, through)) = back.step(rec) {
+                                    passed += u64::from(through);
+                                    smoothed.push(s);
+                                }
                             }
                             end = start;
                         }
                         smoothed.reverse();
                         Ok(smoothed)
                     });
-                    failed += back.failed - failed_before;
                     let stop = result.is_err();
                     // The writer stopped (an output error): nothing more to do.
                     if tx.send(result).is_err() || stop {
                         break;
                     }
                 }
-                (failed, passed)
+                passed
             });
             for chunk in rx.iter() {
                 for s in &chunk? {

@@ -302,6 +302,7 @@ impl Harness {
             MemoryStore::default(),
             8 << 10,
             64 << 10,
+            128 << 10,
         ));
         self.session.keep_smoother_tape();
         self
