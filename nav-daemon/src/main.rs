@@ -80,7 +80,7 @@ enum Cmd {
         /// the forward run, through frame switches; breaks at resets) in the
         /// forward solution's columns. Its record of the forward run is kept in
         /// memory up to 512 MiB (about 1.5 h at 200 Hz), beyond that in an
-        /// unnamed temporary file in the output's directory (about 0.33 GB per
+        /// unnamed temporary file in the output's directory (about 0.23 GB per
         /// flight hour at 200 Hz); memory stays under 1 GB whatever the length.
         #[arg(long)]
         smooth: bool,

@@ -55,9 +55,9 @@
 //! in time order: beyond the chunks kept in memory, peak memory is about
 //! three chunks and their solutions, whatever the flight's length. The
 //! tape takes about 1.2 KB per covariance interval and 0.25 KB per
-//! solution: at 200 Hz with a 0.1 s interval about 0.33 GB per flight hour
-//! (measured: 408 MB for the 1.24 h of transpolar.toml), so a 30 h flight
-//! puts about 9.5 GB in the temporary file.
+//! solution: at 200 Hz with a 0.1 s interval about 0.23 GB per flight hour
+//! (measured: 223 MB for 1 h of transpolar.toml), so a 30 h flight puts
+//! about 6.5 GB in the temporary file.
 
 use std::io::{Read, Seek, SeekFrom, Write};
 
