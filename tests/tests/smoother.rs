@@ -556,3 +556,57 @@ fn stationary_rlg_record_smoothed_position_stays_within_a_metre_of_the_start() {
     assert!(smo <= 1.0, "smoothed {smo} m from the start");
     assert!(pure.all_smoothed == pure.all_forward);
 }
+
+/// `batch --smooth` to MCAP: the reference reader (PyPI `mcap`) reads the
+/// file, with one `/solution` per row of the smoothed CSV and every value
+/// equal; the smoothed CSV is not the forward one.
+#[test]
+fn smoothed_mcap_is_read_by_the_reference_reader_and_equals_the_smoothed_csv() {
+    use nav_daemon::batch::{self, BatchOptions, Output};
+    use polarnav_foxglove::{AidSource, McapFile};
+    let dir = std::env::temp_dir().join(format!("polarnav-smooth-mcap-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("dir");
+    let text = scenario("config/scenarios/paper-sim.toml")
+        .replace("duration_s = 600.0", "duration_s = 260.0");
+    let log = dir.join("paper.navlog");
+    polarnav_tests::simulate_file(&text, "paper-sim (260 s)", &log);
+    let open = || std::io::BufReader::new(std::fs::File::open(&log).expect("open"));
+    let opts = |smooth: bool| BatchOptions {
+        smooth: smooth.then(|| dir.clone()),
+        ..Default::default()
+    };
+    let csv = |name: &str, smooth: bool| {
+        let path = dir.join(name);
+        let r = batch::run(
+            open(),
+            "paper.navlog",
+            std::io::BufWriter::new(std::fs::File::create(&path).expect("create")),
+            &ConfigFile::defaults(),
+            &opts(smooth),
+        )
+        .expect("batch csv");
+        (path, r)
+    };
+    let (fwd, _) = csv("forward.csv", false);
+    let (smo, a) = csv("smoothed.csv", true);
+    assert_eq!(a.smoothed.expect("smoothed").solutions, a.rows);
+    assert_ne!(
+        std::fs::read(&fwd).expect("forward"),
+        std::fs::read(&smo).expect("smoothed")
+    );
+    let mcap = dir.join("smoothed.mcap");
+    let b = batch::run_to::<_, std::io::Sink>(
+        open(),
+        "paper.navlog",
+        Output::Mcap(Box::new(
+            McapFile::create(&mcap, AidSource::Updates).expect("mcap"),
+        )),
+        &ConfigFile::defaults(),
+        &opts(true),
+    )
+    .expect("batch mcap");
+    assert_eq!(a.rows, b.rows);
+    let summary = polarnav_tests::check_mcap(&mcap, Some(&smo), &["/solution"]);
+    assert_eq!(summary["solutions_checked"].as_u64(), Some(a.rows));
+    std::fs::remove_dir_all(&dir).ok();
+}
