@@ -610,3 +610,73 @@ fn smoothed_mcap_is_read_by_the_reference_reader_and_equals_the_smoothed_csv() {
     assert_eq!(summary["solutions_checked"].as_u64(), Some(a.rows));
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// Every scenario of the fault campaign (IMU dropouts and coasted gaps,
+/// time faults and resyncs, NaN injection, aid outages, jumps that end in
+/// resets to an aid, stray light, line faults), smoothed: one solution per
+/// forward one, every one finite with positive σ, no backward step failed,
+/// and the smoothed horizontal position RMSE against truth no worse than
+/// the forward one.
+#[test]
+fn fault_campaign_flights_smooth_soundly() {
+    let dir = repo("config/scenarios/faults");
+    let mut names: Vec<_> = std::fs::read_dir(&dir)
+        .expect("faults")
+        .map(|e| e.expect("entry").path())
+        .filter(|p| p.extension().is_some_and(|x| x == "toml"))
+        .collect();
+    names.sort();
+    assert!(names.len() >= 9);
+    for path in names {
+        let text = std::fs::read_to_string(&path).expect("scenario");
+        let records = simulate_records(&text, 1);
+        let r = run(
+            &records,
+            settings(&records, &CliOverrides::default()),
+            true,
+            16 << 20,
+            polarnav::smoother::CACHE_BYTES,
+        );
+        let name = path
+            .file_name()
+            .map(|n| n.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        assert_eq!(r.all_smoothed.len(), r.all_forward.len(), "{name}");
+        assert_eq!(r.report.failed_steps, 0, "{name}");
+        for (s, f) in r.all_smoothed.iter().zip(&r.all_forward) {
+            assert_eq!(s.t_ns, f.t_ns, "{name}");
+            let sig = s
+                .sigma_pos_enu_m
+                .iter()
+                .chain(&s.sigma_vel_mps)
+                .chain(&s.sigma_att_rad);
+            assert!(
+                s.r_e_m
+                    .iter()
+                    .chain(&s.v_e_mps)
+                    .chain(&s.q_b_e)
+                    .all(|x| x.is_finite()),
+                "{name}: smoothed state not finite at {} ns",
+                s.t_ns
+            );
+            assert!(
+                sig.clone().all(|x| x.is_finite() && *x > 0.0),
+                "{name}: σ at {} ns",
+                s.t_ns
+            );
+        }
+        let (f, s) = (
+            accuracy(&r.truth, &r.forward),
+            accuracy(&r.truth, &r.smoothed),
+        );
+        eprintln!(
+            "{name}: horizontal RMSE forward {:.3} m, smoothed {:.3} m; resets {}, {} of {} passed through",
+            f.h,
+            s.h,
+            r.all_forward.last().map_or(0, |x| x.reset_count),
+            r.report.passed_through,
+            r.report.solutions
+        );
+        assert!(s.h <= f.h, "{name}: smoothed {} m, forward {} m", s.h, f.h);
+    }
+}
