@@ -133,6 +133,8 @@ impl Navigator {
             sigma_att_rad: diag_sqrt(idx::PHI).into(),
             gyro_bias_rps: self.err.gyro_bias.into(),
             accel_bias_mps2: self.err.accel_bias.into(),
+            sigma_gyro_bias_rps: diag_sqrt(idx::BG).into(),
+            sigma_accel_bias_mps2: diag_sqrt(idx::BA).into(),
             reset_t_ns: self.reset.t_ns,
             reset_delta_pos_e_m: self.reset.delta_pos_e_m,
             reset_delta_vel_e_mps: self.reset.delta_vel_e_mps,
