@@ -53,6 +53,8 @@ class Solution(ctypes.Structure):
         ("sigma_att_rad", V3),
         ("gyro_bias_rps", V3),
         ("accel_bias_mps2", V3),
+        ("sigma_gyro_bias_rps", V3),
+        ("sigma_accel_bias_mps2", V3),
         ("reset_t_ns", ctypes.c_uint64),
         ("reset_delta_pos_e_m", V3),
         ("reset_delta_vel_e_mps", V3),
@@ -66,7 +68,7 @@ class Solution(ctypes.Structure):
 
     @staticmethod
     def type_name() -> str:
-        return "polarnav::Solution_v2"
+        return "polarnav::Solution_v3"
 
 
 class StreamCounters(ctypes.Structure):

@@ -27,7 +27,11 @@ pub const MAGIC: [u8; 8] = *b"POLARNAV";
 /// decodes and is skipped as incompatible, every other record still reads).
 ///    and [`Record::TruthBias`] appended (a version-2 reader skips those
 /// frames as undecodable and reads the rest).
-pub const FORMAT_VERSION: u16 = 3;
+/// 4: the `_v3` solution record (bias σ). A solution record of a format-3
+/// (or -2) file is read through its old `_v2` layout and converted, with
+/// the bias σ unknown (NaN); a format-3 reader skips a format-4 solution
+/// record as undecodable and reads the rest.
+pub const FORMAT_VERSION: u16 = 4;
 /// Frames longer than this are treated as corruption (the largest record is ~1 kB
 /// plus the header's scenario text).
 pub const MAX_FRAME_BYTES: usize = 1 << 20;
@@ -417,7 +421,109 @@ fn decode_frame(frame: &[u8], decoded: &mut Vec<u8>) -> Result<Record, SkipReaso
     }
     match postcard::from_bytes::<Record>(body) {
         Ok(r) => Ok(r),
-        Err(_) => Err(SkipReason::Decode),
+        // A solution record of format 2 or 3 (the `_v2` layout).
+        Err(_) => match postcard::from_bytes::<legacy::RecordV3>(body) {
+            Ok(legacy::RecordV3::Solution(s)) => Ok(Record::Solution(Box::new((*s).into()))),
+            _ => Err(SkipReason::Decode),
+        },
+    }
+}
+
+/// The records of earlier formats whose layout changed, as they were
+/// encoded, for reading older files.
+mod legacy {
+    use serde::{Deserialize, Serialize};
+
+    use crate::payloads::{
+        BaroSample, CnsFix, ImuSample, InitState, Solution, SrsSample, TruthRecord,
+    };
+
+    /// [`super::Record`] of formats 2 and 3 up to its solution variant (the
+    /// variant index is the encoding's first byte: the variants before the
+    /// solution are listed only to keep its index, 7).
+    #[derive(Debug, Serialize, Deserialize)]
+    pub(super) enum RecordV3 {
+        Header(Box<super::Header>),
+        Init(InitState),
+        Imu(ImuSample),
+        Srs(Box<SrsSample>),
+        Cns(CnsFix),
+        Baro(BaroSample),
+        Truth(TruthRecord),
+        Solution(Box<SolutionV2>),
+    }
+
+    /// `polarnav::Solution_v2`: [`Solution`] without the bias σ.
+    #[derive(Debug, Clone, Copy, Default, Serialize, Deserialize)]
+    pub(super) struct SolutionV2 {
+        pub t_ns: u64,
+        pub seq: u64,
+        pub lat_rad: f64,
+        pub lon_rad: f64,
+        pub h_m: f64,
+        pub r_e_m: [f64; 3],
+        pub v_e_mps: [f64; 3],
+        pub v_enu_mps: [f64; 3],
+        pub v_nav_mps: [f64; 3],
+        pub grid_angle_rad: f64,
+        pub q_b_e: [f64; 4],
+        pub heading_rad: f64,
+        pub grid_heading_rad: f64,
+        pub pitch_rad: f64,
+        pub roll_rad: f64,
+        pub sigma_pos_enu_m: [f64; 3],
+        pub sigma_vel_mps: [f64; 3],
+        pub sigma_att_rad: [f64; 3],
+        pub gyro_bias_rps: [f64; 3],
+        pub accel_bias_mps2: [f64; 3],
+        pub reset_t_ns: u64,
+        pub reset_delta_pos_e_m: [f64; 3],
+        pub reset_delta_vel_e_mps: [f64; 3],
+        pub reset_delta_heading_rad: f64,
+        pub flags: u32,
+        pub switch_count: u32,
+        pub reset_count: u32,
+        pub frame: u8,
+        pub _pad: [u8; 3],
+    }
+
+    impl From<SolutionV2> for Solution {
+        /// Every field kept; the bias σ, which `_v2` did not carry, NaN.
+        fn from(s: SolutionV2) -> Self {
+            Solution {
+                t_ns: s.t_ns,
+                seq: s.seq,
+                lat_rad: s.lat_rad,
+                lon_rad: s.lon_rad,
+                h_m: s.h_m,
+                r_e_m: s.r_e_m,
+                v_e_mps: s.v_e_mps,
+                v_enu_mps: s.v_enu_mps,
+                v_nav_mps: s.v_nav_mps,
+                grid_angle_rad: s.grid_angle_rad,
+                q_b_e: s.q_b_e,
+                heading_rad: s.heading_rad,
+                grid_heading_rad: s.grid_heading_rad,
+                pitch_rad: s.pitch_rad,
+                roll_rad: s.roll_rad,
+                sigma_pos_enu_m: s.sigma_pos_enu_m,
+                sigma_vel_mps: s.sigma_vel_mps,
+                sigma_att_rad: s.sigma_att_rad,
+                gyro_bias_rps: s.gyro_bias_rps,
+                accel_bias_mps2: s.accel_bias_mps2,
+                sigma_gyro_bias_rps: [f64::NAN; 3],
+                sigma_accel_bias_mps2: [f64::NAN; 3],
+                reset_t_ns: s.reset_t_ns,
+                reset_delta_pos_e_m: s.reset_delta_pos_e_m,
+                reset_delta_vel_e_mps: s.reset_delta_vel_e_mps,
+                reset_delta_heading_rad: s.reset_delta_heading_rad,
+                flags: s.flags,
+                switch_count: s.switch_count,
+                reset_count: s.reset_count,
+                frame: s.frame,
+                _pad: [0; 3],
+            }
+        }
     }
 }
 
@@ -633,6 +739,68 @@ mod tests {
                 assert_eq!(report.records, back.len() as u64);
             }
         }
+    }
+
+    /// Frames `body` (postcard bytes) as the writer does.
+    fn frame_of(body: &[u8]) -> Vec<u8> {
+        let mut raw = body.to_vec();
+        raw.extend_from_slice(&crc32fast::hash(body).to_le_bytes());
+        let mut out = vec![0; cobs::max_encoding_length(raw.len()) + 1];
+        let n = cobs::encode(&raw, &mut out);
+        out.truncate(n);
+        out.push(0);
+        out
+    }
+
+    /// A format-3 file's solution record (the `_v2` layout, encoded here
+    /// with the old record enum) reads as a solution with every old field
+    /// and the bias σ unknown; the records around it are untouched.
+    #[test]
+    #[allow(clippy::float_cmp)] // the values are copied, not computed
+    fn a_format_3_solution_record_reads_with_unknown_bias_sigma() {
+        let old = legacy::SolutionV2 {
+            t_ns: 77,
+            seq: 5,
+            lat_rad: 1.5,
+            gyro_bias_rps: [1e-6, -2e-6, 3e-7],
+            accel_bias_mps2: [1e-3, 2e-3, -3e-3],
+            reset_count: 4,
+            switch_count: 2,
+            frame: 1,
+            flags: solution_flags::COASTING,
+            ..Default::default()
+        };
+        let body =
+            postcard::to_allocvec(&legacy::RecordV3::Solution(Box::new(old))).expect("encode");
+        let mut bytes = encode(&sample_records()[..3]);
+        bytes.extend(frame_of(&body));
+        bytes.extend(encode(&sample_records()[..1]));
+        let (back, report) = read_all(&bytes);
+        assert!(report.is_clean(), "{report}");
+        assert_eq!(back.len(), 5);
+        let Record::Solution(s) = &back[3] else {
+            panic!("expected a solution, got {:?}", back[3])
+        };
+        assert_eq!((s.t_ns, s.seq, s.lat_rad), (77, 5, 1.5));
+        assert_eq!(s.gyro_bias_rps, old.gyro_bias_rps);
+        assert_eq!(s.accel_bias_mps2, old.accel_bias_mps2);
+        assert_eq!(
+            (s.reset_count, s.switch_count, s.frame, s.flags),
+            (4, 2, 1, 64)
+        );
+        assert!(s.sigma_gyro_bias_rps.iter().all(|v| v.is_nan()));
+        assert!(s.sigma_accel_bias_mps2.iter().all(|v| v.is_nan()));
+        // A record of the new layout is not taken for the old one.
+        let new = Solution {
+            sigma_gyro_bias_rps: [1e-7; 3],
+            sigma_accel_bias_mps2: [2e-5; 3],
+            ..**s
+        };
+        let (back, _) = read_all(&encode(&[
+            sample_records()[0].clone(),
+            Record::Solution(Box::new(new)),
+        ]));
+        assert_eq!(back[1], Record::Solution(Box::new(new)));
     }
 
     #[test]

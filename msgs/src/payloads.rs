@@ -208,7 +208,7 @@ pub mod solution_flags {
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
 #[cfg_attr(feature = "iceoryx2", derive(ZeroCopySend))]
 #[repr(C)]
-#[cfg_attr(feature = "iceoryx2", type_name("polarnav::Solution_v2"))]
+#[cfg_attr(feature = "iceoryx2", type_name("polarnav::Solution_v3"))]
 pub struct Solution {
     pub t_ns: u64,
     pub seq: u64,
@@ -243,6 +243,14 @@ pub struct Solution {
     /// Estimated gyro bias (rad/s) and accelerometer bias (m/s²), body axes.
     pub gyro_bias_rps: [f64; 3],
     pub accel_bias_mps2: [f64; 3],
+    /// 1-σ of the gyro bias (rad/s) and accelerometer bias (m/s²)
+    /// estimates, body axes: the square roots of the bias diagonal of the
+    /// filter covariance (`_v3`). A JSON solution written before `_v3`
+    /// (an older MCAP `/solution`) reads with NaN here: not known.
+    #[serde(default = "unknown3")]
+    pub sigma_gyro_bias_rps: [f64; 3],
+    #[serde(default = "unknown3")]
+    pub sigma_accel_bias_mps2: [f64; 3],
     /// The last reset of the navigation state (re-initialization, checkpoint
     /// restore, aid reset): its time (0 = none) and the step it made, so that a
     /// consumer integrating the solution can remove it. Position and velocity
@@ -261,6 +269,11 @@ pub struct Solution {
     pub frame: u8,
     /// Always zero.
     pub _pad: [u8; 3],
+}
+
+/// Three NaN: a value the record's producer did not know (serde default).
+fn unknown3() -> [f64; 3] {
+    [f64::NAN; 3]
 }
 
 /// Counters of one input stream. Every received sample is counted once, as
@@ -411,7 +424,7 @@ mod tests {
                 + 8
                 + 32
                 + 32
-                + 24 * 5
+                + 24 * 7
                 + 8
                 + 24
                 + 24

@@ -60,6 +60,10 @@ def csv_values(m):
         v[k] = m["gyro_bias_rps"][i]
     for i, k in enumerate(["ba_x_mps2", "ba_y_mps2", "ba_z_mps2"]):
         v[k] = m["accel_bias_mps2"][i]
+    for i, k in enumerate(["sig_bg_x_rps", "sig_bg_y_rps", "sig_bg_z_rps"]):
+        v[k] = m["sigma_gyro_bias_rps"][i]
+    for i, k in enumerate(["sig_ba_x_mps2", "sig_ba_y_mps2", "sig_ba_z_mps2"]):
+        v[k] = m["sigma_accel_bias_mps2"][i]
     return v, bit
 
 

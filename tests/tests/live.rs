@@ -900,7 +900,8 @@ fn python_ctypes_mirror_has_the_rust_layout() {
     }
     let mut rust = offsets!(Solution: t_ns, seq, lat_rad, lon_rad, h_m, r_e_m, v_e_mps, v_enu_mps,
         v_nav_mps, grid_angle_rad, q_b_e, heading_rad, grid_heading_rad, pitch_rad, roll_rad,
-        sigma_pos_enu_m, sigma_vel_mps, sigma_att_rad, gyro_bias_rps, accel_bias_mps2, reset_t_ns,
+        sigma_pos_enu_m, sigma_vel_mps, sigma_att_rad, gyro_bias_rps, accel_bias_mps2,
+        sigma_gyro_bias_rps, sigma_accel_bias_mps2, reset_t_ns,
         reset_delta_pos_e_m, reset_delta_vel_e_mps, reset_delta_heading_rad, flags, switch_count,
         reset_count, frame, _pad);
     rust.extend(

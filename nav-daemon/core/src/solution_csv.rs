@@ -4,7 +4,9 @@
 //! (σ of velocity and attitude, biases, grid heading, flags, aid freshness,
 //! counters) were added after them so that readers that index the first 24
 //! keep working. [`parse`] finds every column by its header name, so columns
-//! may be reordered and unknown columns are ignored.
+//! may be reordered and unknown columns are ignored. The bias σ group
+//! ([`HEADER_BIAS_SIGMA`], after `reset_count`, with `Solution_v3`) is
+//! optional on reading: files written before it read with `None` there.
 
 use std::io::Write;
 
@@ -13,11 +15,26 @@ use msgs::{Solution, WireFrame, solution_flags};
 /// The original 24 columns.
 pub const HEADER_BASE: &str = "t_s,frame,lat_deg,lon_deg,h_m,x_m,y_m,z_m,vx,vy,vz,ve,vn,vu,qw,qx,qy,qz,heading_deg,pitch_deg,roll_deg,sig_e_m,sig_n_m,sig_u_m";
 
-/// The header line: [`HEADER_BASE`] and the columns added after it.
-pub const HEADER: &str = "t_s,frame,lat_deg,lon_deg,h_m,x_m,y_m,z_m,vx,vy,vz,ve,vn,vu,qw,qx,qy,qz,heading_deg,pitch_deg,roll_deg,sig_e_m,sig_n_m,sig_u_m,sig_vnav_x_mps,sig_vnav_y_mps,sig_vnav_z_mps,sig_att_x_deg,sig_att_y_deg,sig_att_z_deg,bg_x_rps,bg_y_rps,bg_z_rps,ba_x_mps2,ba_y_mps2,ba_z_mps2,grid_heading_deg,flags,srs_fresh,cns_fresh,baro_fresh,imu_lost,coasting,switch_count,reset_count";
+/// The 45 columns every reader requires: [`HEADER_BASE`] and the ones
+/// added after it up to `reset_count`.
+pub const HEADER_REQUIRED: &str = "t_s,frame,lat_deg,lon_deg,h_m,x_m,y_m,z_m,vx,vy,vz,ve,vn,vu,qw,qx,qy,qz,heading_deg,pitch_deg,roll_deg,sig_e_m,sig_n_m,sig_u_m,sig_vnav_x_mps,sig_vnav_y_mps,sig_vnav_z_mps,sig_att_x_deg,sig_att_y_deg,sig_att_z_deg,bg_x_rps,bg_y_rps,bg_z_rps,ba_x_mps2,ba_y_mps2,ba_z_mps2,grid_heading_deg,flags,srs_fresh,cns_fresh,baro_fresh,imu_lost,coasting,switch_count,reset_count";
+
+/// The bias σ group (`Solution_v3`): 1-σ of the gyro bias (rad/s) and of
+/// the accelerometer bias (m/s²), body axes. Optional on reading.
+pub const HEADER_BIAS_SIGMA: &str =
+    "sig_bg_x_rps,sig_bg_y_rps,sig_bg_z_rps,sig_ba_x_mps2,sig_ba_y_mps2,sig_ba_z_mps2";
+
+/// The header line: [`HEADER_REQUIRED`], then [`HEADER_BIAS_SIGMA`].
+pub const HEADER: &str = "t_s,frame,lat_deg,lon_deg,h_m,x_m,y_m,z_m,vx,vy,vz,ve,vn,vu,qw,qx,qy,qz,heading_deg,pitch_deg,roll_deg,sig_e_m,sig_n_m,sig_u_m,sig_vnav_x_mps,sig_vnav_y_mps,sig_vnav_z_mps,sig_att_x_deg,sig_att_y_deg,sig_att_z_deg,bg_x_rps,bg_y_rps,bg_z_rps,ba_x_mps2,ba_y_mps2,ba_z_mps2,grid_heading_deg,flags,srs_fresh,cns_fresh,baro_fresh,imu_lost,coasting,switch_count,reset_count,sig_bg_x_rps,sig_bg_y_rps,sig_bg_z_rps,sig_ba_x_mps2,sig_ba_y_mps2,sig_ba_z_mps2";
+
+/// Number of columns of [`HEADER_REQUIRED`].
+pub const COLUMNS_REQUIRED: usize = 45;
+
+/// Number of columns of [`HEADER_BIAS_SIGMA`].
+pub const COLUMNS_BIAS_SIGMA: usize = 6;
 
 /// Number of columns of [`HEADER`].
-pub const COLUMNS: usize = 45;
+pub const COLUMNS: usize = COLUMNS_REQUIRED + COLUMNS_BIAS_SIGMA;
 
 /// Writes one row (see [`RowWriter`]; a writer of many rows keeps one
 /// [`RowWriter`], which skips reformatting the values that did not change).
@@ -25,12 +42,13 @@ pub fn write_row<W: Write>(out: &mut W, s: &Solution) -> std::io::Result<()> {
     RowWriter::new().write(out, s)
 }
 
-/// Number of floating-point columns of [`HEADER`] after `t_s` and `frame`
-/// (the eight integer columns follow them).
-const FLOAT_COLUMNS: usize = 35;
+/// Number of floating-point columns of [`HEADER`]: the 35 after `t_s` and
+/// `frame` (the eight integer columns follow them), and the bias σ group
+/// after the integers.
+const FLOAT_COLUMNS: usize = 35 + COLUMNS_BIAS_SIGMA;
 
-/// Longest line: 45 columns of at most 24 bytes, separators and newline.
-const LINE_CAP: usize = 45 * 25 + 16;
+/// Longest line: every column at most 24 bytes, separators and newline.
+const LINE_CAP: usize = COLUMNS * 25 + 16;
 
 /// The last value written in a column and its text.
 #[derive(Clone, Copy)]
@@ -104,6 +122,8 @@ impl RowWriter {
         let [sax, say, saz] = s.sigma_att_rad;
         let [bgx, bgy, bgz] = s.gyro_bias_rps;
         let [ba_x, ba_y, ba_z] = s.accel_bias_mps2;
+        let [sbgx, sbgy, sbgz] = s.sigma_gyro_bias_rps;
+        let [sbax, sbay, sbaz] = s.sigma_accel_bias_mps2;
         let floats: [f64; FLOAT_COLUMNS] = [
             s.lat_rad.to_degrees(),
             s.lon_rad.to_degrees(),
@@ -140,7 +160,15 @@ impl RowWriter {
             ba_y,
             ba_z,
             s.grid_heading_rad.to_degrees(),
+            sbgx,
+            sbgy,
+            sbgz,
+            sbax,
+            sbay,
+            sbaz,
         ];
+        let (head, tail) = floats.split_at(FLOAT_COLUMNS - COLUMNS_BIAS_SIGMA);
+        let (last_head, last_tail) = self.last.split_at_mut(FLOAT_COLUMNS - COLUMNS_BIAS_SIGMA);
         let line = &mut self.line;
         let mut n = 0;
         let mut buf = zmij::Buffer::new();
@@ -149,22 +177,7 @@ impl RowWriter {
         line[n] = b',';
         line[n + 1] = frame;
         n += 2;
-        for (v, last) in floats.iter().zip(self.last.iter_mut()) {
-            line[n] = b',';
-            n += 1;
-            let bits = v.to_bits();
-            if bits == last.bits {
-                put(line, &mut n, &last.text[..usize::from(last.len)]);
-            } else {
-                // Both copies from zmij's text: reading the cache back just
-                // after writing it would stall on store forwarding.
-                let text = buf.format(*v).as_bytes();
-                put(line, &mut n, text);
-                last.bits = bits;
-                last.len = text.len() as u8;
-                put(&mut last.text, &mut 0, text);
-            }
-        }
+        put_floats(line, &mut n, &mut buf, head, last_head);
         let bit = |b: u32| u32::from(s.flags & b != 0);
         let mut ibuf = itoa_buf::Buf::default();
         for v in [
@@ -181,8 +194,37 @@ impl RowWriter {
             n += 1;
             put(line, &mut n, ibuf.format(v));
         }
+        put_floats(line, &mut n, &mut buf, tail, last_tail);
         line[n] = b'\n';
         n + 1
+    }
+}
+
+/// Appends `,v` for each of `values` to `line` at `*n`; `last` holds the
+/// previous row's value and text of each column.
+#[inline(always)]
+fn put_floats(
+    line: &mut [u8],
+    n: &mut usize,
+    buf: &mut zmij::Buffer,
+    values: &[f64],
+    last: &mut [Formatted],
+) {
+    for (v, last) in values.iter().zip(last.iter_mut()) {
+        line[*n] = b',';
+        *n += 1;
+        let bits = v.to_bits();
+        if bits == last.bits {
+            put(line, n, &last.text[..usize::from(last.len)]);
+        } else {
+            // Both copies from zmij's text: reading the cache back just
+            // after writing it would stall on store forwarding.
+            let text = buf.format(*v).as_bytes();
+            put(line, n, text);
+            last.bits = bits;
+            last.len = text.len() as u8;
+            put(&mut last.text, &mut 0, text);
+        }
     }
 }
 
@@ -265,6 +307,18 @@ pub struct Row {
     pub coasting: bool,
     pub switch_count: u32,
     pub reset_count: u32,
+    /// 1-σ of the gyro bias estimate, body axes (rad/s); `None` in a file
+    /// written before the bias σ columns, or for a solution that did not
+    /// know it (all NaN: decoded from an older MCAP).
+    pub sigma_gyro_bias_rps: Option<[f64; 3]>,
+    /// 1-σ of the accelerometer bias estimate, body axes (m/s²); `None` as
+    /// for `sigma_gyro_bias_rps`.
+    pub sigma_accel_bias_mps2: Option<[f64; 3]>,
+}
+
+/// `None` for a value the producer did not know (all NaN).
+fn known(v: [f64; 3]) -> Option<[f64; 3]> {
+    (!v.iter().all(|x| x.is_nan())).then_some(v)
 }
 
 impl Row {
@@ -300,6 +354,8 @@ impl Row {
             coasting: bit(solution_flags::COASTING),
             switch_count: s.switch_count,
             reset_count: s.reset_count,
+            sigma_gyro_bias_rps: known(s.sigma_gyro_bias_rps),
+            sigma_accel_bias_mps2: known(s.sigma_accel_bias_mps2),
         }
     }
 }
@@ -330,6 +386,17 @@ pub enum ReadCsvError {
     Header { path: String },
     #[error("{path}: header has no column {column:?}")]
     MissingColumn { path: String, column: &'static str },
+    /// Some but not all columns of an optional group: a damaged or
+    /// hand-edited header.
+    #[error(
+        "{path}: header has {present:?} but no column {column:?} (the group {group} goes together)"
+    )]
+    PartialGroup {
+        path: String,
+        present: &'static str,
+        column: &'static str,
+        group: &'static str,
+    },
     #[error("{path}:{line}: {what}")]
     Row {
         path: String,
@@ -373,7 +440,7 @@ pub fn parse(text: &str, p: &str) -> Result<Vec<Row>, ReadCsvError> {
     let names: Vec<&str> = head.split(',').map(str::trim).collect();
     // idx[k] = position in the file of column k of HEADER.
     let mut idx = [0usize; COLUMNS];
-    for (k, want) in HEADER.split(',').enumerate() {
+    for (k, want) in HEADER_REQUIRED.split(',').enumerate() {
         idx[k] = names
             .iter()
             .position(|n| *n == want)
@@ -382,6 +449,30 @@ pub fn parse(text: &str, p: &str) -> Result<Vec<Row>, ReadCsvError> {
                 column: want,
             })?;
     }
+    let bias_sigma: Vec<(&'static str, Option<usize>)> = HEADER_BIAS_SIGMA
+        .split(',')
+        .map(|want| (want, names.iter().position(|n| *n == want)))
+        .collect();
+    let has_bias_sigma = match (
+        bias_sigma.iter().find(|(_, i)| i.is_some()),
+        bias_sigma.iter().find(|(_, i)| i.is_none()),
+    ) {
+        (Some(&(present, _)), Some(&(column, _))) => {
+            return Err(ReadCsvError::PartialGroup {
+                path: p,
+                present,
+                column,
+                group: HEADER_BIAS_SIGMA,
+            });
+        }
+        (_, None) => {
+            for (k, (_, i)) in bias_sigma.iter().enumerate() {
+                idx[COLUMNS_REQUIRED + k] = i.unwrap_or_default();
+            }
+            true
+        }
+        (None, Some(_)) => false,
+    };
     let width = names.len();
     let mut rows = Vec::new();
     for (i, line) in lines.enumerate() {
@@ -427,6 +518,12 @@ pub fn parse(text: &str, p: &str) -> Result<Vec<Row>, ReadCsvError> {
         for (j, slot) in u.iter_mut().enumerate() {
             *slot = int(37 + j)?;
         }
+        let mut sig = [0.0f64; COLUMNS_BIAS_SIGMA];
+        if has_bias_sigma {
+            for (j, slot) in sig.iter_mut().enumerate() {
+                *slot = num(COLUMNS_REQUIRED + j)?;
+            }
+        }
         rows.push(Row {
             t_s: v[0],
             frame: col(1).chars().next().unwrap_or('?'),
@@ -454,6 +551,12 @@ pub fn parse(text: &str, p: &str) -> Result<Vec<Row>, ReadCsvError> {
             coasting: u[5] != 0,
             switch_count: u[6],
             reset_count: u[7],
+            sigma_gyro_bias_rps: has_bias_sigma
+                .then_some([sig[0], sig[1], sig[2]])
+                .and_then(known),
+            sigma_accel_bias_mps2: has_bias_sigma
+                .then_some([sig[3], sig[4], sig[5]])
+                .and_then(known),
         });
     }
     Ok(rows)
@@ -607,6 +710,8 @@ mod tests {
         s.flags = solution_flags::SRS_FRESH | solution_flags::BARO_FRESH | solution_flags::COASTING;
         s.switch_count = 3;
         s.reset_count = 12;
+        s.sigma_gyro_bias_rps = [4.8e-8, 5e-8, 1.25e-7];
+        s.sigma_accel_bias_mps2 = [9.8e-4, 1e-3, 2.5e-3];
         s
     }
 
@@ -640,7 +745,7 @@ mod tests {
         assert_eq!(num(30), 1e-6);
         assert_eq!(num(35), 2e-2);
         assert_eq!(num(36), 0.5f64.to_degrees());
-        assert_eq!(&f[37..], ["74", "1", "0", "1", "0", "1", "3", "12"]);
+        assert_eq!(&f[37..45], ["74", "1", "0", "1", "0", "1", "3", "12"]);
         // And the reader gives the Solution's fields converted by hand.
         let rows = parse(&text, "t.csv").expect("rows");
         let r = rows[0];
@@ -660,6 +765,104 @@ mod tests {
         assert!(r.srs_fresh && !r.cns_fresh && r.baro_fresh && !r.imu_lost && r.coasting);
         assert_eq!((r.switch_count, r.reset_count), (3, 12));
         assert_eq!(r, Row::from_solution(&s));
+    }
+
+    #[test]
+    // Exact equality is the contract: the numbers round-trip bit for bit.
+    #[allow(clippy::float_cmp)]
+    fn bias_sigma_columns_follow_reset_count_and_round_trip() {
+        let names: Vec<&str> = HEADER.split(',').collect();
+        assert_eq!(
+            &names[44..],
+            [
+                "reset_count",
+                "sig_bg_x_rps",
+                "sig_bg_y_rps",
+                "sig_bg_z_rps",
+                "sig_ba_x_mps2",
+                "sig_ba_y_mps2",
+                "sig_ba_z_mps2"
+            ]
+        );
+        assert_eq!(HEADER, format!("{HEADER_REQUIRED},{HEADER_BIAS_SIGMA}"));
+        let mut s = sample();
+        let text = csv_of(&s);
+        // By hand, independent of the reader.
+        let line = text.lines().nth(1).expect("row");
+        let f: Vec<f64> = line
+            .split(',')
+            .skip(45)
+            .map(|x| x.parse().expect("number"))
+            .collect();
+        assert_eq!(f, [4.8e-8, 5e-8, 1.25e-7, 9.8e-4, 1e-3, 2.5e-3]);
+        let r = parse(&text, "t.csv").expect("rows")[0];
+        assert_eq!(r.sigma_gyro_bias_rps, Some(s.sigma_gyro_bias_rps));
+        assert_eq!(r.sigma_accel_bias_mps2, Some(s.sigma_accel_bias_mps2));
+        // The writer's per-column cache: a second row with other σ writes them.
+        let mut w = RowWriter::new();
+        w.row(&s);
+        s.sigma_accel_bias_mps2[2] = 7.5e-4;
+        let second: Vec<f64> = w
+            .row(&s)
+            .trim_end()
+            .split(',')
+            .skip(48)
+            .map(|x| x.parse().expect("number"))
+            .collect();
+        assert_eq!(second, [9.8e-4, 1e-3, 7.5e-4]);
+    }
+
+    /// A CSV written before the bias σ columns (45 columns, up to
+    /// `reset_count`) reads with every other value and the bias σ unknown.
+    #[test]
+    fn a_csv_without_the_bias_sigma_columns_still_reads() {
+        let s = sample();
+        let text = csv_of(&s);
+        let old: String = text
+            .lines()
+            .map(|l| {
+                let f: Vec<&str> = l.split(',').collect();
+                format!("{}\n", f[..COLUMNS_REQUIRED].join(","))
+            })
+            .collect();
+        assert!(old.starts_with(&format!("{HEADER_REQUIRED}\n")));
+        let r = parse(&old, "old.csv").expect("an older CSV reads")[0];
+        assert_eq!(
+            (r.sigma_gyro_bias_rps, r.sigma_accel_bias_mps2),
+            (None, None)
+        );
+        assert_eq!(
+            Row {
+                sigma_gyro_bias_rps: None,
+                sigma_accel_bias_mps2: None,
+                ..Row::from_solution(&s)
+            },
+            r
+        );
+        // Part of the group is a damaged header, named.
+        let order: Vec<usize> = (0..COLUMNS).filter(|&i| i != 47).collect();
+        let e = parse(&permute(&text, &order, None), "cut.csv").expect_err("partial group");
+        let m = e.to_string();
+        assert!(
+            m.starts_with("cut.csv: header has \"sig_bg_x_rps\" but no column \"sig_bg_z_rps\""),
+            "{m}"
+        );
+        // A bias σ that is not a number is named like any column.
+        let bad: String = text
+            .lines()
+            .enumerate()
+            .map(|(i, l)| {
+                let mut f: Vec<&str> = l.split(',').collect();
+                if i == 1 {
+                    f[48] = "n/a";
+                }
+                format!("{}\n", f.join(","))
+            })
+            .collect();
+        let m = parse(&bad, "bad.csv")
+            .expect_err("not a number")
+            .to_string();
+        assert!(m.contains("column sig_ba_x_mps2 is not a number"), "{m}");
     }
 
     /// Rewrites `text` with its columns in the order `order` (indices into the

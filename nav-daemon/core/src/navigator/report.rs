@@ -194,6 +194,8 @@ pub(crate) fn navigation_solution(
         sigma_pos_enu_m: cov_pos.diagonal().map(|v| v.max(0.0).sqrt()).into(),
         sigma_vel_mps: diag_sqrt(idx::DV).into(),
         sigma_att_rad: diag_sqrt(idx::PHI).into(),
+        sigma_gyro_bias_rps: diag_sqrt(idx::BG).into(),
+        sigma_accel_bias_mps2: diag_sqrt(idx::BA).into(),
         gyro_bias_rps: (*gyro_bias).into(),
         accel_bias_mps2: (*accel_bias).into(),
         frame: nominal.nav().kind().to_wire() as u8,
