@@ -7,8 +7,8 @@ use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
 use polarnav_ipc::{TransportConfig, remove_isolated};
-use sensor_replay::scenario::Scenario;
-use sensor_replay::simulate::{SimOptions, simulate};
+use polarnav_sim::scenario::Scenario;
+use polarnav_sim::simulate::{SimOptions, simulate};
 
 use crate::bin;
 

@@ -11,8 +11,8 @@ use polarnav::earth;
 use polarnav::frames;
 use polarnav::navigator::{NavigatorConfig, SwitchEvent};
 use polarnav::session::{Event, Input, Session, SessionSettings, Sink, Stream};
-use sensor_replay::scenario::Scenario;
-use sensor_replay::simulate::{SimOptions, simulate};
+use polarnav_sim::scenario::Scenario;
+use polarnav_sim::simulate::{SimOptions, simulate};
 
 pub mod harness;
 

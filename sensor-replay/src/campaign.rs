@@ -19,10 +19,10 @@ use polarnav::session;
 use polarnav::solution_csv::Row;
 use polarnav_config::{CliOverrides, ConfigFile, effective};
 
-use crate::eval;
-use crate::faults::{FaultKind, Stream};
-use crate::scenario::Scenario;
-use crate::simulate::{SimOptions, simulate};
+use polarnav_eval::eval;
+use polarnav_sim::faults::{FaultKind, Stream};
+use polarnav_sim::scenario::Scenario;
+use polarnav_sim::simulate::{SimOptions, simulate};
 
 /// Recovery allowance after an outage (s).
 pub const RECOVERY_S: f64 = 60.0;

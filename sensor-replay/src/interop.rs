@@ -21,9 +21,9 @@ use polarnav::navigator::IMU_DT_RANGE_S;
 use rand::SeedableRng;
 use rand_chacha::ChaCha20Rng;
 
-use crate::sensors;
-use crate::simulate::{InitErrors, init_record};
-use crate::trajectory::TruthSample;
+use polarnav_sim::sensors;
+use polarnav_sim::simulate::{InitErrors, init_record};
+use polarnav_sim::trajectory::TruthSample;
 
 /// Forward-right-down ↔ right-forward-up (also NED ↔ ENU): a proper rotation, its own inverse.
 pub fn frd_to_rfu() -> Matrix3<f64> {

@@ -1,18 +1,11 @@
-//! polarnav sensor-replay: flight simulator, log import/export, evaluation.
+//! polarnav sensor-replay: the command line, log import/export, the fault
+//! campaign and the live tools (play, record, listen, view). The simulator is
+//! `polarnav-sim`, the evaluation `polarnav-eval`.
 
 pub mod campaign;
-pub mod eval;
 pub mod export;
-pub mod faults;
 pub mod interop;
 pub mod live;
-pub mod logfile;
 pub mod monitor;
 pub mod pieces;
-pub mod plots;
-pub mod scenario;
-pub mod sensors;
-pub mod simulate;
-pub mod solution_file;
-pub mod trajectory;
 pub mod view;

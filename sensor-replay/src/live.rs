@@ -11,8 +11,8 @@ use msgs::{
 };
 use polarnav_ipc::{TopicPublisher, TopicSubscriber, TransportConfig, TransportError};
 
-use crate::logfile::{LogContents, SensorRef};
 use crate::pieces::{Opener, Output, Pieces};
+use polarnav_eval::logfile::{LogContents, SensorRef};
 
 /// Pacing statistics of a replay (lateness of each publication behind its deadline).
 #[derive(Debug, Clone, Copy, Default, PartialEq)]

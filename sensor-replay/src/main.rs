@@ -6,11 +6,12 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
+use polarnav_eval::{eval, logfile};
 use polarnav_foxglove::{AidSource, McapFile};
+use polarnav_sim::scenario::Scenario;
+use polarnav_sim::simulate::{self, SimOptions};
+use sensor_replay::export;
 use sensor_replay::interop::{self, AidSynthesis, ImportError};
-use sensor_replay::scenario::Scenario;
-use sensor_replay::simulate::{self, SimOptions};
-use sensor_replay::{eval, export, logfile};
 
 #[derive(Debug, Parser)]
 #[command(
@@ -637,7 +638,7 @@ fn run(cli: Cli) -> Result<(), Fail> {
             for (label, path) in std::iter::once(("solution", &solution))
                 .chain(compare.as_ref().map(|p| ("compare", p)))
             {
-                let l = sensor_replay::solution_file::load(path).map_err(bad)?;
+                let l = polarnav_eval::solution_file::load(path).map_err(bad)?;
                 if label == "solution" {
                     aids = l.aids;
                 }
@@ -667,17 +668,17 @@ fn run(cli: Cli) -> Result<(), Fail> {
             if let Some(dir) = &out {
                 std::fs::create_dir_all(dir)
                     .map_err(|e| Fail(1, format!("{}: {e}", dir.display())))?;
-                let series: Vec<sensor_replay::plots::Series<'_>> = loaded
+                let series: Vec<polarnav_eval::plots::Series<'_>> = loaded
                     .iter()
-                    .map(|(l, r, e)| sensor_replay::plots::Series {
+                    .map(|(l, r, e)| polarnav_eval::plots::Series {
                         label: l,
                         rows: r,
                         epochs: e,
                     })
                     .collect();
-                let files = sensor_replay::plots::write_all(
+                let files = polarnav_eval::plots::write_all(
                     dir,
-                    &sensor_replay::plots::Inputs {
+                    &polarnav_eval::plots::Inputs {
                         runs: &series,
                         truth: &c.truth,
                         truth_bias: &c.truth_bias,

@@ -9,13 +9,13 @@ use std::process::Command;
 
 use nav_daemon::batch::{self, BatchOptions, Output};
 use polarnav_config::{CliOverrides, ConfigFile};
+use polarnav_eval::logfile;
+use polarnav_eval::solution_file;
+use polarnav_sim::scenario::Scenario;
+use polarnav_sim::sensors::ImuErrorModel;
+use polarnav_sim::simulate::{SimOptions, simulate};
 use rand::SeedableRng;
 use rand_chacha::ChaCha20Rng;
-use sensor_replay::logfile;
-use sensor_replay::scenario::Scenario;
-use sensor_replay::sensors::ImuErrorModel;
-use sensor_replay::simulate::{SimOptions, simulate};
-use sensor_replay::solution_file;
 
 const SEED: u64 = 7;
 
@@ -119,10 +119,10 @@ fn eval_writes_every_figure_from_an_mcap_solution_and_truth_bias_round_trips() {
     assert!(loaded.rows.iter().any(|r| r.frame == 'g'));
     assert!(loaded.rows.iter().any(|r| r.frame == 'G'));
 
-    let fmt = sensor_replay::plots::init_fonts();
+    let fmt = polarnav_eval::plots::init_fonts();
     let ext = match fmt {
-        sensor_replay::plots::Format::Png => "png",
-        sensor_replay::plots::Format::Svg => "svg",
+        polarnav_eval::plots::Format::Png => "png",
+        polarnav_eval::plots::Format::Svg => "svg",
     };
     let figs = dir.join("figs");
     let summary = eval(&[
@@ -137,7 +137,7 @@ fn eval_writes_every_figure_from_an_mcap_solution_and_truth_bias_round_trips() {
     ]);
     let on_disk = std::fs::read_to_string(figs.join("summary.md")).expect("summary.md");
     assert_eq!(on_disk.trim(), summary.trim());
-    for name in sensor_replay::plots::FIGURES {
+    for name in polarnav_eval::plots::FIGURES {
         let file = format!("{name}.{ext}");
         let p = figs.join(&file);
         let bytes = std::fs::read(&p).unwrap_or_else(|e| panic!("{}: {e}", p.display()));

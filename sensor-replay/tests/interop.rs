@@ -8,10 +8,10 @@ use msgs::ImuSample;
 use msgs::navlog::{Record, read_all};
 use nalgebra::Vector3;
 use polarnav::navigator::{Navigator, NavigatorConfig};
+use polarnav_eval::logfile;
+use polarnav_sim::scenario::Scenario;
+use polarnav_sim::simulate::{SimOptions, simulate};
 use sensor_replay::interop::{self, AidSynthesis};
-use sensor_replay::logfile;
-use sensor_replay::scenario::Scenario;
-use sensor_replay::simulate::{SimOptions, simulate};
 
 fn temp_dir(name: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("polarnav-{name}-{}", std::process::id()));

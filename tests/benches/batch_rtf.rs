@@ -15,8 +15,8 @@ use polarnav::navigator::{Navigator, NavigatorConfig};
 use polarnav::row_interval::RowInterval;
 use polarnav::solution_csv;
 use polarnav_config::ConfigFile;
-use sensor_replay::scenario::Scenario;
-use sensor_replay::simulate::{SimOptions, simulate};
+use polarnav_sim::scenario::Scenario;
+use polarnav_sim::simulate::{SimOptions, simulate};
 
 const FLIGHT_S: f64 = 3600.0;
 

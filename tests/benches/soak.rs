@@ -19,9 +19,9 @@ use std::time::{Duration, Instant};
 use msgs::Status;
 use msgs::service::Topic;
 use polarnav_ipc::{TopicSubscriber, TransportConfig};
+use polarnav_sim::scenario::Scenario;
+use polarnav_sim::simulate::{SimOptions, simulate};
 use polarnav_tests::repo;
-use sensor_replay::scenario::Scenario;
-use sensor_replay::simulate::{SimOptions, simulate};
 
 fn rss_kb(pid: u32) -> Option<u64> {
     std::fs::read_to_string(format!("/proc/{pid}/status"))

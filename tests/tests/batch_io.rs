@@ -8,9 +8,9 @@ use std::io::{BufReader, Read, Write};
 
 use nav_daemon::batch::{self, BatchError, BatchOptions};
 use polarnav_config::ConfigFile;
+use polarnav_sim::scenario::Scenario;
+use polarnav_sim::simulate::{SimOptions, simulate};
 use polarnav_tests::repo;
-use sensor_replay::scenario::Scenario;
-use sensor_replay::simulate::{SimOptions, simulate};
 
 fn log_bytes(seconds: f64) -> Vec<u8> {
     let text = std::fs::read_to_string(repo("config/scenarios/transpolar.toml"))

@@ -6,9 +6,9 @@
 use nav_daemon::batch::{self, BatchOptions};
 use polarnav::row_interval::RowInterval;
 use polarnav_config::{CliOverrides, ConfigFile};
+use polarnav_sim::scenario::Scenario;
+use polarnav_sim::simulate::{SimOptions, simulate};
 use polarnav_tests::repo;
-use sensor_replay::scenario::Scenario;
-use sensor_replay::simulate::{SimOptions, simulate};
 
 /// The CSV `batch` writes for `log` with `every`, as lines (header first).
 fn batch_lines(log: &[u8], every: Option<RowInterval>) -> Vec<String> {

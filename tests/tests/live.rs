@@ -11,10 +11,10 @@ use msgs::navlog::Record;
 use polarnav::session;
 use polarnav::solution_csv;
 use polarnav_config::{CliOverrides, ConfigFile, effective};
+use polarnav_sim::scenario::Scenario;
+use polarnav_sim::simulate::{SimOptions, simulate};
 use polarnav_tests::harness::{Env, Proc, short_log, short_log_of, terminate, wait};
 use polarnav_tests::{bin, check_mcap, python, repo};
-use sensor_replay::scenario::Scenario;
-use sensor_replay::simulate::{SimOptions, simulate};
 
 /// What `nav-daemon batch` computes on `log` with `env`'s configuration:
 /// the same session with the same effective settings (file, then the

@@ -8,10 +8,10 @@ use nav_daemon::batch::{self, BatchOptions};
 use polarnav::mech::FrameKind;
 use polarnav::solution_csv;
 use polarnav_config::ConfigFile;
-use sensor_replay::eval;
-use sensor_replay::logfile;
-use sensor_replay::scenario::Scenario;
-use sensor_replay::simulate::{SimOptions, simulate};
+use polarnav_eval::eval;
+use polarnav_eval::logfile;
+use polarnav_sim::scenario::Scenario;
+use polarnav_sim::simulate::{SimOptions, simulate};
 
 #[test]
 fn paper_sim_switches_at_88n_at_212s_through_the_header_override() {

@@ -108,7 +108,7 @@ fn mems_flight(seed: u64) -> Vec<Record> {
 fn the_mems_scenario_flies_the_mems_preset() {
     let text =
         std::fs::read_to_string(repo("config/scenarios/mems-flight.toml")).expect("scenario");
-    let s = sensor_replay::scenario::Scenario::parse(&text, "mems-flight").expect("scenario");
+    let s = polarnav_sim::scenario::Scenario::parse(&text, "mems-flight").expect("scenario");
     let v: std::collections::BTreeMap<_, _> = SensorGrade::Mems.values().into_iter().collect();
     assert_eq!(v["arw_dpsh"], s.imu.arw_dpsh);
     assert_eq!(v["vrw_ug_psqhz"], s.imu.vrw_ug_psqhz);

@@ -8,9 +8,9 @@ use std::path::Path;
 use nav_daemon::batch::{self, BatchOptions, BatchReport};
 use polarnav::solution_csv::{self, Row};
 use polarnav_config::{CliOverrides, ConfigFile, Source, effective};
+use polarnav_sim::scenario::Scenario;
+use polarnav_sim::simulate::{SimOptions, simulate};
 use polarnav_tests::repo;
-use sensor_replay::scenario::Scenario;
-use sensor_replay::simulate::{SimOptions, simulate};
 
 fn short_log(dir: &Path, scenario: &str, seconds: f64) -> std::path::PathBuf {
     let text = std::fs::read_to_string(repo(scenario)).expect("scenario");

@@ -171,13 +171,13 @@ fn simulated_star_samples_are_the_truth_in_the_inertial_frame() {
             "boresight_sigma_arcsec = 40.0",
             "boresight_sigma_arcsec = 40.0\nmisalignment_arcsec = [3.0, -2.0, 12.0]",
         );
-    let s = sensor_replay::scenario::Scenario::parse(&text, "t").expect("scenario");
+    let s = polarnav_sim::scenario::Scenario::parse(&text, "t").expect("scenario");
     for perfect in [true, false] {
         let mut buf = Vec::new();
-        sensor_replay::simulate::simulate(
+        polarnav_sim::simulate::simulate(
             &s,
             &text,
-            sensor_replay::simulate::SimOptions {
+            polarnav_sim::simulate::SimOptions {
                 seed: 7,
                 perfect,
                 ..Default::default()

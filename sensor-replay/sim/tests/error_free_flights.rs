@@ -9,8 +9,8 @@ use polarnav::earth;
 use polarnav::frames;
 use polarnav::mech::FrameKind;
 use polarnav::navigator::{Navigator, NavigatorConfig};
-use sensor_replay::scenario::Scenario;
-use sensor_replay::simulate::{SimOptions, simulate};
+use polarnav_sim::scenario::Scenario;
+use polarnav_sim::simulate::{SimOptions, simulate};
 
 const ARCMIN: f64 = std::f64::consts::PI / 180.0 / 60.0;
 
@@ -198,7 +198,7 @@ fn straight_across_the_south_pole_stays_on_truth() {
 #[test]
 fn lowlat_vehicle_in_g_stays_on_truth() {
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../config/scenarios/lowlat-vehicle.toml");
+        .join("../../config/scenarios/lowlat-vehicle.toml");
     let text = std::fs::read_to_string(path).expect("shipped scenario");
     // The scenario is 1200 s; the acceptance asks for 1800 s, so cruise 600 s more.
     let text = format!("{text}\n[[segment]]\nkind = \"cruise\"\nduration_s = 600.0\n");

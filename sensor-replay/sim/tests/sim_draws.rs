@@ -8,11 +8,11 @@
 //! Kolmogorov–Smirnov bound, each at a false-alarm rate of about 1e-4.
 
 use msgs::navlog::Record;
+use polarnav_sim::scenario::Scenario;
+use polarnav_sim::sensors::ImuErrorModel;
+use polarnav_sim::simulate::{SimOptions, simulate, truth_bias_record};
 use rand::SeedableRng;
 use rand_chacha::ChaCha20Rng;
-use sensor_replay::scenario::Scenario;
-use sensor_replay::sensors::ImuErrorModel;
-use sensor_replay::simulate::{SimOptions, simulate, truth_bias_record};
 
 const SEEDS: u64 = 3000;
 /// 1e-6 g in m/s² (the scenario's µg, with the simulator's g).
@@ -21,7 +21,7 @@ const DPH: f64 = std::f64::consts::PI / 180.0 / 3600.0;
 
 fn quick_start() -> (Scenario, String) {
     let path = std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../config/scenarios/polar-crossing.toml");
+        .join("../../config/scenarios/polar-crossing.toml");
     let text = std::fs::read_to_string(path)
         .expect("scenario")
         .replace("duration_s = 19600.0", "duration_s = 1.0");

@@ -9,8 +9,8 @@ use polarnav::earth::{self, Geodetic};
 use polarnav::error_model::{f_geo, idx};
 use polarnav::frames;
 use polarnav::navigator::{Navigator, NavigatorConfig};
-use sensor_replay::scenario::Scenario;
-use sensor_replay::simulate::{SimOptions, simulate};
+use polarnav_sim::scenario::Scenario;
+use polarnav_sim::simulate::{SimOptions, simulate};
 
 const STATIONARY: &str = r#"
 name = "stationary-45N"
