@@ -21,8 +21,8 @@ use std::time::Instant;
 
 use nav_daemon::batch::{self, BatchOptions};
 use polarnav_config::ConfigFile;
-use sensor_replay::scenario::Scenario;
-use sensor_replay::simulate::{SimOptions, simulate};
+use polarnav_sim::scenario::Scenario;
+use polarnav_sim::simulate::{SimOptions, simulate};
 
 const FLIGHT_S: f64 = 3600.0;
 const TARGET_PEAK_BYTES: f64 = 1e9;
