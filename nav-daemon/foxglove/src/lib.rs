@@ -12,7 +12,10 @@
 //! | `/imu`, `/srs`, `/cns`, `/baro`, `/star`, `/init` | JSON, the wire payload | input records |
 //! | `/solution` | JSON, every field of `Solution` | solutions |
 //! | `/solution/fix` | `foxglove.LocationFix` (ENU covariance from σ) | solutions |
-//! | `/solution/pose` | `foxglove.FrameTransform` `ecef` → `body` | solutions |
+//! | `/solution/pose` | `foxglove.FrameTransform` `polar_north|south` → `body` | solutions |
+//! | `/solution/nav_frame` | `foxglove.FrameTransform` `polar_north|south` → `nav` (ENU or grid) | solutions |
+//! | `/tf/polar` | `foxglove.FrameTransform` `ecef` → `polar_north`, `polar_south` | every 60 s |
+//! | `/track` | `foxglove.SceneUpdate`: poles, switch latitudes, solution and truth tracks | 1 point/s |
 //! | `/status` | JSON, every field of `Status` | status records |
 //! | `/aid/srs`, `/aid/cns`, `/aid/baro`, `/aid/star` | JSON [`AidUpdate`] | each gated update, or status |
 //! | `/events/switch` | JSON [`SwitchNote`] | a frame change between solutions |
@@ -34,13 +37,14 @@ use std::io::BufWriter;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 
-use foxglove::messages::{FrameTransform, LocationFix, Log, Quaternion, Timestamp, Vector3};
+use foxglove::messages::{LocationFix, Log, Timestamp, Vector3};
 use foxglove::{Channel, Context, McapWriterHandle, PartialMetadata, RawChannel, Schema};
 use msgs::navlog::{Header, Record};
 use msgs::{AidStatus, Solution, Status, TruthRecord, WireFrame};
 use serde::Serialize;
 use serde_json::Value;
 
+pub mod polar;
 pub mod schema;
 
 /// An aid's gated update (or, where only status records exist, its last
@@ -214,14 +218,14 @@ pub struct FlightChannels {
     truth_bias: JsonChannel,
     fix: Channel<LocationFix>,
     truth_fix: Channel<LocationFix>,
-    pose: Channel<FrameTransform>,
+    polar: polar::PolarScene,
     log: Channel<Log>,
     aid_source: AidSource,
     last_frame: Option<u8>,
 }
 
 /// Every topic this mapping writes, in a fixed order.
-pub const TOPICS: [&str; 19] = [
+pub const TOPICS: [&str; 22] = [
     "/imu",
     "/srs",
     "/cns",
@@ -231,6 +235,9 @@ pub const TOPICS: [&str; 19] = [
     "/solution",
     "/solution/fix",
     "/solution/pose",
+    "/solution/nav_frame",
+    "/tf/polar",
+    "/track",
     "/status",
     "/aid/srs",
     "/aid/cns",
@@ -322,7 +329,7 @@ impl FlightChannels {
             ),
             fix: ctx.channel_builder("/solution/fix").build(),
             truth_fix: ctx.channel_builder("/truth/fix").build(),
-            pose: ctx.channel_builder("/solution/pose").build(),
+            polar: polar::PolarScene::new(ctx),
             log: ctx.channel_builder("/events").build(),
             aid_source,
             last_frame: None,
@@ -350,6 +357,8 @@ impl FlightChannels {
     /// A solution: `/solution`, `/solution/fix`, `/solution/pose`, and a
     /// switch event when its frame differs from the previous solution's.
     pub fn solution(&mut self, s: &Solution) {
+        let switched = self.last_frame.is_some_and(|prev| prev != s.frame);
+        self.polar.solution(s, switched);
         if let Some(prev) = self.last_frame
             && prev != s.frame
         {
@@ -404,24 +413,11 @@ impl FlightChannels {
                 s.t_ns,
             );
         }
-        if self.pose.has_sinks() {
-            let [w, x, y, z] = s.q_b_e;
-            let [px, py, pz] = s.r_e_m;
-            self.pose.log_with_time(
-                &FrameTransform {
-                    timestamp: Some(stamp(s.t_ns)),
-                    parent_frame_id: "ecef".into(),
-                    child_frame_id: "body".into(),
-                    translation: Some(Vector3 {
-                        x: px,
-                        y: py,
-                        z: pz,
-                    }),
-                    rotation: Some(Quaternion { x, y, z, w }),
-                },
-                s.t_ns,
-            );
-        }
+    }
+
+    /// The end of a run: what is still held (the last track segments).
+    pub fn finish(&mut self) {
+        self.polar.finish();
     }
 
     /// A status record: `/status`, and with [`AidSource::Status`] the last
@@ -460,6 +456,7 @@ impl FlightChannels {
             q_b_e: t.q_b_e,
         };
         self.truth.log(t.t_ns, &out);
+        self.polar.truth(t, g.lat_rad);
         if self.truth_fix.has_sinks() {
             self.truth_fix.log_with_time(
                 &LocationFix {
@@ -558,7 +555,9 @@ impl McapFile {
     /// Writes the summary and closes the file.
     pub fn close(self) -> Result<(), McapError> {
         let path = self.path;
-        drop(self.channels);
+        let mut channels = self.channels;
+        channels.finish();
+        drop(channels);
         self.writer
             .close()
             .map(drop)

@@ -1,0 +1,61 @@
+//! The polar frame tree in a batch MCAP, read by the reference reader:
+//! `ecef` → `polar_north|south` → `body` composes back to every solution's
+//! ECEF position and attitude, straight over the North Pole, and the track
+//! lies in the polar frame on the solutions' positions.
+
+use std::io::BufReader;
+
+use nav_daemon::batch::{self, BatchOptions, Output};
+use polarnav_config::ConfigFile;
+use polarnav_foxglove::{AidSource, McapFile};
+use polarnav_tests::{python, repo, simulate_file};
+
+#[test]
+fn frame_tree_composes_back_to_the_solution_across_the_pole() {
+    let dir = std::env::temp_dir().join(format!("polarnav-polar-scene-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("dir");
+    // paper-sim's aircraft and sensors, from 89.9° N heading north: over
+    // the pole after about 42 s, then south along the 210° meridian.
+    let text = std::fs::read_to_string(repo("config/scenarios/paper-sim.toml"))
+        .expect("scenario")
+        .replace("lat_deg = 87.5", "lat_deg = 89.9")
+        .replace("duration_s = 600.0", "duration_s = 90.0");
+    let log = dir.join("pole.navlog");
+    simulate_file(&text, "over the pole (90 s)", &log);
+    let mcap = dir.join("pole.mcap");
+    let r = batch::run_to::<_, std::io::Sink>(
+        BufReader::new(std::fs::File::open(&log).expect("open")),
+        "pole.navlog",
+        Output::Mcap(Box::new(
+            McapFile::create(&mcap, AidSource::Updates).expect("mcap"),
+        )),
+        &ConfigFile::defaults(),
+        &BatchOptions::default(),
+    )
+    .expect("batch mcap");
+    assert_eq!(r.rows, 18_000);
+    let out = std::process::Command::new(python())
+        .arg(repo("tests/python/check_polar.py"))
+        .arg(&mcap)
+        .output()
+        .expect("python");
+    assert!(
+        out.status.success(),
+        "the frame tree does not compose: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).expect("summary");
+    eprintln!("{v}");
+    assert_eq!(v["solutions"].as_u64(), Some(18_000));
+    assert!(v["worst_position_m"].as_f64().expect("position") <= 1e-3);
+    assert!(v["worst_attitude_rad"].as_f64().expect("attitude") <= 1e-6);
+    assert_eq!(v["pose_frames"], serde_json::json!(["polar_north"]));
+    assert_eq!(v["track_frames"], serde_json::json!(["polar_north"]));
+    // One point a second over 90 s.
+    assert!(v["track_points"].as_u64().expect("points") >= 89);
+    let entities = v["entities"].as_array().expect("entities");
+    assert!(entities.contains(&serde_json::json!("polar_north-pole")));
+    assert!(v["truth_segments"].as_u64().expect("truth") >= 1);
+    // The flight really crosses the pole: the latitude rises then falls.
+    std::fs::remove_dir_all(&dir).ok();
+}
