@@ -1645,6 +1645,35 @@ mod tests {
         );
     }
 
+    /// A recording's status records give one point per new update: a
+    /// status that repeats the last update (same counters, same innovation)
+    /// adds nothing, an aid without updates gives no series.
+    #[test]
+    fn status_records_give_one_point_per_update() {
+        let mut st = Status::default();
+        assert!(aids_from_status(&[st]).is_none());
+        st.t_ns = 1_000_000_000;
+        st.baro.accepted = 1;
+        st.baro_aid.innovation = [2.0, 0.0, 0.0];
+        st.baro_aid.innovation_var = [4.0, 0.0, 0.0];
+        st.baro_aid.fused = 1;
+        let mut later = st;
+        later.t_ns = 2_000_000_000;
+        let mut next = later;
+        next.t_ns = 3_000_000_000;
+        next.baro.rejected_gate = 1;
+        next.baro_aid.innovation = [40.0, 0.0, 0.0];
+        next.baro_aid.fused = 0;
+        let a = aids_from_status(&[st, later, next]).expect("aids");
+        assert!(a.srs.is_empty() && a.cns.is_empty() && a.star.is_empty());
+        assert_eq!(a.baro.len(), 2);
+        assert_eq!((a.baro[0].fused, a.baro[1].fused), (1, 0));
+        let s = aid_series(&a, &Where::default());
+        assert_eq!(s[0].dim, 1);
+        // NIS = ν²/S: 4/4 and 1600/4.
+        assert!((s[0].points[0].4 - 1.0).abs() < 1e-12 && (s[0].points[1].4 - 400.0).abs() < 1e-9);
+    }
+
     #[test]
     fn settings_values_are_read_by_key() {
         let t = "[aids]\nsrs_gate = 16.5 # comment\ncns_gate=3\n";

@@ -381,6 +381,86 @@ mod tests {
         }
     }
 
+    /// The bias σ of a `/solution` message is read by field name when the
+    /// message has it (solution version 3) and absent otherwise.
+    #[test]
+    fn bias_sigma_fields_are_read_when_present() {
+        let s = Solution {
+            t_ns: 5,
+            ..Default::default()
+        };
+        let mut v = serde_json::to_value(s).expect("json");
+        let plain = serde_json::to_vec(&v).expect("bytes");
+        let (back, sig) = solution_of_json(&plain).expect("v2 message");
+        assert_eq!(back.t_ns, 5);
+        assert!(sig.is_none());
+        let o = v.as_object_mut().expect("object");
+        o.insert(
+            BIAS_SIGMA_FIELDS[0].into(),
+            serde_json::json!([1e-7, 2e-7, 3e-7]),
+        );
+        o.insert(
+            BIAS_SIGMA_FIELDS[1].into(),
+            serde_json::json!([1e-3, 2e-3, 3e-3]),
+        );
+        let (_, sig) = solution_of_json(&serde_json::to_vec(&v).expect("bytes")).expect("v3");
+        assert_eq!(
+            sig.map(|x| x.map(f64::to_bits)),
+            Some([1e-7, 2e-7, 3e-7, 1e-3, 2e-3, 3e-3].map(f64::to_bits))
+        );
+    }
+
+    /// The bias σ columns of a CSV are read by name, in any position; a
+    /// CSV without them reads as before.
+    #[test]
+    fn bias_sigma_columns_are_read_by_name() {
+        let row = solution_csv::RowWriter::new()
+            .row(&Solution {
+                t_ns: 1_000_000_000,
+                ..Default::default()
+            })
+            .trim_end()
+            .to_owned();
+        let header = solution_csv::HEADER;
+        let dir = std::env::temp_dir();
+        let plain = dir.join(format!("polarnav-sf-{}-plain.csv", std::process::id()));
+        std::fs::write(&plain, format!("{header}\n{row}\n")).expect("write");
+        let l = load(&plain).expect("plain");
+        assert_eq!(l.bias_sigma, vec![None]);
+        let extra = dir.join(format!("polarnav-sf-{}-v3.csv", std::process::id()));
+        std::fs::write(
+            &extra,
+            format!(
+                "{},{header}\n0.25,0.5,0.75,1.5,2.5,3.5,{row}\n",
+                BIAS_SIGMA_COLUMNS.join(",")
+            ),
+        )
+        .expect("write");
+        let l = load(&extra).expect("v3");
+        assert_eq!(
+            l.bias_sigma[0].map(|x| x.map(f64::to_bits)),
+            Some([0.25, 0.5, 0.75, 1.5, 2.5, 3.5].map(f64::to_bits))
+        );
+        assert_eq!(l.rows[0].t_s.to_bits(), 1.0f64.to_bits());
+        let bad = dir.join(format!("polarnav-sf-{}-bad.csv", std::process::id()));
+        std::fs::write(
+            &bad,
+            format!(
+                "{},{header}\n0.25,x,0.75,1.5,2.5,3.5,{row}\n",
+                BIAS_SIGMA_COLUMNS.join(",")
+            ),
+        )
+        .expect("write");
+        let e = load(&bad).expect_err("not a number");
+        assert!(
+            e.contains("bad.csv:2:") && e.contains("sig_bg_y_rps"),
+            "{e}"
+        );
+        for p in [plain, extra, bad] {
+            let _ = std::fs::remove_file(p);
+        }
+    }
+
     /// Not MCAP, or MCAP without any solution: an error that names the file.
     #[test]
     fn a_file_without_solutions_is_refused_naming_it() {
