@@ -5,21 +5,20 @@
 //! aids' stated σ is 10× smaller than simulated; `--reference` draws the
 //! difference of two runs and its RMS agrees with an independent one.
 
-use std::io::{BufReader, BufWriter};
+use std::io::BufWriter;
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use msgs::navlog::{NavlogWriter, Record, read_all};
-use nav_daemon::batch::{self, BatchOptions, Output};
-use polarnav_config::{CliOverrides, ConfigFile};
+use nav_daemon::batch::Output;
+use polarnav_config::CliOverrides;
 use polarnav_eval::review::{self, Verdict};
 use polarnav_eval::{logfile, plots};
 use polarnav_sim::scenario::Scenario;
 use polarnav_sim::simulate::{SimOptions, simulate};
 
-fn repo(rel: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("..").join(rel)
-}
+mod common;
+use common::{eval, png_size, repo};
 
 fn tmp(name: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("polarnav-review-{}-{name}", std::process::id()));
@@ -36,18 +35,7 @@ fn batch_to(log: &Path, out: &Path) {
     } else {
         Output::Csv(BufWriter::new(std::fs::File::create(out).expect("create")))
     };
-    let report = batch::run_to(
-        BufReader::new(std::fs::File::open(log).expect("open log")),
-        "test.navlog",
-        o,
-        &ConfigFile::defaults(),
-        &BatchOptions {
-            cli: CliOverrides::default(),
-            ..Default::default()
-        },
-    )
-    .expect("batch");
-    assert!(report.rows > 0);
+    common::batch_to(log, o, CliOverrides::default());
 }
 
 /// Rewrites `log` into `out` with `f` applied to every record (`None` drops it).
@@ -90,21 +78,6 @@ fn paper_sim(dir: &Path, seconds: u32, seed: u64) -> PathBuf {
     log
 }
 
-fn eval(args: &[&std::ffi::OsStr]) -> String {
-    let o = Command::new(env!("CARGO_BIN_EXE_sensor-replay"))
-        .arg("eval")
-        .args(args)
-        .output()
-        .expect("run sensor-replay eval");
-    assert!(
-        o.status.success(),
-        "eval failed ({}): {}",
-        o.status,
-        String::from_utf8_lossy(&o.stderr)
-    );
-    String::from_utf8(o.stdout).expect("utf-8 summary")
-}
-
 /// Every figure file the summary names (`- \`name.png\``) exists in `dir`
 /// and is a real image: a PNG signature, an IHDR of at least 1000×600 and
 /// more than 20 kB (an empty canvas compresses to a few kB); or SVG text
@@ -123,15 +96,8 @@ fn check_named_figures(summary: &str, dir: &Path) -> Vec<String> {
     for n in &names {
         let bytes = std::fs::read(dir.join(n)).unwrap_or_else(|e| panic!("{n}: {e}"));
         if ext == "png" {
-            assert!(bytes.starts_with(b"\x89PNG\r\n\x1a\n"), "{n}: not a PNG");
-            assert_eq!(&bytes[12..16], b"IHDR", "{n}");
-            let be = |i: usize| u32::from_be_bytes(bytes[i..i + 4].try_into().expect("4"));
-            assert!(
-                be(16) >= 1000 && be(20) >= 600,
-                "{n}: {}×{}",
-                be(16),
-                be(20)
-            );
+            let (w, h) = png_size(&bytes);
+            assert!(w >= 1000 && h >= 600, "{n}: {w}×{h}");
         } else {
             assert!(bytes.starts_with(b"<svg"), "{n}");
         }
