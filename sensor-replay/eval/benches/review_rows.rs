@@ -1,7 +1,8 @@
 //! The review of a long flight: writes a synthetic solution CSV of N rows
 //! (default 10 000 000, a 14 h flight at 200 Hz; `REVIEW_ROWS=N` to change)
-//! with the project's row writer, then times `review` on it with every
-//! figure drawn, and prints both times. Issue 21 asks for under a minute
+//! with the project's row writer and the six bias σ columns appended (the
+//! solution version 3 layout, read by name), then times `review` on it with
+//! every figure drawn, and prints both times. Issue 21 asks for under a minute
 //! at 10 M rows. The file (several GB) is removed afterwards.
 //!
 //! `cargo bench -p polarnav-eval --bench review_rows`
@@ -13,6 +14,7 @@ use msgs::{Solution, solution_flags};
 use polarnav::solution_csv::{HEADER, RowWriter};
 use polarnav_eval::logfile::LogContents;
 use polarnav_eval::review::{self, Options};
+use polarnav_eval::solution_file::BIAS_SIGMA_COLUMNS;
 
 fn main() {
     let n: u64 = std::env::var("REVIEW_ROWS")
@@ -25,7 +27,8 @@ fn main() {
     let t = Instant::now();
     {
         let mut f = BufWriter::with_capacity(1 << 20, std::fs::File::create(&csv).expect("csv"));
-        writeln!(f, "{HEADER}").expect("header");
+        writeln!(f, "{HEADER},{}", BIAS_SIGMA_COLUMNS.join(",")).expect("header");
+        let mut sig_text = String::new();
         let mut w = RowWriter::new();
         let mut s = Solution::default();
         for i in 0..n {
@@ -44,6 +47,8 @@ fn main() {
             if i % 20 == 0 {
                 s.gyro_bias_rps = [1e-8 * (ts * 1e-3).cos(), 2e-8, -1e-8];
                 s.accel_bias_mps2 = [1e-4 * (ts * 1e-3).sin(), 5e-5, 0.0];
+                let (g, a) = (4e-8 / (1.0 + ts * 1e-3), 5e-4 / (1.0 + ts * 1e-3));
+                sig_text = format!("{g},{g},{g},{a},{a},{a}");
             }
             s.flags = solution_flags::SRS_FRESH
                 | solution_flags::BARO_FRESH
@@ -53,7 +58,7 @@ fn main() {
                     solution_flags::CNS_FRESH
                 };
             s.switch_count = u32::from(i >= n / 2);
-            w.write(&mut f, &s).expect("row");
+            writeln!(f, "{},{sig_text}", w.row(&s).trim_end()).expect("row");
         }
         f.flush().expect("flush");
     }
@@ -70,8 +75,12 @@ fn main() {
     )
     .expect("review");
     let review_s = t.elapsed().as_secs_f64();
+    assert!(
+        !r.markdown.contains("without σ bands"),
+        "the bias σ columns were not read"
+    );
     println!(
-        "review_rows: {n} rows, {:.2} GB CSV written in {write_s:.1} s; review with {} figures in {review_s:.1} s ({:.2} M rows/s)",
+        "review_rows: {n} rows (with the bias σ columns), {:.2} GB CSV written in {write_s:.1} s; review with {} figures in {review_s:.1} s ({:.2} M rows/s)",
         size as f64 / 1e9,
         r.figures.len(),
         n as f64 / review_s / 1e6

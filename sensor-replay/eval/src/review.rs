@@ -1674,6 +1674,39 @@ mod tests {
         assert!((s[0].points[0].4 - 1.0).abs() < 1e-12 && (s[0].points[1].4 - 400.0).abs() < 1e-9);
     }
 
+    /// Gaps are the intervals over 1.5× the median, listed with their
+    /// start and length; repeated and backward stamps are counted apart.
+    #[test]
+    fn imu_gaps_repeats_and_backward_stamps() {
+        let mut log = LogContents::default();
+        let mut t = 0u64;
+        for k in 0..1000u64 {
+            t += match k {
+                500 => 100_000_000, // a 100 ms gap
+                700 => 0,           // a repeated stamp
+                _ => 5_000_000,
+            };
+            log.imu.push(msgs::ImuSample {
+                t_ns: t,
+                ..Default::default()
+            });
+        }
+        log.imu.push(msgs::ImuSample {
+            t_ns: t - 1_000_000,
+            ..Default::default()
+        });
+        let s = sampling(&log).expect("sampling");
+        assert!((s.nominal_s - 0.005).abs() < 1e-12);
+        assert_eq!((s.duplicates, s.backwards), (1, 1));
+        assert_eq!(s.gaps.len(), 1);
+        let (start, len) = s.gaps[0];
+        assert!(
+            (len - 0.1).abs() < 1e-9 && (start - 500.0 * 0.005).abs() < 1e-9,
+            "{start} {len}"
+        );
+        assert!(sampling(&LogContents::default()).is_none());
+    }
+
     #[test]
     fn settings_values_are_read_by_key() {
         let t = "[aids]\nsrs_gate = 16.5 # comment\ncns_gate=3\n";
