@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
-use polarnav_eval::{eval, logfile};
+use polarnav_eval::{eval, logfile, review};
 use polarnav_foxglove::{AidSource, McapFile};
 use polarnav_sim::scenario::Scenario;
 use polarnav_sim::simulate::{self, SimOptions};
@@ -196,9 +196,15 @@ enum Cmd {
         /// (which also gives the innovations figure).
         #[arg(long)]
         solution: PathBuf,
-        /// A second solution to compare (e.g. --conversion none), CSV or MCAP.
+        /// A second solution to compare (e.g. --conversion none), CSV or MCAP;
+        /// judged against the truth too, so the log must have truth.
         #[arg(long)]
         compare: Option<PathBuf>,
+        /// A reference solution in the same columns (e.g. a smoothed run, or
+        /// a run with more aids), CSV or MCAP: the solution's difference from
+        /// it is drawn with the solution's ±3σ. Needs no truth.
+        #[arg(long)]
+        reference: Option<PathBuf>,
         /// Directory for summary.md and the figures.
         #[arg(long)]
         out: Option<PathBuf>,
@@ -622,6 +628,7 @@ fn run(cli: Cli) -> Result<(), Fail> {
             log,
             solution,
             compare,
+            reference,
             out,
         } => {
             let c = logfile::load(&log).map_err(|e| bad(e.to_string()))?;
@@ -635,8 +642,26 @@ fn run(cli: Cli) -> Result<(), Fail> {
             let mut md = String::new();
             let mut loaded = Vec::new();
             let mut aids = None;
+            let has_truth = !c.truth.is_empty();
+            if !has_truth {
+                md.push_str(&format!(
+                    "## {name}: no truth\n\n{} has no truth records (a live recording or an imported log): \
+                     no accuracy figures (position_errors, velocity_errors, attitude_errors, \
+                     horizontal_rmse and track compare with the truth; imu_biases with the true bias; \
+                     innovations and compare_difference are drawn with them). \
+                     The review below needs no truth.\n\n",
+                    log.display()
+                ));
+                if compare.is_some() {
+                    md.push_str(
+                        "`--compare` judges both runs against the truth and was skipped: \
+                         use `--reference` to draw the difference of two runs without truth.\n\n",
+                    );
+                }
+            }
             for (label, path) in std::iter::once(("solution", &solution))
                 .chain(compare.as_ref().map(|p| ("compare", p)))
+                .filter(|_| has_truth)
             {
                 let l = polarnav_eval::solution_file::load(path).map_err(bad)?;
                 if label == "solution" {
@@ -665,7 +690,7 @@ fn run(cli: Cli) -> Result<(), Fail> {
                     .map_or_else(|| label.to_owned(), |f| f.to_string_lossy().into_owned());
                 loaded.push((file_label, rows, ep));
             }
-            if let Some(dir) = &out {
+            if let Some(dir) = out.as_ref().filter(|_| has_truth) {
                 std::fs::create_dir_all(dir)
                     .map_err(|e| Fail(1, format!("{}: {e}", dir.display())))?;
                 let series: Vec<polarnav_eval::plots::Series<'_>> = loaded
@@ -694,13 +719,6 @@ fn run(cli: Cli) -> Result<(), Fail> {
                         .map_or_else(String::new, |x| x.to_string_lossy().into_owned());
                     md.push_str(&format!("- `{n}`: {}\n\n  ![{n}]({n})\n", f.what));
                 }
-                if aids.is_none() {
-                    md.push_str(
-                        "- no `innovations` figure: a solution CSV has no innovations; \
-                         write the run as MCAP (`nav-daemon batch --log LOG --out run.mcap`) \
-                         and pass `--solution run.mcap`\n",
-                    );
-                }
                 if c.truth_bias.is_empty() {
                     md.push_str(
                         "- `imu_biases` shows the estimates only: the log has no truth-bias \
@@ -715,6 +733,16 @@ fn run(cli: Cli) -> Result<(), Fail> {
                     200.0,
                 ));
             }
+            let r = review::review(
+                &c,
+                &review::Options {
+                    solution: &solution,
+                    reference: reference.as_deref(),
+                    out: out.as_deref(),
+                },
+            )
+            .map_err(bad)?;
+            md.push_str(&r.markdown);
             println!("{md}");
             if let Some(dir) = out {
                 std::fs::create_dir_all(&dir)

@@ -3,12 +3,10 @@
 //! named in the summary, and the simulator's IMU bias comes back from the
 //! navlog as it was drawn.
 
-use std::io::{BufReader, BufWriter};
-use std::path::{Path, PathBuf};
-use std::process::Command;
+use std::io::BufWriter;
 
-use nav_daemon::batch::{self, BatchOptions, Output};
-use polarnav_config::{CliOverrides, ConfigFile};
+use nav_daemon::batch::Output;
+use polarnav_config::CliOverrides;
 use polarnav_eval::logfile;
 use polarnav_eval::solution_file;
 use polarnav_sim::scenario::Scenario;
@@ -17,48 +15,10 @@ use polarnav_sim::simulate::{SimOptions, simulate};
 use rand::SeedableRng;
 use rand_chacha::ChaCha20Rng;
 
+mod common;
+use common::{batch_to, eval, png_size, repo};
+
 const SEED: u64 = 7;
-
-fn repo(rel: &str) -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("..").join(rel)
-}
-
-fn batch_to(log: &Path, out: Output<BufWriter<std::fs::File>>, cli: CliOverrides) {
-    let report = batch::run_to(
-        BufReader::new(std::fs::File::open(log).expect("open log")),
-        "paper.navlog",
-        out,
-        &ConfigFile::defaults(),
-        &BatchOptions {
-            cli,
-            ..Default::default()
-        },
-    )
-    .expect("batch");
-    assert!(report.rows > 0);
-}
-
-fn eval(args: &[&std::ffi::OsStr]) -> String {
-    let o = Command::new(env!("CARGO_BIN_EXE_sensor-replay"))
-        .arg("eval")
-        .args(args)
-        .output()
-        .expect("run sensor-replay eval");
-    assert!(
-        o.status.success(),
-        "eval failed: {}",
-        String::from_utf8_lossy(&o.stderr)
-    );
-    String::from_utf8(o.stdout).expect("utf-8 summary")
-}
-
-/// A PNG's width and height from its IHDR chunk, after checking the signature.
-fn png_size(bytes: &[u8]) -> (u32, u32) {
-    assert!(bytes.starts_with(b"\x89PNG\r\n\x1a\n"), "not a PNG");
-    assert_eq!(&bytes[12..16], b"IHDR");
-    let be = |i: usize| u32::from_be_bytes(bytes[i..i + 4].try_into().expect("4 bytes"));
-    (be(16), be(20))
-}
 
 #[test]
 fn eval_writes_every_figure_from_an_mcap_solution_and_truth_bias_round_trips() {

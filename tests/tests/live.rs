@@ -2099,3 +2099,57 @@ fn foxglove_view_serves_the_recorded_solutions_and_mcap_recordings_read_back() {
         "{counts}"
     );
 }
+
+/// A live recording has no truth: `eval` on it and its exported solution
+/// exits 0, says so, and reviews the aids from the recording's 1 Hz status
+/// records (issue 21).
+#[test]
+fn eval_reviews_a_live_recording_without_truth() {
+    let (records, _) = replay_equals_batch_of("eval-rec", 0, "config/scenarios/transpolar.toml");
+    assert!(!records.iter().any(|r| matches!(r, Record::Truth(_))));
+    let dir = std::env::temp_dir().join(format!("polarnav-eval-rec-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("dir");
+    let rec = dir.join("live.navlog");
+    let mut it = records.into_iter();
+    let Some(Record::Header(h)) = it.next() else {
+        panic!("the recording starts with its header");
+    };
+    let mut w = msgs::navlog::NavlogWriter::new(std::fs::File::create(&rec).expect("create"), *h)
+        .expect("writer");
+    for r in it {
+        w.write(&r).expect("write");
+    }
+    w.finish().expect("finish");
+    let csv = dir.join("live.csv");
+    let st = Command::new(bin("sensor-replay"))
+        .arg("export")
+        .arg(&rec)
+        .arg("--solution-csv")
+        .arg(&csv)
+        .status()
+        .expect("export");
+    assert!(st.success());
+    let figs = dir.join("figs");
+    let o = Command::new(bin("sensor-replay"))
+        .arg("eval")
+        .arg("--log")
+        .arg(&rec)
+        .arg("--solution")
+        .arg(&csv)
+        .arg("--out")
+        .arg(&figs)
+        .output()
+        .expect("eval");
+    let summary = String::from_utf8_lossy(&o.stdout);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(summary.contains("no truth"), "{summary}");
+    assert!(summary.contains("per status record"), "{summary}");
+    // At least one aid updated in the first 60 s; every other figure.
+    for f in ["aid_", "health.", "imu_sampling.", "sigma.", "biases."] {
+        assert!(
+            summary.contains(&format!("`{f}")),
+            "{f} not named:\n{summary}"
+        );
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -1,7 +1,12 @@
-//! measures accuracy against the log's truth when it has some, and draws the
+//! polarnav flight review: reads a navlog and a solution (CSV or MCAP),
+//! measures accuracy against the log's truth when it has some, reviews the
+//! estimator's health from its own outputs when it has none, and draws the
 //! figures. Depends on no transport.
 
+pub mod chi2;
+pub mod envelope;
 pub mod eval;
 pub mod logfile;
 pub mod plots;
+pub mod review;
 pub mod solution_file;

@@ -6,7 +6,7 @@ use std::path::Path;
 
 use msgs::navlog::{Header, NavlogReader, ReadReport, Record, TruthBias};
 use msgs::{
-    BaroSample, CnsFix, ImuSample, InitState, Solution, SrsSample, StarSample, TruthRecord,
+    BaroSample, CnsFix, ImuSample, InitState, Solution, SrsSample, StarSample, Status, TruthRecord,
 };
 
 /// Every intact record of a log, grouped by kind.
@@ -23,6 +23,8 @@ pub struct LogContents {
     /// The simulated IMU bias at the truth epochs (simulated logs only).
     pub truth_bias: Vec<TruthBias>,
     pub solution: Vec<Solution>,
+    /// The daemon's status records (a live recording: 1 Hz).
+    pub status: Vec<Status>,
     pub report: ReadReport,
     /// The sensor records in log order (the order they arrived or were
     /// emitted in), as indices into the per-stream vectors.
@@ -92,7 +94,7 @@ pub fn load(path: &Path) -> Result<LogContents, LoadError> {
             }
             Record::Truth(x) => c.truth.push(x),
             Record::Solution(x) => c.solution.push(*x),
-            Record::Status(_) => {}
+            Record::Status(x) => c.status.push(*x),
             Record::TruthBias(x) => c.truth_bias.push(x),
         }
     }

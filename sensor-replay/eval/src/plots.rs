@@ -54,7 +54,7 @@ pub enum Format {
 }
 
 impl Format {
-    fn ext(self) -> &'static str {
+    pub(crate) fn ext(self) -> &'static str {
         match self {
             Format::Png => "png",
             Format::Svg => "svg",
@@ -93,26 +93,26 @@ pub struct PlotError {
     pub message: String,
 }
 
-fn err(path: &Path, e: impl std::fmt::Display) -> PlotError {
+pub(crate) fn err(path: &Path, e: impl std::fmt::Display) -> PlotError {
     PlotError {
         path: path.display().to_string(),
         message: e.to_string(),
     }
 }
 
-fn s<E: std::fmt::Display>(e: E) -> String {
+pub(crate) fn s<E: std::fmt::Display>(e: E) -> String {
     e.to_string()
 }
 
-const BLUE: RGBColor = RGBColor(0, 90, 180);
-const ORANGE: RGBColor = RGBColor(220, 110, 0);
-const GREEN: RGBColor = RGBColor(0, 140, 60);
-const RED_: RGBColor = RGBColor(200, 30, 30);
-const GREY: RGBColor = RGBColor(110, 110, 110);
-const AXIS_COLORS: [RGBColor; 3] = [BLUE, ORANGE, GREEN];
-const ARCMIN: f64 = 60.0 * 180.0 / std::f64::consts::PI;
-const DEG_PER_H: f64 = 180.0 / std::f64::consts::PI * 3600.0;
-const MICRO_G: f64 = 1e6 / 9.80665;
+pub(crate) const BLUE: RGBColor = RGBColor(0, 90, 180);
+pub(crate) const ORANGE: RGBColor = RGBColor(220, 110, 0);
+pub(crate) const GREEN: RGBColor = RGBColor(0, 140, 60);
+pub(crate) const RED_: RGBColor = RGBColor(200, 30, 30);
+pub(crate) const GREY: RGBColor = RGBColor(110, 110, 110);
+pub(crate) const AXIS_COLORS: [RGBColor; 3] = [BLUE, ORANGE, GREEN];
+pub(crate) const ARCMIN: f64 = 60.0 * 180.0 / std::f64::consts::PI;
+pub(crate) const DEG_PER_H: f64 = 180.0 / std::f64::consts::PI * 3600.0;
+pub(crate) const MICRO_G: f64 = 1e6 / 9.80665;
 /// Width of the legend strip right of the panels (px).
 const LEGEND_W: u32 = 290;
 /// At most this many points per curve (decimated by a fixed step).
@@ -241,7 +241,7 @@ pub fn switches(rows: &[Row]) -> Vec<Switch> {
 
 /// Tick labels with as many decimals as the axis span needs (never cut:
 /// the label areas are sized for 9 characters).
-fn tick(v: f64, span: f64) -> String {
+pub(crate) fn tick(v: f64, span: f64) -> String {
     let d = if span > 0.0 && span.is_finite() {
         (1.0 - span.log10().floor()).clamp(0.0, 6.0) as usize
     } else {
@@ -281,7 +281,7 @@ fn quantile_abs(values: impl Iterator<Item = f64>, q: f64) -> f64 {
 
 /// How a legend entry is drawn.
 #[derive(Debug, Clone, Copy)]
-enum Mark {
+pub(crate) enum Mark {
     Line(RGBColor, u32),
     Band(RGBColor),
     Dot(RGBColor),
@@ -292,7 +292,7 @@ enum Mark {
 }
 
 /// The legend in the strip right of the panels.
-fn legend<DB: DrawingBackend>(
+pub(crate) fn legend<DB: DrawingBackend>(
     area: &DrawingArea<DB, Shift>,
     title: &str,
     entries: &[(String, Mark)],
@@ -380,27 +380,31 @@ fn wrap(text: &str, width: usize) -> Vec<String> {
 }
 
 /// A curve: points, colour, stroke width.
-type Line = (Vec<(f64, f64)>, RGBColor, u32);
+pub(crate) type Line = (Vec<(f64, f64)>, RGBColor, u32);
 /// An envelope: (t, lo, hi) points and its colour.
-type Band = (Vec<(f64, f64, f64)>, RGBColor);
+pub(crate) type Band = (Vec<(f64, f64, f64)>, RGBColor);
 /// A drawing area of a figure.
-type Area<DB> = DrawingArea<DB, Shift>;
+pub(crate) type Area<DB> = DrawingArea<DB, Shift>;
 
 /// One time-series panel.
 #[derive(Default)]
-struct Panel {
-    title: String,
+pub(crate) struct Panel {
+    pub(crate) title: String,
     /// (t, lo, hi) filled.
-    bands: Vec<Band>,
-    lines: Vec<Line>,
-    dots: Vec<(Vec<(f64, f64)>, RGBColor)>,
-    crosses: Vec<(Vec<(f64, f64)>, RGBColor)>,
-    hlines: Vec<(f64, RGBColor)>,
+    pub(crate) bands: Vec<Band>,
+    pub(crate) lines: Vec<Line>,
+    pub(crate) dots: Vec<(Vec<(f64, f64)>, RGBColor)>,
+    pub(crate) crosses: Vec<(Vec<(f64, f64)>, RGBColor)>,
+    pub(crate) hlines: Vec<(f64, RGBColor)>,
     /// Fixed y range (otherwise from the data, symmetric when `symmetric`).
-    y: Option<(f64, f64)>,
-    symmetric: bool,
+    pub(crate) y: Option<(f64, f64)>,
+    pub(crate) symmetric: bool,
     /// Tick label of a y value (default: decimals from the span).
-    y_fmt: Option<fn(f64) -> String>,
+    pub(crate) y_fmt: Option<fn(f64) -> String>,
+    /// Time axis from–to (s); default 0 to the figure's end.
+    pub(crate) x: Option<(f64, f64)>,
+    /// Label of the y axis (its quantity and unit).
+    pub(crate) y_desc: Option<String>,
 }
 
 impl std::fmt::Debug for Panel {
@@ -455,12 +459,13 @@ impl Panel {
 
 /// Draws a time panel with the switch lines and their labels in a band
 /// kept free of data above the curves.
-fn time_panel<DB: DrawingBackend>(
+pub(crate) fn time_panel<DB: DrawingBackend>(
     area: &DrawingArea<DB, Shift>,
     p: &Panel,
     t_max: f64,
     sw: &[Switch],
 ) -> Result<(), String> {
+    let (t_min, t_max) = p.x.unwrap_or((0.0, t_max));
     let (lo, hi0) = p.y_range();
     let hi = match sw.len() {
         0 => hi0,
@@ -475,13 +480,14 @@ fn time_panel<DB: DrawingBackend>(
         .margin_bottom(4)
         .x_label_area_size(42)
         .y_label_area_size(95)
-        .build_cartesian_2d(0.0..t_max, lo..hi)
+        .build_cartesian_2d(t_min..t_max, lo..hi)
         .map_err(s)?;
     let span = hi - lo;
     let yf = p.y_fmt;
     chart
         .configure_mesh()
         .x_desc("t (s)")
+        .y_desc(p.y_desc.as_deref().unwrap_or(""))
         .x_label_formatter(&|v| format!("{v:.0}"))
         .y_label_formatter(&|v| yf.map_or_else(|| tick(*v, span), |f| f(*v)))
         .label_style(("sans-serif", 15))
@@ -492,7 +498,10 @@ fn time_panel<DB: DrawingBackend>(
         .map_err(s)?;
     for (h, c) in &p.hlines {
         chart
-            .draw_series(LineSeries::new([(0.0, *h), (t_max, *h)], c.stroke_width(1)))
+            .draw_series(LineSeries::new(
+                [(t_min, *h), (t_max, *h)],
+                c.stroke_width(1),
+            ))
             .map_err(s)?;
     }
     for (b, c) in &p.bands {
@@ -555,7 +564,11 @@ fn time_panel<DB: DrawingBackend>(
         // Right of the line, or left of it near the right edge; successive
         // labels alternate between two rows so that close switches stay legible.
         let width = 9 * w.label.chars().count() as i32;
-        let dx = if w.t_s > 0.8 * t_max { -width - 6 } else { 6 };
+        let dx = if w.t_s > t_min + 0.8 * (t_max - t_min) {
+            -width - 6
+        } else {
+            6
+        };
         let dy = if k % 2 == 0 { 4 } else { 22 };
         chart
             .draw_series(std::iter::once(
@@ -568,7 +581,7 @@ fn time_panel<DB: DrawingBackend>(
 }
 
 /// Splits the figure into a title, the panel column and the legend strip.
-fn layout<DB: DrawingBackend>(
+pub(crate) fn layout<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
     title: &str,
 ) -> Result<(Area<DB>, Area<DB>), String> {
@@ -608,7 +621,7 @@ fn rows_at<'a>(rows: &'a [Row], epochs: &[Epoch]) -> Vec<Option<&'a Row>> {
         .collect()
 }
 
-fn switch_notes(sw: &[Switch]) -> Vec<String> {
+pub(crate) fn switch_notes(sw: &[Switch]) -> Vec<String> {
     sw.iter()
         .map(|w| format!("switch {} at t = {:.1} s", w.label, w.t_s))
         .collect()

@@ -48,7 +48,24 @@ pub struct Loaded {
     pub rows: Vec<Row>,
     /// Present for an MCAP solution.
     pub aids: Option<Aids>,
+    /// The 1-σ of the bias estimates per row (gyro rad/s, accel m/s², body
+    /// axes), where the solution carries them; see [`BIAS_SIGMA_COLUMNS`].
+    pub bias_sigma: Vec<Option<[f64; 6]>>,
 }
+
+/// The solution CSV columns of the bias 1-σ (solution version 3), read by
+/// name where a file has them: gyro x/y/z (rad/s), accelerometer x/y/z (m/s²).
+pub const BIAS_SIGMA_COLUMNS: [&str; 6] = [
+    "sig_bg_x_rps",
+    "sig_bg_y_rps",
+    "sig_bg_z_rps",
+    "sig_ba_x_mps2",
+    "sig_ba_y_mps2",
+    "sig_ba_z_mps2",
+];
+
+/// The `/solution` message fields of the same σ (gyro, then accelerometer).
+pub const BIAS_SIGMA_FIELDS: [&str; 2] = ["sigma_gyro_bias_rps", "sigma_accel_bias_mps2"];
 
 /// The longest MCAP record (a chunk, compressed or decompressed) eval reads.
 pub const MAX_MCAP_RECORD_BYTES: usize = 64 << 20;
@@ -62,13 +79,29 @@ pub fn is_mcap(p: &Path) -> bool {
 /// Loads a solution CSV or (by extension) an MCAP file.
 pub fn load(path: &Path) -> Result<Loaded, String> {
     if !is_mcap(path) {
-        return solution_csv::read(path)
-            .map(|rows| Loaded { rows, aids: None })
-            .map_err(|e| e.to_string());
+        let mut rows = Vec::new();
+        let mut bias_sigma = Vec::new();
+        for r in CsvRows::open(path)? {
+            let (row, sig) = r?;
+            rows.push(row);
+            bias_sigma.push(sig);
+        }
+        if rows.is_empty() {
+            return Err(format!(
+                "{}: no solution row after the header",
+                path.display()
+            ));
+        }
+        return Ok(Loaded {
+            rows,
+            aids: None,
+            bias_sigma,
+        });
     }
     let p = path.display();
     let mut file = std::fs::File::open(path).map_err(|e| format!("{p}: {e}"))?;
     let mut rows = Vec::new();
+    let mut bias_sigma = Vec::new();
     let mut aids = Aids::default();
     // Streamed record by record (chunks decompressed one at a time): memory
     // holds the rows, not the file, which carries every IMU sample too.
@@ -96,10 +129,11 @@ pub fn load(path: &Path) -> Result<Loaded, String> {
                         let topic = topic_of.get(&header.channel_id).map_or("", String::as_str);
                         let aid = match topic {
                             "/solution" => {
-                                let s = solution_of_json(&data).map_err(|e| {
+                                let (s, sig) = solution_of_json(&data).map_err(|e| {
                                     format!("{p}: /solution message {}: {e}", header.sequence)
                                 })?;
                                 rows.push(Row::from_solution(&s));
+                                bias_sigma.push(sig);
                                 continue;
                             }
                             "/aid/srs" => &mut aids.srs,
@@ -123,24 +157,193 @@ pub fn load(path: &Path) -> Result<Loaded, String> {
         ));
     }
     // Chunks are in log-time order already; a stable sort keeps ties as written.
-    rows.sort_by(|a, b| a.t_s.total_cmp(&b.t_s));
+    let mut both: Vec<(Row, Option<[f64; 6]>)> = rows.into_iter().zip(bias_sigma).collect();
+    both.sort_by(|a, b| a.0.t_s.total_cmp(&b.0.t_s));
+    let (rows, bias_sigma) = both.into_iter().unzip();
     for v in [&mut aids.srs, &mut aids.cns, &mut aids.baro, &mut aids.star] {
         v.sort_by_key(|a| a.t_ns);
     }
     Ok(Loaded {
         rows,
         aids: Some(aids),
+        bias_sigma,
     })
 }
 
-/// A `/solution` JSON message (every `Solution` field but the zero padding).
-fn solution_of_json(data: &[u8]) -> Result<Solution, serde_json::Error> {
+/// A `/solution` JSON message (every `Solution` field but the zero padding),
+/// and the bias σ when the message has [`BIAS_SIGMA_FIELDS`].
+fn solution_of_json(data: &[u8]) -> Result<(Solution, Option<[f64; 6]>), serde_json::Error> {
     let mut v: serde_json::Value = serde_json::from_slice(data)?;
+    let triple = |v: &serde_json::Value, k: &str| -> Option<[f64; 3]> {
+        let a = v.get(k)?.as_array()?;
+        match a.as_slice() {
+            [x, y, z] => Some([x.as_f64()?, y.as_f64()?, z.as_f64()?]),
+            _ => None,
+        }
+    };
+    let sig = match (
+        triple(&v, BIAS_SIGMA_FIELDS[0]),
+        triple(&v, BIAS_SIGMA_FIELDS[1]),
+    ) {
+        (Some(g), Some(a)) => Some([g[0], g[1], g[2], a[0], a[1], a[2]]),
+        _ => None,
+    };
     if let Some(o) = v.as_object_mut() {
         o.entry("_pad")
             .or_insert_with(|| serde_json::json!([0, 0, 0]));
     }
-    serde_json::from_value(v)
+    Ok((serde_json::from_value(v)?, sig))
+}
+
+/// Rows of a solution CSV read a chunk at a time (memory holds one chunk,
+/// not the file: a flight of 10 M rows streams through). Each chunk goes
+/// through the project's one row parser ([`solution_csv::parse`]) with the
+/// header in front, and the error lines are renumbered to the file's; the
+/// bias σ columns ([`BIAS_SIGMA_COLUMNS`]), which that parser may not know,
+/// are read here by name when the header has all six.
+#[derive(Debug)]
+pub struct CsvRows {
+    reader: std::io::BufReader<std::fs::File>,
+    path: String,
+    header: String,
+    width: usize,
+    sigma_idx: Option<[usize; 6]>,
+    /// File line number of the next line to read (the header is line 1).
+    next_line: usize,
+    chunk: std::vec::IntoIter<(Row, Option<[f64; 6]>)>,
+    done: bool,
+}
+
+/// Lines parsed per chunk.
+const CHUNK_LINES: usize = 1 << 14;
+
+impl CsvRows {
+    /// Opens `path` and checks its header (an error names the file, and the
+    /// file's kind when it is a navlog, MCAP or binary data).
+    pub fn open(path: &Path) -> Result<Self, String> {
+        use std::io::BufRead;
+        let p = path.display().to_string();
+        let file = std::fs::File::open(path).map_err(|e| format!("{p}: {e}"))?;
+        let mut reader = std::io::BufReader::with_capacity(1 << 20, file);
+        let head = reader.fill_buf().map_err(|e| format!("{p}: {e}"))?;
+        if msgs::navlog::starts_as_navlog(head) {
+            return Err(solution_csv::ReadCsvError::Navlog { path: p }.to_string());
+        }
+        if head.starts_with(b"\x89MCAP") {
+            return Err(solution_csv::ReadCsvError::Mcap { path: p }.to_string());
+        }
+        let mut header = String::new();
+        reader.read_line(&mut header).map_err(|e| {
+            solution_csv::ReadCsvError::NotText {
+                path: p.clone(),
+                at: 0,
+            }
+            .to_string()
+                + &format!(" ({e})")
+        })?;
+        let header = header
+            .strip_prefix('\u{feff}')
+            .unwrap_or(&header)
+            .trim_end()
+            .to_owned();
+        // The header alone: a missing column is named here.
+        solution_csv::parse(&header, &p).map_err(|e| e.to_string())?;
+        let names: Vec<&str> = header.split(',').map(str::trim).collect();
+        let mut idx = [0usize; 6];
+        let mut all = true;
+        for (k, want) in BIAS_SIGMA_COLUMNS.iter().enumerate() {
+            match names.iter().position(|n| n == want) {
+                Some(i) => idx[k] = i,
+                None => all = false,
+            }
+        }
+        Ok(Self {
+            reader,
+            width: names.len(),
+            sigma_idx: all.then_some(idx),
+            header,
+            path: p,
+            next_line: 2,
+            chunk: Vec::new().into_iter(),
+            done: false,
+        })
+    }
+
+    /// True when the header has the bias σ columns.
+    pub fn has_bias_sigma(&self) -> bool {
+        self.sigma_idx.is_some()
+    }
+
+    fn fill(&mut self) -> Result<(), String> {
+        use std::io::BufRead;
+        let first = self.next_line;
+        let mut text = String::with_capacity((self.header.len() + 8) * (CHUNK_LINES + 1));
+        text.push_str(&self.header);
+        text.push('\n');
+        let mut sig = Vec::new();
+        let mut line = String::new();
+        for _ in 0..CHUNK_LINES {
+            line.clear();
+            let n = self.reader.read_line(&mut line).map_err(|e| {
+                format!(
+                    "{}:{}: {e} (a solution CSV is UTF-8 text)",
+                    self.path, self.next_line
+                )
+            })?;
+            if n == 0 {
+                self.done = true;
+                break;
+            }
+            let l = line.trim_end_matches(['\n', '\r']);
+            if let Some(idx) = self.sigma_idx {
+                let f: Vec<&str> = l.split(',').collect();
+                let mut v = [f64::NAN; 6];
+                if f.len() == self.width {
+                    for (k, i) in idx.iter().enumerate() {
+                        v[k] = f[*i].trim().parse().map_err(|_| {
+                            format!(
+                                "{}:{}: column {} is not a number: {:?}",
+                                self.path, self.next_line, BIAS_SIGMA_COLUMNS[k], f[*i]
+                            )
+                        })?;
+                    }
+                }
+                sig.push(Some(v));
+            } else {
+                sig.push(None);
+            }
+            text.push_str(l);
+            text.push('\n');
+            self.next_line += 1;
+        }
+        let rows = solution_csv::parse(&text, &self.path).map_err(|e| match e {
+            solution_csv::ReadCsvError::Row { path, line, what } => {
+                format!("{path}:{}: {what}", first + line - 2)
+            }
+            other => other.to_string(),
+        })?;
+        self.chunk = rows.into_iter().zip(sig).collect::<Vec<_>>().into_iter();
+        Ok(())
+    }
+}
+
+impl Iterator for CsvRows {
+    type Item = Result<(Row, Option<[f64; 6]>), String>;
+
+    fn next(&mut self) -> Option<Self::Item> {
+        loop {
+            if let Some(r) = self.chunk.next() {
+                return Some(Ok(r));
+            }
+            if self.done {
+                return None;
+            }
+            if let Err(e) = self.fill() {
+                self.done = true;
+                return Some(Err(e));
+            }
+        }
+    }
 }
 
 #[cfg(test)]
@@ -175,6 +378,86 @@ mod tests {
             let e = load(&p).expect_err("absurd length");
             assert!(e.contains("MCAP"), "{e}");
             let _ = std::fs::remove_file(&p);
+        }
+    }
+
+    /// The bias σ of a `/solution` message is read by field name when the
+    /// message has it (solution version 3) and absent otherwise.
+    #[test]
+    fn bias_sigma_fields_are_read_when_present() {
+        let s = Solution {
+            t_ns: 5,
+            ..Default::default()
+        };
+        let mut v = serde_json::to_value(s).expect("json");
+        let plain = serde_json::to_vec(&v).expect("bytes");
+        let (back, sig) = solution_of_json(&plain).expect("v2 message");
+        assert_eq!(back.t_ns, 5);
+        assert!(sig.is_none());
+        let o = v.as_object_mut().expect("object");
+        o.insert(
+            BIAS_SIGMA_FIELDS[0].into(),
+            serde_json::json!([1e-7, 2e-7, 3e-7]),
+        );
+        o.insert(
+            BIAS_SIGMA_FIELDS[1].into(),
+            serde_json::json!([1e-3, 2e-3, 3e-3]),
+        );
+        let (_, sig) = solution_of_json(&serde_json::to_vec(&v).expect("bytes")).expect("v3");
+        assert_eq!(
+            sig.map(|x| x.map(f64::to_bits)),
+            Some([1e-7, 2e-7, 3e-7, 1e-3, 2e-3, 3e-3].map(f64::to_bits))
+        );
+    }
+
+    /// The bias σ columns of a CSV are read by name, in any position; a
+    /// CSV without them reads as before.
+    #[test]
+    fn bias_sigma_columns_are_read_by_name() {
+        let row = solution_csv::RowWriter::new()
+            .row(&Solution {
+                t_ns: 1_000_000_000,
+                ..Default::default()
+            })
+            .trim_end()
+            .to_owned();
+        let header = solution_csv::HEADER;
+        let dir = std::env::temp_dir();
+        let plain = dir.join(format!("polarnav-sf-{}-plain.csv", std::process::id()));
+        std::fs::write(&plain, format!("{header}\n{row}\n")).expect("write");
+        let l = load(&plain).expect("plain");
+        assert_eq!(l.bias_sigma, vec![None]);
+        let extra = dir.join(format!("polarnav-sf-{}-v3.csv", std::process::id()));
+        std::fs::write(
+            &extra,
+            format!(
+                "{},{header}\n0.25,0.5,0.75,1.5,2.5,3.5,{row}\n",
+                BIAS_SIGMA_COLUMNS.join(",")
+            ),
+        )
+        .expect("write");
+        let l = load(&extra).expect("v3");
+        assert_eq!(
+            l.bias_sigma[0].map(|x| x.map(f64::to_bits)),
+            Some([0.25, 0.5, 0.75, 1.5, 2.5, 3.5].map(f64::to_bits))
+        );
+        assert_eq!(l.rows[0].t_s.to_bits(), 1.0f64.to_bits());
+        let bad = dir.join(format!("polarnav-sf-{}-bad.csv", std::process::id()));
+        std::fs::write(
+            &bad,
+            format!(
+                "{},{header}\n0.25,x,0.75,1.5,2.5,3.5,{row}\n",
+                BIAS_SIGMA_COLUMNS.join(",")
+            ),
+        )
+        .expect("write");
+        let e = load(&bad).expect_err("not a number");
+        assert!(
+            e.contains("bad.csv:2:") && e.contains("sig_bg_y_rps"),
+            "{e}"
+        );
+        for p in [plain, extra, bad] {
+            let _ = std::fs::remove_file(p);
         }
     }
 

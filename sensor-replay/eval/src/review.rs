@@ -1,0 +1,1717 @@
+//! The review of a flight that needs no truth: the estimator's health from
+//! its own outputs. Per aid the innovations in physical units with their
+//! ±1σ/±3σ from the innovation variance, the normalized innovation squared
+//! (NIS) against the χ² bounds of its dimension with a verdict on the noise
+//! model; a health timeline of the solution flags; the IMU sampling; the
+//! σ of position, velocity and attitude; the bias estimates with their σ
+//! where the solution carries it; and, given a reference solution (a
+//! smoothed run), the forward solution's difference from it with the
+//! forward ±3σ.
+//!
+//! The solution streams through once (a CSV is read a chunk at a time) into
+//! min/max envelopes per time column ([`crate::envelope`]), so a flight of
+//! 10 M rows costs the parse and a fixed amount of memory.
+
+use std::fmt::Write as _;
+use std::path::Path;
+
+use msgs::{Status, TruthRecord, solution_flags};
+use plotters::coord::Shift;
+use plotters::prelude::*;
+use polarnav::solution_csv::Row;
+
+use crate::chi2;
+use crate::envelope::Envelope;
+use crate::eval;
+use crate::logfile::LogContents;
+use crate::plots::{
+    self, ARCMIN, AXIS_COLORS, BLUE, DEG_PER_H, Figure, Format, GREY, MICRO_G, Mark, Panel, RED_,
+    Switch, legend, time_panel,
+};
+use crate::solution_file::{self, AidPoint, Aids, CsvRows};
+
+/// What to review.
+#[derive(Debug, Clone, Copy)]
+pub struct Options<'a> {
+    /// The solution: a CSV or (by extension) an MCAP file of `batch`.
+    pub solution: &'a Path,
+    /// A reference solution in the same columns (a smoothed run).
+    pub reference: Option<&'a Path>,
+    /// Where the figures go; none: the summary only.
+    pub out: Option<&'a Path>,
+}
+
+/// The result: the summary's markdown and the figures written.
+#[derive(Debug, Clone, Default)]
+pub struct Review {
+    pub markdown: String,
+    pub figures: Vec<Figure>,
+    /// Per aid that had updates: its name and verdict.
+    pub verdicts: Vec<(&'static str, Verdict)>,
+}
+
+/// The noise model's consistency for one aid over the flight.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Verdict {
+    Consistent,
+    /// σ too small: NIS too large.
+    TooOptimistic,
+    /// σ too large: NIS too small.
+    TooPessimistic,
+}
+
+impl Verdict {
+    pub fn text(self) -> &'static str {
+        match self {
+            Verdict::Consistent => "consistent",
+            Verdict::TooOptimistic => "too optimistic",
+            Verdict::TooPessimistic => "too pessimistic",
+        }
+    }
+}
+
+/// Practical tolerance of the mean-NIS test: besides the χ² bounds, a mean
+/// NIS within this factor of its dimension (a noise σ within √2 of the
+/// true one) is consistent. See [`nis_test`].
+pub const NIS_TOLERANCE: f64 = 2.0;
+
+/// The rejected fraction above which an aid's model is too optimistic
+/// whatever the accepted updates say: ten times the 0.1 % a 99.9 % gate
+/// rejects of a consistent aid.
+pub const REJECTED_MAX: f64 = 0.01;
+
+/// The mean-NIS test of one aid.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct NisTest {
+    /// Measurement dimension m.
+    pub dim: usize,
+    /// Accepted updates N.
+    pub accepted: usize,
+    pub rejected: usize,
+    /// Mean NIS over the accepted updates.
+    pub mean: f64,
+    /// Two-sided 95 % bounds of the mean of N independent χ²(m):
+    /// χ²₀.₀₂₅(N·m)/N and χ²₀.₉₇₅(N·m)/N.
+    pub lo95: f64,
+    pub hi95: f64,
+    /// The bounds with the practical tolerance: min(lo95, m/2), max(hi95, 2m).
+    pub lo: f64,
+    pub hi: f64,
+    /// Fraction of all updates whose NIS is inside the per-update 95 %
+    /// interval [χ²₀.₀₂₅(m), χ²₀.₉₇₅(m)].
+    pub inside: f64,
+    pub verdict: Verdict,
+}
+
+/// The test: the mean NIS of the accepted updates against the bounds of
+/// the mean of N independent χ²(m) variables (two-sided 95 %), widened to
+/// a factor [`NIS_TOLERANCE`] of m. The plain χ² bounds shrink as 1/√N
+/// (±2.8 % at N = 10 000, m = 1) and assume independent innovations; aid
+/// errors on a real flight are correlated over many updates and the
+/// accepted updates are truncated at the gate, so the plain bounds would
+/// call nearly every long flight inconsistent. A factor 2 in variance is
+/// √2 in σ, the resolution at which a noise σ is worth changing; a model
+/// 10× off gives a mean NIS near 100 m or 0.01 m. A rejected fraction
+/// above [`REJECTED_MAX`] is too optimistic on its own (the gate hides the
+/// large NIS of an overconfident model).
+pub fn nis_test(nis: &[(f64, bool)], dim: usize) -> Option<NisTest> {
+    let accepted: Vec<f64> = nis
+        .iter()
+        .filter(|x| x.1 && x.0.is_finite())
+        .map(|x| x.0)
+        .collect();
+    let rejected = nis.iter().filter(|x| !x.1).count();
+    let n = accepted.len();
+    if n + rejected == 0 || dim == 0 {
+        return None;
+    }
+    let m = dim as f64;
+    let nf = n as f64;
+    // No accepted update: no mean (NaN), and every update rejected.
+    let mean = accepted.iter().sum::<f64>() / nf;
+    let lo95 = chi2::quantile(0.025, nf * m) / nf;
+    let hi95 = chi2::quantile(0.975, nf * m) / nf;
+    let lo = lo95.min(m / NIS_TOLERANCE);
+    let hi = hi95.max(m * NIS_TOLERANCE);
+    let (a, b) = (chi2::quantile(0.025, m), chi2::quantile(0.975, m));
+    let finite: Vec<f64> = nis.iter().map(|x| x.0).filter(|x| x.is_finite()).collect();
+    let inside =
+        finite.iter().filter(|&&x| x >= a && x <= b).count() as f64 / finite.len().max(1) as f64;
+    let rej_frac = rejected as f64 / (n + rejected) as f64;
+    let verdict = if mean > hi || rej_frac > REJECTED_MAX {
+        Verdict::TooOptimistic
+    } else if mean < lo {
+        Verdict::TooPessimistic
+    } else {
+        Verdict::Consistent
+    };
+    Some(NisTest {
+        dim,
+        accepted: n,
+        rejected,
+        mean,
+        lo95,
+        hi95,
+        lo,
+        hi,
+        inside,
+        verdict,
+    })
+}
+
+/// One update: (t, innovation per component, σ per component, accepted, NIS).
+type AidSample = (f64, [f64; 3], [f64; 3], bool, f64);
+
+/// An aid's name, figure file, unit, component names and updates.
+type AidSet<'a> = (
+    &'static str,
+    &'static str,
+    &'static str,
+    [&'static str; 3],
+    &'a [AidPoint],
+);
+
+/// A figure's two halves: the panels and the legend strip.
+type Halves<DB> = (DrawingArea<DB, Shift>, DrawingArea<DB, Shift>);
+
+/// One drawing function per backend.
+type DrawPng<'a> = &'a dyn Fn(&DrawingArea<BitMapBackend<'_>, Shift>) -> Result<(), String>;
+type DrawSvg<'a> = &'a dyn Fn(&DrawingArea<SVGBackend<'_>, Shift>) -> Result<(), String>;
+
+/// One aid's updates in physical units.
+#[derive(Debug, Clone)]
+struct AidSeries {
+    name: &'static str,
+    file: &'static str,
+    unit: &'static str,
+    comps: [&'static str; 3],
+    points: Vec<AidSample>,
+    dim: usize,
+}
+
+/// Where the solution was in time: thinned (t, frame, lat rad, h) for the
+/// conversion of CNS innovations in g (radians) to metres.
+#[derive(Debug, Default)]
+struct Where {
+    at: Vec<(f64, char, f64, f64)>,
+}
+
+impl Where {
+    fn push(&mut self, r: &Row) {
+        match self.at.last() {
+            Some(l) if r.t_s - l.0 < 0.5 && r.frame == l.1 => {}
+            _ => self
+                .at
+                .push((r.t_s, r.frame, r.lat_deg.to_radians(), r.h_m)),
+        }
+    }
+
+    fn get(&self, t: f64) -> Option<(char, f64, f64)> {
+        let k = self.at.partition_point(|x| x.0 <= t);
+        let i = k.checked_sub(1).or((!self.at.is_empty()).then_some(0))?;
+        self.at.get(i).map(|x| (x.1, x.2, x.3))
+    }
+}
+
+fn aid_series(aids: &Aids, at: &Where) -> Vec<AidSeries> {
+    let arcsec = 180.0 / std::f64::consts::PI * 3600.0;
+    let mut out = Vec::new();
+    let sets: [AidSet<'_>; 4] = [
+        ("SRS", "aid_srs", "m/s", ["x", "y", "z"], &aids.srs),
+        (
+            "CNS",
+            "aid_cns",
+            "m",
+            ["north / grid x", "east / grid y", ""],
+            &aids.cns,
+        ),
+        ("baro", "aid_baro", "m", ["height", "", ""], &aids.baro),
+        ("star", "aid_star", "arcsec", ["x", "y", "z"], &aids.star),
+    ];
+    for (name, file, unit, comps, pts) in sets {
+        if pts.is_empty() {
+            continue;
+        }
+        let mut dim = 0;
+        let points = pts
+            .iter()
+            .map(|a| {
+                let t = a.t_ns as f64 * 1e-9;
+                // Scale of each component to the physical unit.
+                let scale: [f64; 3] = match name {
+                    "star" => [arcsec; 3],
+                    "CNS" => match at.get(t) {
+                        Some(('g', lat, h)) => {
+                            let (rm, rn) = polarnav::earth::radii(lat);
+                            [rm + h, (rn + h) * lat.cos(), 1.0]
+                        }
+                        _ => [1.0; 3],
+                    },
+                    _ => [1.0; 3],
+                };
+                let mut nis = 0.0;
+                let mut m = 0;
+                let mut v = [f64::NAN; 3];
+                let mut sig = [f64::NAN; 3];
+                for k in 0..3 {
+                    let var = a.innovation_var[k];
+                    if var > 0.0 && var.is_finite() {
+                        nis += a.innovation[k] * a.innovation[k] / var;
+                        m += 1;
+                        v[k] = a.innovation[k] * scale[k];
+                        sig[k] = var.sqrt() * scale[k];
+                    }
+                }
+                dim = dim.max(m);
+                (t, v, sig, a.fused != 0, if m > 0 { nis } else { f64::NAN })
+            })
+            .collect();
+        out.push(AidSeries {
+            name,
+            file,
+            unit,
+            comps,
+            points,
+            dim,
+        });
+    }
+    out
+}
+
+/// The last update of each aid as the log's status records report it
+/// (a live recording: one per status, 1 Hz), one point per new update.
+pub fn aids_from_status(status: &[Status]) -> Option<Aids> {
+    let mut a = Aids::default();
+    let mut last: [Option<(u64, [u64; 3])>; 4] = [None; 4];
+    for st in status {
+        for (k, (s, c, v)) in [
+            (&st.srs_aid, &st.srs, &mut a.srs),
+            (&st.cns_aid, &st.cns, &mut a.cns),
+            (&st.baro_aid, &st.baro, &mut a.baro),
+            (&st.star_aid, &st.star, &mut a.star),
+        ]
+        .into_iter()
+        .enumerate()
+        {
+            if c.accepted + c.rejected_gate == 0 {
+                continue;
+            }
+            let key = (c.accepted + c.rejected_gate, s.innovation.map(f64::to_bits));
+            if last[k] == Some(key) {
+                continue;
+            }
+            last[k] = Some(key);
+            v.push(AidPoint {
+                t_ns: st.t_ns,
+                innovation: s.innovation,
+                innovation_var: s.innovation_var,
+                test_ratio: s.test_ratio,
+                fused: s.fused,
+            });
+        }
+    }
+    let any = !(a.srs.is_empty() && a.cns.is_empty() && a.baro.is_empty() && a.star.is_empty());
+    any.then_some(a)
+}
+
+/// Flags drawn as lanes of the health timeline: (label, bit, set when the
+/// bit is clear).
+const LANES: [(&str, u32, bool); 8] = [
+    ("COASTING", solution_flags::COASTING, false),
+    ("IMU lost", solution_flags::IMU_LOST, false),
+    ("SRS stale", solution_flags::SRS_FRESH, true),
+    ("CNS stale", solution_flags::CNS_FRESH, true),
+    ("baro stale", solution_flags::BARO_FRESH, true),
+    ("aid reset", solution_flags::AID_RESET, false),
+    (
+        "last update rejected",
+        solution_flags::LAST_INNOVATION_REJECTED,
+        false,
+    ),
+    ("second publisher", solution_flags::SECOND_PUBLISHER, false),
+];
+
+/// Everything gathered in the one pass over the solution.
+#[derive(Debug)]
+struct Pass {
+    rows: u64,
+    t_first: f64,
+    t_last: f64,
+    duplicates: u64,
+    out_of_order: u64,
+    /// σ: E, N, U (m); nav x, y, z (m/s); attitude x, y, z (arcmin).
+    sigma: Envelope,
+    /// Bias estimates (°/h, µg) 0..6, est − σ 6..12, est + σ 12..18.
+    bias: Envelope,
+    rows_with_bias_sigma: u64,
+    /// Frame G 0, then the lanes of [`LANES`].
+    health: Envelope,
+    health_set: [u64; LANES.len() + 1],
+    switches: Vec<Switch>,
+    resets: Vec<f64>,
+    where_: Where,
+    reference: Option<RefPass>,
+}
+
+/// The forward solution against the reference.
+#[derive(Debug)]
+struct RefPass {
+    path: String,
+    rows: u64,
+    matched: u64,
+    /// Differences E, N, U (m); nav x, y, z (m/s); nav x, y, z (arcmin) 0..9,
+    /// and the forward 3σ of each 9..18.
+    diff: Envelope,
+    sum_sq: [f64; 9],
+    inside: [u64; 9],
+    horizontal_sq: f64,
+}
+
+const EVENTS_MAX: usize = 10_000;
+
+impl Pass {
+    fn new() -> Self {
+        Self {
+            rows: 0,
+            t_first: f64::NAN,
+            t_last: f64::NAN,
+            duplicates: 0,
+            out_of_order: 0,
+            sigma: Envelope::new(9),
+            bias: Envelope::new(18),
+            rows_with_bias_sigma: 0,
+            health: Envelope::new(LANES.len() + 1),
+            health_set: [0; LANES.len() + 1],
+            switches: Vec::new(),
+            resets: Vec::new(),
+            where_: Where::default(),
+            reference: None,
+        }
+    }
+
+    fn push(&mut self, r: &Row, sig: Option<[f64; 6]>, prev: Option<&Row>) {
+        self.rows += 1;
+        let t = r.t_s;
+        if self.t_first.is_nan() {
+            self.t_first = t;
+        }
+        match prev {
+            Some(p) if t.to_bits() == p.t_s.to_bits() => self.duplicates += 1,
+            Some(p) if t < p.t_s => self.out_of_order += 1,
+            _ => {}
+        }
+        if self.t_last.is_nan() || t > self.t_last {
+            self.t_last = t;
+        }
+        let s = &r.sigma_enu_m;
+        let v = &r.sigma_vel_nav_mps;
+        let a = r.sigma_att_deg.map(|x| x * 60.0);
+        self.sigma
+            .push(t, &[s[0], s[1], s[2], v[0], v[1], v[2], a[0], a[1], a[2]]);
+        let est = [
+            r.gyro_bias_rps[0] * DEG_PER_H,
+            r.gyro_bias_rps[1] * DEG_PER_H,
+            r.gyro_bias_rps[2] * DEG_PER_H,
+            r.accel_bias_mps2[0] * MICRO_G,
+            r.accel_bias_mps2[1] * MICRO_G,
+            r.accel_bias_mps2[2] * MICRO_G,
+        ];
+        let mut b = [f64::NAN; 18];
+        b[..6].copy_from_slice(&est);
+        if let Some(sg) = sig {
+            self.rows_with_bias_sigma += 1;
+            for k in 0..6 {
+                let unit = if k < 3 { DEG_PER_H } else { MICRO_G };
+                b[6 + k] = est[k] - sg[k] * unit;
+                b[12 + k] = est[k] + sg[k] * unit;
+            }
+        }
+        self.bias.push(t, &b);
+        let mut h = [0.0; LANES.len() + 1];
+        h[0] = f64::from(u8::from(r.frame == 'G'));
+        for (k, (_, bit, clear)) in LANES.iter().enumerate() {
+            h[k + 1] = f64::from(u8::from((r.flags & bit != 0) != *clear));
+        }
+        for (k, x) in h.iter().enumerate() {
+            self.health_set[k] += u64::from(*x > 0.0);
+        }
+        self.health.push(t, &h);
+        if let Some(p) = prev {
+            if p.frame != r.frame && self.switches.len() < EVENTS_MAX {
+                self.switches.extend(plots::switches(&[*p, *r]));
+            }
+            if r.reset_count > p.reset_count && self.resets.len() < EVENTS_MAX {
+                self.resets.push(t);
+            }
+        }
+        self.where_.push(r);
+    }
+}
+
+impl RefPass {
+    fn add(&mut self, fwd: &[Row], reference: &[TruthRecord]) {
+        for e in eval::epochs(fwd, reference) {
+            let Some(r) = fwd
+                .binary_search_by(|x| x.t_s.total_cmp(&e.t_s))
+                .ok()
+                .map(|i| &fwd[i])
+            else {
+                continue;
+            };
+            self.matched += 1;
+            let d = [
+                e.pos_enu.x,
+                e.pos_enu.y,
+                e.pos_enu.z,
+                e.vel_nav.x,
+                e.vel_nav.y,
+                e.vel_nav.z,
+                e.att_nav.x * ARCMIN,
+                e.att_nav.y * ARCMIN,
+                e.att_nav.z * ARCMIN,
+            ];
+            let s = [
+                r.sigma_enu_m[0],
+                r.sigma_enu_m[1],
+                r.sigma_enu_m[2],
+                r.sigma_vel_nav_mps[0],
+                r.sigma_vel_nav_mps[1],
+                r.sigma_vel_nav_mps[2],
+                r.sigma_att_deg[0] * 60.0,
+                r.sigma_att_deg[1] * 60.0,
+                r.sigma_att_deg[2] * 60.0,
+            ];
+            let mut v = [0.0; 18];
+            for k in 0..9 {
+                v[k] = d[k];
+                v[9 + k] = 3.0 * s[k];
+                self.sum_sq[k] += d[k] * d[k];
+                self.inside[k] += u64::from(d[k].abs() <= 3.0 * s[k]);
+            }
+            self.horizontal_sq += d[0] * d[0] + d[1] * d[1];
+            self.diff.push(e.t_s, &v);
+        }
+    }
+}
+
+/// A solution's rows, from a CSV (streamed) or an MCAP file (loaded).
+type RowIter = Box<dyn Iterator<Item = Result<(Row, Option<[f64; 6]>), String>>>;
+
+fn open_rows(path: &Path) -> Result<(RowIter, Option<Aids>), String> {
+    if solution_file::is_mcap(path) {
+        let l = solution_file::load(path)?;
+        let rows = l.rows.into_iter().zip(l.bias_sigma).map(Ok);
+        Ok((Box::new(rows), l.aids))
+    } else {
+        Ok((Box::new(CsvRows::open(path)?), None))
+    }
+}
+
+fn truth_of(r: &Row) -> TruthRecord {
+    TruthRecord {
+        t_ns: (r.t_s * 1e9).round().max(0.0) as u64,
+        r_e_m: r.r_e_m,
+        v_e_mps: r.v_e_mps,
+        q_b_e: r.q_b_e,
+    }
+}
+
+/// Pairs per batch handed to [`eval::epochs`].
+const REF_BATCH: usize = 4096;
+
+fn stream(opts: &Options<'_>) -> Result<(Pass, Option<Aids>), String> {
+    let (rows, aids) = open_rows(opts.solution)?;
+    let mut pass = Pass::new();
+    let mut reference = match opts.reference {
+        Some(p) => {
+            pass.reference = Some(RefPass {
+                path: p.display().to_string(),
+                rows: 0,
+                matched: 0,
+                diff: Envelope::new(18),
+                sum_sq: [0.0; 9],
+                inside: [0; 9],
+                horizontal_sq: 0.0,
+            });
+            Some(open_rows(p)?.0.peekable())
+        }
+        None => None,
+    };
+    let mut prev: Option<Row> = None;
+    let (mut fwd_batch, mut ref_batch) = (Vec::new(), Vec::new());
+    for r in rows {
+        let (row, sig) = r?;
+        if !row.t_s.is_finite() {
+            return Err(format!(
+                "{}: row {} has a non-finite time t_s = {}",
+                opts.solution.display(),
+                pass.rows + 1,
+                row.t_s
+            ));
+        }
+        pass.push(&row, sig, prev.as_ref());
+        if let (Some(it), Some(rp)) = (reference.as_mut(), pass.reference.as_mut()) {
+            // Merge join on time (both in time order; 1 µs tolerance).
+            while let Some(next) = it.peek() {
+                match next {
+                    Err(_) => {
+                        if let Some(Err(e)) = it.next() {
+                            return Err(e);
+                        }
+                    }
+                    Ok((x, _)) if x.t_s < row.t_s - 1e-6 => {
+                        rp.rows += 1;
+                        it.next();
+                    }
+                    Ok((x, _)) if (x.t_s - row.t_s).abs() <= 1e-6 => {
+                        rp.rows += 1;
+                        ref_batch.push(truth_of(x));
+                        // The epoch is keyed by the reference's time.
+                        let mut f = row;
+                        f.t_s = (x.t_s * 1e9).round() * 1e-9;
+                        fwd_batch.push(f);
+                        it.next();
+                        break;
+                    }
+                    Ok(_) => break,
+                }
+            }
+            if fwd_batch.len() >= REF_BATCH {
+                rp.add(&fwd_batch, &ref_batch);
+                fwd_batch.clear();
+                ref_batch.clear();
+            }
+        }
+        prev = Some(row);
+    }
+    if let Some(rp) = pass.reference.as_mut() {
+        rp.add(&fwd_batch, &ref_batch);
+        if let Some(it) = reference.as_mut() {
+            for r in it {
+                r?;
+                rp.rows += 1;
+            }
+        }
+    }
+    if pass.rows == 0 {
+        return Err(format!("{}: no solution row", opts.solution.display()));
+    }
+    Ok((pass, aids))
+}
+
+/// The IMU sampling of the log.
+#[derive(Debug)]
+struct Sampling {
+    samples: usize,
+    nominal_s: f64,
+    /// interval (ms) over time.
+    dt: Envelope,
+    intervals_ms: Vec<f64>,
+    /// (start t, length s) of intervals longer than 1.5× the nominal.
+    gaps: Vec<(f64, f64)>,
+    backwards: usize,
+    duplicates: usize,
+}
+
+fn sampling(log: &LogContents) -> Option<Sampling> {
+    if log.imu.len() < 2 {
+        return None;
+    }
+    let mut dts: Vec<f64> = log
+        .imu
+        .windows(2)
+        .map(|w| (w[1].t_ns as f64 - w[0].t_ns as f64) * 1e-9)
+        .collect();
+    let mut sorted = dts.clone();
+    let mid = sorted.len() / 2;
+    let nominal = *sorted.select_nth_unstable_by(mid, f64::total_cmp).1;
+    let mut dt = Envelope::new(1);
+    let mut gaps = Vec::new();
+    let (mut backwards, mut duplicates) = (0, 0);
+    for (w, d) in log.imu.windows(2).zip(&dts) {
+        let t = w[1].t_ns as f64 * 1e-9;
+        dt.push(t, &[d * 1e3]);
+        if *d < 0.0 {
+            backwards += 1;
+        } else if *d == 0.0 {
+            duplicates += 1;
+        } else if nominal > 0.0 && *d > 1.5 * nominal {
+            gaps.push((w[0].t_ns as f64 * 1e-9, *d));
+        }
+    }
+    for d in &mut dts {
+        *d *= 1e3;
+    }
+    Some(Sampling {
+        samples: log.imu.len(),
+        nominal_s: nominal,
+        dt,
+        intervals_ms: dts,
+        gaps,
+        backwards,
+        duplicates,
+    })
+}
+
+/// The settings text's value of `key = number` (the first such line).
+fn setting(text: &str, key: &str) -> Option<f64> {
+    text.lines().find_map(|l| {
+        let (k, v) = l.split_once('=')?;
+        (k.trim() == key).then(|| v.split('#').next()?.trim().parse().ok())?
+    })
+}
+
+/// Reviews the flight of `log` and `opts.solution`.
+pub fn review(log: &LogContents, opts: &Options<'_>) -> Result<Review, String> {
+    let (pass, mcap_aids) = stream(opts)?;
+    let (aids, aid_source) = match mcap_aids {
+        Some(a) => (
+            Some(a),
+            "every gated update, from the MCAP solution's /aid/* channels",
+        ),
+        None => match aids_from_status(&log.status) {
+            Some(a) => (
+                Some(a),
+                "the last update of each aid per status record of the log (a recording: 1 Hz), not every update",
+            ),
+            None => (None, ""),
+        },
+    };
+    let series = aids
+        .as_ref()
+        .map_or_else(Vec::new, |a| aid_series(a, &pass.where_));
+    let samp = sampling(log);
+    let mut md = String::new();
+    let mut figures = Vec::new();
+    let mut missing: Vec<String> = Vec::new();
+    let mut verdicts = Vec::new();
+
+    let _ = writeln!(md, "## Review without truth: {}\n", opts.solution.display());
+    let _ = writeln!(
+        md,
+        "{} solution rows, t = {:.3} … {:.3} s{}{}.\n",
+        pass.rows,
+        pass.t_first,
+        pass.t_last,
+        if pass.duplicates > 0 {
+            format!(", {} rows repeat the previous time", pass.duplicates)
+        } else {
+            String::new()
+        },
+        if pass.out_of_order > 0 {
+            format!(", {} rows go back in time", pass.out_of_order)
+        } else {
+            String::new()
+        },
+    );
+
+    // Settings and versions.
+    md.push_str("### Settings and versions\n\n");
+    let _ = writeln!(
+        md,
+        "- reviewed by polarnav-eval {}",
+        env!("CARGO_PKG_VERSION")
+    );
+    let settings_text = match &log.header {
+        Some(h) => {
+            let _ = writeln!(
+                md,
+                "- log written by `{}` (navlog format {}), scenario/source `{}`, seed {}",
+                h.producer, h.format_version, h.scenario, h.seed
+            );
+            h.metadata.clone()
+        }
+        None => {
+            md.push_str("- the log has no header: producer and settings unknown\n");
+            String::new()
+        }
+    };
+    md.push_str(
+        "- the solution file does not record the batch command's own configuration file or command-line overrides: `nav-daemon batch` prints them at start (keep that log beside the run); the settings below are those the log carried, which batch applies over its configuration file\n",
+    );
+    if settings_text.trim().is_empty() {
+        md.push_str("- the log header carries no settings text\n\n");
+    } else {
+        let _ = writeln!(md, "\n```toml\n{}\n```\n", settings_text.trim());
+    }
+
+    // Consistency per aid.
+    md.push_str("### Noise-model consistency per aid (NIS)\n\n");
+    if series.is_empty() {
+        md.push_str(
+            "- no aid updates: a solution CSV has no innovations, and the log has no status records; \
+             write the run as MCAP (`nav-daemon batch --log LOG --out run.mcap`) and pass `--solution run.mcap`\n\n",
+        );
+        missing.push(
+            "no `innovations` figure (nor `aid_*` and their NIS): a solution CSV has no innovations; write the run as MCAP (`nav-daemon batch --log LOG --out run.mcap`) and pass `--solution run.mcap`".into(),
+        );
+    } else {
+        let _ = writeln!(md, "Innovations: {aid_source}.\n");
+        md.push_str(
+            "Test: the mean normalized innovation squared (NIS = Σ νₖ²/Sₖₖ over the m components, \
+             whose mean is m whatever the correlation between components) over the N accepted updates, \
+             against the two-sided 95 % bounds of the mean of N independent χ²(m), χ²₀.₀₂₅(N·m)/N … \
+             χ²₀.₉₇₅(N·m)/N, widened to m/2 … 2m: aid errors are correlated over many updates and \
+             the accepted ones are truncated at the gate, so the plain bounds (±2.8 % at N = 10 000) \
+             would fail nearly every long flight; a factor 2 in variance is √2 in σ. \
+             More than 1 % rejected at the gate (a consistent aid loses 0.1 % at the 99.9 % gate) is too optimistic on its own. \
+             \"inside\" is the fraction of updates whose NIS is within χ²₀.₀₂₅(m) … χ²₀.₉₇₅(m) (95 % expected).\n\n",
+        );
+        md.push_str("| aid | m | accepted | rejected | mean NIS | 95 % bounds | with tolerance | inside | verdict |\n|---|---|---|---|---|---|---|---|---|\n");
+        for s in &series {
+            let nis: Vec<(f64, bool)> = s.points.iter().map(|p| (p.4, p.3)).collect();
+            match nis_test(&nis, s.dim) {
+                Some(t) => {
+                    let _ = writeln!(
+                        md,
+                        "| {} | {} | {} | {} | {:.3} | {:.3} … {:.3} | {:.3} … {:.3} | {:.1} % | **{}** |",
+                        s.name,
+                        t.dim,
+                        t.accepted,
+                        t.rejected,
+                        t.mean,
+                        t.lo95,
+                        t.hi95,
+                        t.lo,
+                        t.hi,
+                        100.0 * t.inside,
+                        t.verdict.text()
+                    );
+                    verdicts.push((s.name, t.verdict));
+                }
+                None => {
+                    let _ = writeln!(
+                        md,
+                        "| {} | {} | 0 | {} | – | – | – | – | no accepted update |",
+                        s.name,
+                        s.dim,
+                        s.points.len()
+                    );
+                }
+            }
+        }
+        md.push('\n');
+        let preset =
+            setting(&settings_text, "preset").is_some() || settings_text.contains("preset =");
+        for (name, v) in &verdicts {
+            match v {
+                Verdict::Consistent => {}
+                Verdict::TooOptimistic => {
+                    let _ = writeln!(
+                        md,
+                        "- {name} is **too optimistic**: its innovations are larger than the filter predicts. \
+                         Either the σ its records state is too small for this sensor (raise it at the source), \
+                         or the IMU drifts more than the filter's model: if your IMU's biases drift, take the \
+                         `[filter] preset` of its grade in `config/nav-daemon.toml` (`navigation`, `tactical` \
+                         or `mems`: one Gauss–Markov process per bias){}.",
+                        if preset {
+                            " (the log's settings already name a preset: take the next coarser grade)"
+                        } else {
+                            ""
+                        }
+                    );
+                }
+                Verdict::TooPessimistic => {
+                    let _ = writeln!(
+                        md,
+                        "- {name} is **too pessimistic**: its innovations are smaller than the filter predicts. \
+                         Either the σ its records state is larger than the sensor's noise, or the IMU model is \
+                         of a coarser grade than the sensor: in `config/nav-daemon.toml` leave `[filter] preset` \
+                         unset (constant biases, the papers/001 Table 1 defaults) or take a finer grade."
+                    );
+                }
+            }
+        }
+        md.push('\n');
+    }
+
+    // Figures.
+    let fmt = plots::init_fonts();
+    let (t0, t1) = (pass.t_first, pass.t_last.max(pass.t_first + 1.0));
+    let x = Some((t0, t1));
+    if let Some(dir) = opts.out {
+        std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+        let mut fig = |name: &str,
+                       size: (u32, u32),
+                       what: &'static str,
+                       f: DrawPng<'_>,
+                       g: DrawSvg<'_>|
+         -> Result<(), String> {
+            let path = dir.join(format!("{name}.{}", fmt.ext()));
+            match fmt {
+                Format::Png => {
+                    let root = BitMapBackend::new(&path, size).into_drawing_area();
+                    root.fill(&WHITE).map_err(plots::s)?;
+                    f(&root)?;
+                    root.present().map_err(plots::s)?;
+                }
+                Format::Svg => {
+                    let root = SVGBackend::new(&path, size).into_drawing_area();
+                    root.fill(&WHITE).map_err(plots::s)?;
+                    g(&root)?;
+                    root.present().map_err(plots::s)?;
+                }
+            }
+            figures.push(Figure { path, what });
+            Ok(())
+        };
+        let sw = &pass.switches;
+        for s in &series {
+            let h = 330 * (s.dim as u32 + 1) + 80;
+            fig(
+                s.file,
+                (1700, h),
+                match s.name {
+                    "SRS" => {
+                        "SRS innovations (m/s) with ±1σ/±3σ, accepted and rejected, and NIS against χ²(3)"
+                    }
+                    "CNS" => {
+                        "CNS innovations (m) with ±1σ/±3σ, accepted and rejected, and NIS against χ²(2)"
+                    }
+                    "baro" => {
+                        "baro innovations (m) with ±1σ/±3σ, accepted and rejected, and NIS against χ²(1)"
+                    }
+                    _ => {
+                        "star tracker innovations (arcsec) with ±1σ/±3σ, accepted and rejected, and NIS against χ²(3)"
+                    }
+                },
+                &|r| aid_figure(r, s, sw, x),
+                &|r| aid_figure(r, s, sw, x),
+            )?;
+        }
+        fig(
+            "health",
+            (1700, 900),
+            "health timeline: frame, switches, resets, COASTING, IMU lost, stale aids, second publisher",
+            &|r| health_figure(r, &pass, x),
+            &|r| health_figure(r, &pass, x),
+        )?;
+        if let Some(sm) = &samp {
+            fig(
+                "imu_sampling",
+                (1700, 900),
+                "IMU sampling: interval per sample over time (ms) and its histogram",
+                &|r| sampling_figure(r, sm, sw),
+                &|r| sampling_figure(r, sm, sw),
+            )?;
+        } else {
+            missing.push("no `imu_sampling` figure: the log has fewer than two IMU samples".into());
+        }
+        fig(
+            "sigma",
+            (1700, 1100),
+            "1-σ of position (m), velocity (m/s) and attitude (arcmin) over time, log scale",
+            &|r| sigma_figure(r, &pass, x),
+            &|r| sigma_figure(r, &pass, x),
+        )?;
+        fig(
+            "biases",
+            (1700, 1000),
+            "gyro (°/h) and accelerometer (µg) bias estimates with ±1σ where the solution carries it",
+            &|r| bias_figure(r, &pass, x),
+            &|r| bias_figure(r, &pass, x),
+        )?;
+        if let Some(rp) = &pass.reference {
+            if rp.matched > 0 {
+                fig(
+                    "reference_difference",
+                    (1700, 1250),
+                    "forward − reference: position (m), velocity (m/s), attitude (arcmin) with the forward ±3σ",
+                    &|r| reference_figure(r, rp, sw, x),
+                    &|r| reference_figure(r, rp, sw, x),
+                )?;
+            } else {
+                missing.push(format!(
+                    "no `reference_difference` figure: no row of {} has the time of a solution row",
+                    rp.path
+                ));
+            }
+        }
+    }
+    if pass.rows_with_bias_sigma == 0 {
+        missing.push(format!(
+            "`biases` without σ bands: the solution has no bias σ (CSV columns {} or `/solution` fields {}; written by solution version 3 and later)",
+            solution_file::BIAS_SIGMA_COLUMNS.join(", "),
+            solution_file::BIAS_SIGMA_FIELDS.join(", ")
+        ));
+    }
+
+    // Reference.
+    if let Some(rp) = &pass.reference {
+        let _ = writeln!(
+            md,
+            "### Forward against the reference {}\n\n{} reference rows, {} at the time of a forward row.\n",
+            rp.path, rp.rows, rp.matched
+        );
+        if rp.matched > 0 {
+            let n = rp.matched as f64;
+            let rms = |k: usize| (rp.sum_sq[k] / n).sqrt();
+            let inside = |k: usize| 100.0 * rp.inside[k] as f64 / n;
+            let _ = writeln!(
+                md,
+                "Horizontal position RMS {:.3} m, vertical {:.3} m.\n",
+                (rp.horizontal_sq / n).sqrt(),
+                rms(2)
+            );
+            md.push_str("| component | RMS | inside forward ±3σ |\n|---|---|---|\n");
+            let names = [
+                "east (m)",
+                "north (m)",
+                "up (m)",
+                "velocity nav x (m/s)",
+                "velocity nav y (m/s)",
+                "velocity nav z (m/s)",
+                "tilt nav x (arcmin)",
+                "tilt nav y (arcmin)",
+                "heading (arcmin)",
+            ];
+            for (k, name) in names.iter().enumerate() {
+                let _ = writeln!(md, "| {name} | {:.4} | {:.1} % |", rms(k), inside(k));
+            }
+            md.push('\n');
+        }
+    }
+
+    // IMU sampling.
+    md.push_str("### IMU sampling\n\n");
+    match &samp {
+        Some(s) => {
+            let _ = writeln!(
+                md,
+                "{} samples, nominal interval {:.3} ms (median); {} intervals longer than 1.5× nominal{}{}.\n",
+                s.samples,
+                s.nominal_s * 1e3,
+                s.gaps.len(),
+                if s.duplicates > 0 {
+                    format!(", {} repeated stamps", s.duplicates)
+                } else {
+                    String::new()
+                },
+                if s.backwards > 0 {
+                    format!(", {} stamps going back", s.backwards)
+                } else {
+                    String::new()
+                },
+            );
+            if !s.gaps.is_empty() {
+                let mut g = s.gaps.clone();
+                g.sort_by(|a, b| b.1.total_cmp(&a.1));
+                let total: f64 = s.gaps.iter().map(|x| x.1).sum();
+                let _ = writeln!(
+                    md,
+                    "Gaps (longest first, at most 20 of {}; {:.3} s in all):\n\n| starts at t (s) | length (ms) |\n|---|---|",
+                    g.len(),
+                    total
+                );
+                for (t, d) in g.iter().take(20) {
+                    let _ = writeln!(md, "| {t:.4} | {:.3} |", d * 1e3);
+                }
+                md.push('\n');
+            }
+        }
+        None => md.push_str("The log has fewer than two IMU samples.\n\n"),
+    }
+
+    // Health counts.
+    md.push_str("### Health\n\n");
+    let pct = |k: usize| 100.0 * pass.health_set[k] as f64 / pass.rows.max(1) as f64;
+    let _ = writeln!(
+        md,
+        "- frame G (grid): {:.1} % of rows; {} frame switches; {} resets",
+        pct(0),
+        pass.switches.len(),
+        pass.resets.len()
+    );
+    for (k, (name, _, _)) in LANES.iter().enumerate() {
+        let _ = writeln!(md, "- {name}: {:.2} % of rows", pct(k + 1));
+    }
+    md.push('\n');
+
+    Ok(Review {
+        markdown: md,
+        figures,
+        verdicts,
+    })
+    .map(|mut r| {
+        if opts.out.is_some() {
+            r.markdown.push_str("### Figures (review)\n\n");
+            for f in &r.figures {
+                let n = f
+                    .path
+                    .file_name()
+                    .map_or_else(String::new, |x| x.to_string_lossy().into_owned());
+                let _ = writeln!(r.markdown, "- `{n}`: {}\n\n  ![{n}]({n})", f.what);
+            }
+            for m in &missing {
+                let _ = writeln!(r.markdown, "- {m}");
+            }
+            r.markdown.push('\n');
+        }
+        r
+    })
+}
+
+fn split_title<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    title: &str,
+) -> Result<Halves<DB>, String> {
+    plots::layout(root, title)
+}
+
+fn aid_figure<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    s: &AidSeries,
+    sw: &[Switch],
+    x: Option<(f64, f64)>,
+) -> Result<(), String> {
+    let (main, side) = split_title(
+        root,
+        &format!("{} innovations ({}) and NIS", s.name, s.unit),
+    )?;
+    let cells = main.split_evenly((s.dim + 1, 1));
+    let tm = x.map_or(1.0, |r| r.1);
+    for k in 0..s.dim {
+        let mut acc = Envelope::new(2);
+        let mut rej = Envelope::new(1);
+        for p in &s.points {
+            if p.3 {
+                acc.push(p.0, &[p.1[k], p.2[k]]);
+            } else {
+                rej.push(p.0, &[p.1[k]]);
+            }
+        }
+        let mut sig = Envelope::new(1);
+        for p in &s.points {
+            sig.push(p.0, &[p.2[k]]);
+        }
+        let panel = Panel {
+            title: format!("{} {} ({})", s.name, s.comps[k], s.unit),
+            bands: vec![
+                (sig.symmetric_band(0, 3.0), GREY),
+                (sig.symmetric_band(0, 1.0), BLUE),
+            ],
+            dots: vec![(acc.line(0, 1.0), AXIS_COLORS[k])],
+            crosses: vec![(rej.line(0, 1.0), RED_)],
+            hlines: vec![(0.0, GREY)],
+            symmetric: true,
+            x,
+            y_desc: Some(format!("innovation ({})", s.unit)),
+            ..Default::default()
+        };
+        time_panel(&cells[k], &panel, tm, sw)?;
+    }
+    // NIS on a log axis.
+    let m = s.dim as f64;
+    let (a, b) = (chi2::quantile(0.025, m), chi2::quantile(0.975, m));
+    let gate = chi2::quantile(0.999, m);
+    let mut acc = Envelope::new(1);
+    let mut rej = Envelope::new(1);
+    const FLOOR: f64 = -4.0;
+    for p in &s.points {
+        let v = p.4.max(1e-300).log10().max(FLOOR);
+        if p.3 {
+            acc.push(p.0, &[v]);
+        } else {
+            rej.push(p.0, &[v]);
+        }
+    }
+    let nis: Vec<(f64, bool)> = s.points.iter().map(|p| (p.4, p.3)).collect();
+    let t = nis_test(&nis, s.dim);
+    let hi = acc
+        .line(0, 1.0)
+        .iter()
+        .chain(&rej.line(0, 1.0))
+        .map(|p| p.1)
+        .fold(gate.log10(), f64::max);
+    let panel = Panel {
+        title: match t {
+            Some(t) => format!(
+                "NIS, m = {}: mean {:.2} (consistent {:.2} … {:.2}), inside 95 % interval {:.1} %: {}",
+                s.dim,
+                t.mean,
+                t.lo,
+                t.hi,
+                100.0 * t.inside,
+                t.verdict.text()
+            ),
+            None => format!("NIS, m = {}: no accepted update", s.dim),
+        },
+        dots: vec![(acc.line(0, 1.0), BLACK)],
+        crosses: vec![(rej.line(0, 1.0), RED_)],
+        hlines: vec![(a.log10(), BLUE), (b.log10(), BLUE), (gate.log10(), RED_)],
+        y: Some((FLOOR - 0.1, hi + 0.2)),
+        y_fmt: Some(|v| {
+            let x = 10f64.powf(v);
+            if x >= 1.0 {
+                format!("{x:.0}")
+            } else {
+                let d = (-x.log10()).ceil().max(1.0) as usize;
+                format!("{x:.d$}")
+            }
+        }),
+        x,
+        y_desc: Some("NIS (unit-free, log)".into()),
+        ..Default::default()
+    };
+    time_panel(&cells[s.dim], &panel, tm, sw)?;
+    let mut notes = vec![
+        format!(
+            "NIS bounds: χ²({}) 2.5 % = {:.3} and 97.5 % = {:.3}; gate 99.9 % = {:.3}",
+            s.dim, a, b, gate
+        ),
+        "points: min and max of each time column (long flights read as an envelope)".to_owned(),
+    ];
+    if s.name == "CNS" {
+        notes.push(
+            "CNS in g: Δlatitude, Δlongitude converted to metres north, east; in G: grid x, y (m)"
+                .into(),
+        );
+    }
+    notes.extend(plots::switch_notes(sw));
+    legend(
+        &side,
+        s.name,
+        &[
+            ("accepted update".into(), Mark::Dot(BLUE)),
+            ("rejected at the gate".into(), Mark::Cross(RED_)),
+            ("±1σ (innovation variance)".into(), Mark::Band(BLUE)),
+            ("±3σ".into(), Mark::Band(GREY)),
+            ("NIS 95 % interval".into(), Mark::Line(BLUE, 1)),
+            ("gate".into(), Mark::Line(RED_, 1)),
+            ("frame switch".into(), Mark::Switch),
+        ],
+        &notes,
+    )
+}
+
+fn health_figure<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    pass: &Pass,
+    x: Option<(f64, f64)>,
+) -> Result<(), String> {
+    let (main, side) = split_title(root, "Health timeline: one lane per flag")?;
+    let (t0, t1) = x.unwrap_or((0.0, 1.0));
+    let mut names: Vec<String> = vec![
+        "frame G (grid)".into(),
+        "frame switch".into(),
+        "reset".into(),
+    ];
+    names.extend(LANES.iter().map(|l| l.0.to_owned()));
+    let n = names.len() as f64;
+    let mut chart = ChartBuilder::on(&main)
+        .margin_left(10)
+        .margin_right(25)
+        .margin_top(10)
+        .x_label_area_size(42)
+        .y_label_area_size(200)
+        .build_cartesian_2d(t0..t1, -0.5..n - 0.5)
+        .map_err(plots::s)?;
+    let labels = names.clone();
+    chart
+        .configure_mesh()
+        .x_desc("t (s)")
+        .y_labels(names.len())
+        .y_label_formatter(&|v| {
+            let i = (n - 1.0 - v).round();
+            if (v - v.round()).abs() < 1e-6 && i >= 0.0 && (i as usize) < labels.len() {
+                labels[i as usize].clone()
+            } else {
+                String::new()
+            }
+        })
+        .label_style(("sans-serif", 15))
+        .axis_desc_style(("sans-serif", 15))
+        .light_line_style(WHITE.mix(0.0))
+        .bold_line_style(BLACK.mix(0.08))
+        .draw()
+        .map_err(plots::s)?;
+    let lane_y = |i: usize| n - 1.0 - i as f64;
+    let w = pass.health.width_s();
+    // Frame and flag lanes: a bar over each time column where the flag was set.
+    let lane_of = |c: usize| if c == 0 { 0 } else { c + 2 };
+    for c in 0..=LANES.len() {
+        let y = lane_y(lane_of(c));
+        let color = if c == 0 { BLUE } else { RED_ };
+        chart
+            .draw_series(
+                pass.health
+                    .column_range(c)
+                    .filter(|x| x.2 > 0.0)
+                    .map(|(t, _, _)| {
+                        Rectangle::new(
+                            [(t - w / 2.0, y - 0.35), (t + w / 2.0, y + 0.35)],
+                            color.mix(0.8).filled(),
+                        )
+                    }),
+            )
+            .map_err(plots::s)?;
+    }
+    for (i, ev, c) in [
+        (
+            1,
+            pass.switches.iter().map(|s| s.t_s).collect::<Vec<_>>(),
+            BLACK,
+        ),
+        (2, pass.resets.clone(), RED_),
+    ] {
+        let y = lane_y(i);
+        chart
+            .draw_series(
+                ev.iter()
+                    .map(|t| PathElement::new([(*t, y - 0.4), (*t, y + 0.4)], c.stroke_width(3))),
+            )
+            .map_err(plots::s)?;
+    }
+    let mut notes = vec![
+        format!(
+            "{} rows; a bar: the flag was set in some row of that time column ({})",
+            pass.rows,
+            if w < 1.0 {
+                format!("{:.0} ms", w * 1e3)
+            } else {
+                format!("{w:.1} s")
+            }
+        ),
+        "stale: the aid's fresh column is 0 (nothing fused within its timeout)".into(),
+    ];
+    notes.push(format!(
+        "{} switches, {} resets",
+        pass.switches.len(),
+        pass.resets.len()
+    ));
+    legend(
+        &side,
+        "flags",
+        &[
+            ("grid frame G".into(), Mark::Square(BLUE)),
+            ("flag set".into(), Mark::Square(RED_)),
+            ("switch".into(), Mark::Switch),
+        ],
+        &notes,
+    )
+}
+
+fn sampling_figure<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    s: &Sampling,
+    sw: &[Switch],
+) -> Result<(), String> {
+    let (main, side) = split_title(root, "IMU sampling: interval per sample")?;
+    let (top, bottom) = main.split_vertically(main.dim_in_pixel().1 / 2);
+    let line = s.dt.line(0, 1.0);
+    let (t0, t1) = line
+        .iter()
+        .fold((f64::INFINITY, f64::NEG_INFINITY), |a, p| {
+            (a.0.min(p.0), a.1.max(p.0))
+        });
+    let x = (t0.is_finite() && t1.is_finite()).then(|| (t0, t1.max(t0 + 1.0)));
+    let p = Panel {
+        title: format!(
+            "interval (ms): nominal {:.3} ms, {} gaps over 1.5× nominal",
+            s.nominal_s * 1e3,
+            s.gaps.len()
+        ),
+        y: Some((
+            0.0,
+            line.iter()
+                .map(|p| p.1)
+                .fold(3.0 * s.nominal_s * 1e3, f64::max)
+                .max(1e-3)
+                * 1.05,
+        )),
+        lines: vec![(line, BLUE, 1)],
+        hlines: vec![(s.nominal_s * 1e3, GREY)],
+        x,
+        y_desc: Some("interval (ms)".into()),
+        ..Default::default()
+    };
+    time_panel(&top, &p, x.map_or(1.0, |r| r.1), sw)?;
+    // Histogram: 80 bins from 0 to 3× nominal, and one for longer intervals.
+    let nominal_ms = (s.nominal_s * 1e3).max(1e-6);
+    let top_ms = 3.0 * nominal_ms;
+    const BINS: usize = 80;
+    let mut counts = [0u64; BINS + 1];
+    for d in &s.intervals_ms {
+        let i = if *d >= top_ms || !d.is_finite() {
+            BINS
+        } else {
+            ((d.max(0.0) / top_ms) * BINS as f64) as usize
+        };
+        counts[i.min(BINS)] += 1;
+    }
+    let bw = top_ms / BINS as f64;
+    let max = counts.iter().copied().max().unwrap_or(1).max(1) as f64;
+    let mut chart = ChartBuilder::on(&bottom)
+        .caption(
+            format!(
+                "histogram of intervals (log count); the last bar: ≥ {:.3} ms ({} samples)",
+                top_ms, counts[BINS]
+            ),
+            ("sans-serif", 19),
+        )
+        .margin_left(10)
+        .margin_right(25)
+        .x_label_area_size(42)
+        .y_label_area_size(95)
+        .build_cartesian_2d(0.0..top_ms + bw, (0.8..max * 2.0).log_scale())
+        .map_err(plots::s)?;
+    chart
+        .configure_mesh()
+        .x_desc("interval (ms)")
+        .y_desc("samples")
+        .y_label_formatter(&|v| format!("{v:.0}"))
+        .label_style(("sans-serif", 15))
+        .axis_desc_style(("sans-serif", 15))
+        .light_line_style(WHITE.mix(0.0))
+        .bold_line_style(BLACK.mix(0.08))
+        .draw()
+        .map_err(plots::s)?;
+    chart
+        .draw_series(
+            counts
+                .iter()
+                .enumerate()
+                .filter(|c| *c.1 > 0)
+                .map(|(i, c)| {
+                    let x0 = i as f64 * bw;
+                    let color = if i == BINS { RED_ } else { BLUE };
+                    Rectangle::new([(x0, 0.8), (x0 + bw * 0.9, *c as f64)], color.filled())
+                }),
+        )
+        .map_err(plots::s)?;
+    let mut notes = vec![format!("{} samples", s.samples)];
+    if s.duplicates > 0 {
+        notes.push(format!("{} repeated stamps (interval 0)", s.duplicates));
+    }
+    if s.backwards > 0 {
+        notes.push(format!(
+            "{} stamps going back (negative interval)",
+            s.backwards
+        ));
+    }
+    notes.push("interval over time: min and max per time column".into());
+    legend(
+        &side,
+        "IMU",
+        &[
+            ("interval".into(), Mark::Line(BLUE, 1)),
+            ("nominal (median)".into(), Mark::Line(GREY, 1)),
+            ("≥ 3× nominal".into(), Mark::Square(RED_)),
+        ],
+        &notes,
+    )
+}
+
+fn log_fmt(v: f64) -> String {
+    let x = 10f64.powf(v);
+    if x >= 100.0 {
+        format!("{x:.0}")
+    } else if x >= 1.0 {
+        format!("{x:.1}")
+    } else {
+        format!("{x:.1e}")
+    }
+}
+
+fn sigma_figure<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    pass: &Pass,
+    x: Option<(f64, f64)>,
+) -> Result<(), String> {
+    let (main, side) = split_title(root, "1-σ of the solution over time (log scale)")?;
+    let cells = main.split_evenly((3, 1));
+    let tm = x.map_or(1.0, |r| r.1);
+    let groups = [
+        ("position σ east / north / up (m)", "σ position (m)", 0),
+        ("velocity σ nav x / y / z (m/s)", "σ velocity (m/s)", 3),
+        (
+            "attitude σ tilt x / y, heading (arcmin)",
+            "σ attitude (arcmin)",
+            6,
+        ),
+    ];
+    for (cell, (title, yd, c0)) in cells.iter().zip(groups) {
+        let lines: Vec<plots::Line> = AXIS_COLORS
+            .iter()
+            .enumerate()
+            .map(|(k, c)| {
+                let l: Vec<(f64, f64)> = pass
+                    .sigma
+                    .line(c0 + k, 1.0)
+                    .into_iter()
+                    .filter(|p| p.1 > 0.0)
+                    .map(|p| (p.0, p.1.log10()))
+                    .collect();
+                (l, *c, 2)
+            })
+            .collect();
+        let (lo, hi) = lines
+            .iter()
+            .flat_map(|l| l.0.iter().map(|p| p.1))
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |a, v| {
+                (a.0.min(v), a.1.max(v))
+            });
+        let p = Panel {
+            title: title.into(),
+            lines,
+            y: (lo.is_finite() && hi.is_finite()).then_some((lo - 0.1, hi + 0.1)),
+            y_fmt: Some(log_fmt),
+            x,
+            y_desc: Some(yd.into()),
+            ..Default::default()
+        };
+        time_panel(cell, &p, tm, &pass.switches)?;
+    }
+    let mut notes = vec!["min and max of each time column".to_owned()];
+    notes.extend(plots::switch_notes(&pass.switches));
+    legend(
+        &side,
+        "σ",
+        &[
+            ("x / east".into(), Mark::Line(AXIS_COLORS[0], 2)),
+            ("y / north".into(), Mark::Line(AXIS_COLORS[1], 2)),
+            ("z / up, heading".into(), Mark::Line(AXIS_COLORS[2], 2)),
+            ("frame switch".into(), Mark::Switch),
+        ],
+        &notes,
+    )
+}
+
+fn bias_figure<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    pass: &Pass,
+    x: Option<(f64, f64)>,
+) -> Result<(), String> {
+    let with_sigma = pass.rows_with_bias_sigma > 0;
+    let (main, side) = split_title(
+        root,
+        if with_sigma {
+            "IMU bias estimates with ±1σ, body axes"
+        } else {
+            "IMU bias estimates, body axes (the solution carries no bias σ)"
+        },
+    )?;
+    let tm = x.map_or(1.0, |r| r.1);
+    for (k, area) in main.split_evenly((2, 3)).iter().enumerate() {
+        let gyro = k < 3;
+        let axis = ["x", "y", "z"][k % 3];
+        let unit = if gyro { "°/h" } else { "µg" };
+        let mut p = Panel {
+            title: format!("{} {axis} ({unit})", if gyro { "gyro" } else { "accel" }),
+            lines: vec![(pass.bias.line(k, 1.0), AXIS_COLORS[k % 3], 2)],
+            hlines: vec![(0.0, GREY)],
+            x,
+            y_desc: Some(format!("bias ({unit})")),
+            ..Default::default()
+        };
+        if with_sigma {
+            p.bands
+                .push((pass.bias.band(6 + k, 12 + k, 1.0), AXIS_COLORS[k % 3]));
+        }
+        time_panel(area, &p, tm, &pass.switches)?;
+    }
+    let mut notes = vec!["min and max of each time column".to_owned()];
+    if !with_sigma {
+        notes.push(format!(
+            "no σ band: the solution has no columns {}",
+            solution_file::BIAS_SIGMA_COLUMNS.join(", ")
+        ));
+    }
+    notes.extend(plots::switch_notes(&pass.switches));
+    legend(
+        &side,
+        "biases",
+        &[
+            ("estimate".into(), Mark::Line(BLUE, 2)),
+            ("±1σ".into(), Mark::Band(BLUE)),
+            ("frame switch".into(), Mark::Switch),
+        ],
+        &notes,
+    )
+}
+
+fn reference_figure<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    rp: &RefPass,
+    sw: &[Switch],
+    x: Option<(f64, f64)>,
+) -> Result<(), String> {
+    let (main, side) = split_title(root, "Forward solution − reference, with the forward ±3σ")?;
+    let tm = x.map_or(1.0, |r| r.1);
+    let names = [
+        ("east (m)", "Δ position (m)"),
+        ("north (m)", "Δ position (m)"),
+        ("up (m)", "Δ position (m)"),
+        ("velocity nav x (m/s)", "Δ velocity (m/s)"),
+        ("velocity nav y (m/s)", "Δ velocity (m/s)"),
+        ("velocity nav z (m/s)", "Δ velocity (m/s)"),
+        ("tilt nav x (arcmin)", "Δ attitude (arcmin)"),
+        ("tilt nav y (arcmin)", "Δ attitude (arcmin)"),
+        ("heading (arcmin)", "Δ attitude (arcmin)"),
+    ];
+    let n = rp.matched.max(1) as f64;
+    for (k, area) in main.split_evenly((3, 3)).iter().enumerate() {
+        let c = AXIS_COLORS[k % 3];
+        let p = Panel {
+            title: format!(
+                "{}: RMS {}, inside ±3σ {:.1} %",
+                names[k].0,
+                plots::tick((rp.sum_sq[k] / n).sqrt(), (rp.sum_sq[k] / n).sqrt()),
+                100.0 * rp.inside[k] as f64 / n
+            ),
+            bands: vec![(rp.diff.symmetric_band(9 + k, 1.0), c)],
+            lines: vec![(rp.diff.line(k, 1.0), c, 2)],
+            hlines: vec![(0.0, GREY)],
+            symmetric: true,
+            x,
+            y_desc: Some(names[k].1.into()),
+            ..Default::default()
+        };
+        time_panel(area, &p, tm, sw)?;
+    }
+    let mut notes = vec![
+        format!("{} rows at common times", rp.matched),
+        "position in local east/north/up of the reference; velocity and attitude in the forward nav axes".into(),
+        "min and max of each time column".into(),
+    ];
+    notes.extend(plots::switch_notes(sw));
+    legend(
+        &side,
+        "forward − reference",
+        &[
+            ("difference".into(), Mark::Line(BLUE, 2)),
+            ("forward ±3σ".into(), Mark::Band(BLUE)),
+            ("frame switch".into(), Mark::Switch),
+        ],
+        &notes,
+    )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Independent check of the verdict: NIS drawn as sums of m squared
+    /// standard normals (Box–Muller from a fixed LCG), scaled.
+    fn draws(n: usize, m: usize, scale: f64) -> Vec<(f64, bool)> {
+        let mut state = 0x2545_f491_4f6c_dd1du64;
+        let mut u = move || {
+            state = state
+                .wrapping_mul(6_364_136_223_846_793_005)
+                .wrapping_add(1_442_695_040_888_963_407);
+            ((state >> 11) as f64 + 0.5) / (1u64 << 53) as f64
+        };
+        (0..n)
+            .map(|_| {
+                let s: f64 = (0..m)
+                    .map(|_| {
+                        let z = (-2.0 * u().ln()).sqrt() * (std::f64::consts::TAU * u()).cos();
+                        z * z
+                    })
+                    .sum();
+                (s * scale, true)
+            })
+            .collect()
+    }
+
+    #[test]
+    fn verdicts_of_drawn_nis() {
+        for m in [1, 2, 3] {
+            let t = nis_test(&draws(5000, m, 1.0), m).expect("test");
+            assert_eq!(t.verdict, Verdict::Consistent, "{t:?}");
+            // 95 % of the draws inside the per-update interval (±2 %).
+            assert!((t.inside - 0.95).abs() < 0.02, "{t:?}");
+            assert!(t.mean > t.lo95 && t.mean < t.hi95, "{t:?}");
+            // σ 10× too small: NIS 100× larger.
+            let t = nis_test(&draws(5000, m, 100.0), m).expect("test");
+            assert_eq!(t.verdict, Verdict::TooOptimistic);
+            let t = nis_test(&draws(5000, m, 0.01), m).expect("test");
+            assert_eq!(t.verdict, Verdict::TooPessimistic);
+        }
+        assert!(nis_test(&[], 3).is_none());
+        assert!(nis_test(&[(f64::NAN, true)], 1).is_none());
+        // Every update rejected: too optimistic, no mean.
+        let t = nis_test(&[(50.0, false), (80.0, false)], 1).expect("test");
+        assert_eq!(t.verdict, Verdict::TooOptimistic);
+        assert!(t.mean.is_nan());
+        // 2 % rejected: too optimistic whatever the accepted mean.
+        let mut d = draws(1000, 1, 1.0);
+        for x in d.iter_mut().take(20) {
+            x.1 = false;
+        }
+        assert_eq!(
+            nis_test(&d, 1).expect("test").verdict,
+            Verdict::TooOptimistic
+        );
+    }
+
+    /// A recording's status records give one point per new update: a
+    /// status that repeats the last update (same counters, same innovation)
+    /// adds nothing, an aid without updates gives no series.
+    #[test]
+    fn status_records_give_one_point_per_update() {
+        let mut st = Status::default();
+        assert!(aids_from_status(&[st]).is_none());
+        st.t_ns = 1_000_000_000;
+        st.baro.accepted = 1;
+        st.baro_aid.innovation = [2.0, 0.0, 0.0];
+        st.baro_aid.innovation_var = [4.0, 0.0, 0.0];
+        st.baro_aid.fused = 1;
+        let mut later = st;
+        later.t_ns = 2_000_000_000;
+        let mut next = later;
+        next.t_ns = 3_000_000_000;
+        next.baro.rejected_gate = 1;
+        next.baro_aid.innovation = [40.0, 0.0, 0.0];
+        next.baro_aid.fused = 0;
+        let a = aids_from_status(&[st, later, next]).expect("aids");
+        assert!(a.srs.is_empty() && a.cns.is_empty() && a.star.is_empty());
+        assert_eq!(a.baro.len(), 2);
+        assert_eq!((a.baro[0].fused, a.baro[1].fused), (1, 0));
+        let s = aid_series(&a, &Where::default());
+        assert_eq!(s[0].dim, 1);
+        // NIS = ν²/S: 4/4 and 1600/4.
+        assert!((s[0].points[0].4 - 1.0).abs() < 1e-12 && (s[0].points[1].4 - 400.0).abs() < 1e-9);
+    }
+
+    /// Gaps are the intervals over 1.5× the median, listed with their
+    /// start and length; repeated and backward stamps are counted apart.
+    #[test]
+    fn imu_gaps_repeats_and_backward_stamps() {
+        let mut log = LogContents::default();
+        let mut t = 0u64;
+        for k in 0..1000u64 {
+            t += match k {
+                500 => 100_000_000, // a 100 ms gap
+                700 => 0,           // a repeated stamp
+                _ => 5_000_000,
+            };
+            log.imu.push(msgs::ImuSample {
+                t_ns: t,
+                ..Default::default()
+            });
+        }
+        log.imu.push(msgs::ImuSample {
+            t_ns: t - 1_000_000,
+            ..Default::default()
+        });
+        let s = sampling(&log).expect("sampling");
+        assert!((s.nominal_s - 0.005).abs() < 1e-12);
+        assert_eq!((s.duplicates, s.backwards), (1, 1));
+        assert_eq!(s.gaps.len(), 1);
+        let (start, len) = s.gaps[0];
+        assert!(
+            (len - 0.1).abs() < 1e-9 && (start - 500.0 * 0.005).abs() < 1e-9,
+            "{start} {len}"
+        );
+        assert!(sampling(&LogContents::default()).is_none());
+    }
+
+    #[test]
+    fn settings_values_are_read_by_key() {
+        let t = "[aids]\nsrs_gate = 16.5 # comment\ncns_gate=3\n";
+        assert_eq!(setting(t, "srs_gate"), Some(16.5));
+        assert_eq!(setting(t, "cns_gate"), Some(3.0));
+        assert_eq!(setting(t, "baro_gate"), None);
+    }
+}
