@@ -8,4 +8,5 @@ pub mod interop;
 pub mod live;
 pub mod monitor;
 pub mod pieces;
+pub mod scene;
 pub mod view;

@@ -187,6 +187,19 @@ enum Cmd {
     },
     /// Print the manual page (roff; `sensor-replay man > sensor-replay.1`).
     Man,
+    /// Draw the 3D panel's top-down view of an MCAP file's polar frame (the
+    /// `/track` entities and `/solution/pose` transforms), as the layout
+    /// config/foxglove/polar-layout.json shows it in Foxglove.
+    Scene {
+        /// The MCAP file (`nav-daemon batch --out F.mcap`, `record`, `export`).
+        mcap: PathBuf,
+        /// The PNG to write.
+        #[arg(long)]
+        out: PathBuf,
+        /// The frame to look down on: polar_north or polar_south.
+        #[arg(long, default_value = "polar_north")]
+        frame: String,
+    },
     /// Accuracy of a solution against the log's truth, with figures.
     Eval {
         /// The navlog of the flight, whose truth the solution is judged against.
@@ -310,6 +323,28 @@ fn run(cli: Cli) -> Result<(), Fail> {
             Ok(())
         }
         Cmd::Man => man(&mut std::io::stdout()).map_err(|e| Fail(1, format!("man: {e}"))),
+        Cmd::Scene { mcap, out, frame } => {
+            if frame != "polar_north" && frame != "polar_south" {
+                return Err(bad(format!(
+                    "--frame: polar_north or polar_south, not {frame:?}"
+                )));
+            }
+            let scene = sensor_replay::scene::read(&mcap, &frame).map_err(bad)?;
+            let title = format!(
+                "{}: top-down on {frame}. Blue: solution; grey: truth; orange: switch latitude; arrows: aircraft forward axis",
+                mcap.file_name()
+                    .map_or(String::new(), |n| n.to_string_lossy().into_owned())
+            );
+            sensor_replay::scene::draw(&scene, &title, &out).map_err(|e| Fail(1, e))?;
+            eprintln!(
+                "scene: {} lines, {} aircraft poses, {} markers in {frame} to {}",
+                scene.lines.len(),
+                scene.poses.len(),
+                scene.markers.len(),
+                out.display()
+            );
+            Ok(())
+        }
         Cmd::Simulate {
             scenario,
             out,

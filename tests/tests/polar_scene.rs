@@ -59,3 +59,80 @@ fn frame_tree_composes_back_to_the_solution_across_the_pole() {
     // The flight really crosses the pole: the latitude rises then falls.
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// The shipped Foxglove layout opens the 3D panel on a frame this project
+/// writes and shows only topics it writes; `sensor-replay scene` draws the
+/// same view of a file (a real PNG with the track, the pole and aircraft).
+#[test]
+fn shipped_layout_names_written_frames_and_topics_and_the_scene_draws() {
+    let text = std::fs::read_to_string(repo("config/foxglove/polar-layout.json")).expect("layout");
+    let v: serde_json::Value = serde_json::from_str(&text).expect("layout JSON");
+    let three_d = &v["configById"]["3D!polar"];
+    assert_eq!(three_d["followTf"], "polar_north");
+    for topic in three_d["topics"].as_object().expect("topics").keys() {
+        assert!(
+            polarnav_foxglove::TOPICS.contains(&topic.as_str()),
+            "{topic} is not written"
+        );
+    }
+    for frame in three_d["transforms"].as_object().expect("frames").keys() {
+        let name = frame.strip_prefix("frame:").expect("frame:");
+        assert!(
+            ["ecef", "polar_north", "polar_south", "body", "nav"].contains(&name),
+            "{name} is not a frame of the tree"
+        );
+    }
+    for path in v["configById"]["Plot!sigma"]["paths"]
+        .as_array()
+        .expect("paths")
+    {
+        let p = path["value"].as_str().expect("path");
+        let topic = p.split('.').next().expect("topic");
+        assert!(polarnav_foxglove::TOPICS.contains(&topic), "{topic}");
+    }
+
+    let dir = std::env::temp_dir().join(format!("polarnav-polar-layout-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("dir");
+    let text = std::fs::read_to_string(repo("config/scenarios/paper-sim.toml"))
+        .expect("scenario")
+        .replace("lat_deg = 87.5", "lat_deg = 89.9")
+        .replace("duration_s = 600.0", "duration_s = 90.0");
+    let log = dir.join("pole.navlog");
+    simulate_file(&text, "over the pole (90 s)", &log);
+    let mcap = dir.join("pole.mcap");
+    batch::run_to::<_, std::io::Sink>(
+        BufReader::new(std::fs::File::open(&log).expect("open")),
+        "pole.navlog",
+        Output::Mcap(Box::new(
+            McapFile::create(&mcap, AidSource::Updates).expect("mcap"),
+        )),
+        &ConfigFile::defaults(),
+        &BatchOptions::default(),
+    )
+    .expect("batch mcap");
+    let scene = sensor_replay::scene::read(&mcap, "polar_north").expect("scene");
+    assert!(
+        scene.lines.len() >= 2,
+        "solution and truth segments: {}",
+        scene.lines.len()
+    );
+    assert!(scene.markers.iter().any(|m| m.1 == "North Pole"));
+    assert!(scene.poses.len() >= 10);
+    // The aircraft passes within 15 km of the pole (it starts 11 km short
+    // of it heading north).
+    let closest = scene
+        .poses
+        .iter()
+        .map(|p| (p.0.0.powi(2) + p.0.1.powi(2)).sqrt())
+        .fold(f64::MAX, f64::min);
+    assert!(closest < 15.0, "closest {closest} km");
+    let png = dir.join("scene.png");
+    sensor_replay::scene::draw(&scene, "over the pole", &png).expect("draw");
+    let bytes = std::fs::read(&png).expect("png");
+    assert!(
+        bytes.starts_with(b"\x89PNG\r\n\x1a\n") && bytes.len() > 10_000,
+        "{} bytes",
+        bytes.len()
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}

@@ -378,7 +378,11 @@ impl PolarScene {
             let cdeg = (s.lat_rad.to_degrees() * 100.0).round() as i64;
             if !self.switch_latitudes_cdeg.contains(&cdeg) {
                 self.switch_latitudes_cdeg.push(cdeg);
-                entities.push(latitude_circle(s.t_ns, cdeg));
+                entities.push(latitude_circle(
+                    s.t_ns,
+                    cdeg,
+                    self.switch_latitudes_cdeg.len(),
+                ));
             }
         }
         entities.extend(self.solution.add(s.t_ns, s.lat_rad, s.r_e_m));
@@ -401,8 +405,9 @@ impl PolarScene {
 }
 
 /// The circle of latitude `cdeg` (hundredths of a degree) on the
-/// ellipsoid, in the nearer pole's frame, labelled.
-fn latitude_circle(t_ns: u64, cdeg: i64) -> SceneEntity {
+/// ellipsoid, in the nearer pole's frame, labelled at a longitude of 30° +
+/// 20° per circle before it (the `k`-th circle), so that labels do not overlap.
+fn latitude_circle(t_ns: u64, cdeg: i64, k: usize) -> SceneEntity {
     let lat = (cdeg as f64 / 100.0).to_radians();
     let pole = Pole::nearer(lat);
     let points =
@@ -414,8 +419,9 @@ fn latitude_circle(t_ns: u64, cdeg: i64) -> SceneEntity {
                 ))
             })
             .collect();
+    let label_lon = (10.0 + 20.0 * k as f64).to_radians();
     let label_at =
-        pole.from_ecef(earth::geodetic_to_ecef(&earth::Geodetic::new(lat, 0.0, 0.0)).into());
+        pole.from_ecef(earth::geodetic_to_ecef(&earth::Geodetic::new(lat, label_lon, 0.0)).into());
     SceneEntity {
         timestamp: Some(stamp(t_ns)),
         frame_id: pole.frame_id().into(),
