@@ -8,12 +8,15 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 use nav_daemon::batch::{self, BatchOptions};
 use polarnav::row_interval::RowInterval;
-use polarnav_config::{AidSet, CliOverrides, ConfigFile, Conversion, SensorGrade, effective};
+use polarnav_config::provenance::{UtcStart, provenance};
+use polarnav_config::{
+    AidSet, CliOverrides, ConfigFile, Conversion, SensorGrade, build_info, effective,
+};
 
 #[derive(Debug, Parser)]
 #[command(
     name = "nav-daemon",
-    version,
+    version = build_info::LONG_VERSION,
     about = "polarnav navigation daemon (SINS/SRS/CNS/baro, g/G frame switching)",
     after_help = "Without a subcommand, nav-daemon runs the live navigation service: it \
         reads its inputs from and publishes its solution over iceoryx2 under the \
@@ -33,6 +36,8 @@ struct Cli {
     cmd: Option<Cmd>,
 }
 
+// Parsed once per process: the size of the `batch` variant costs nothing.
+#[allow(clippy::large_enum_variant)]
 #[derive(Debug, Subcommand)]
 enum Cmd {
     /// Run the navigator over a navlog as fast as possible and write the solution
@@ -76,6 +81,11 @@ enum Cmd {
         /// (over the configuration's and the log header's `[filter]` noise keys).
         #[arg(long)]
         preset: Option<String>,
+        /// UTC time of the log's sensor time 0 (RFC 3339, e.g.
+        /// 2026-11-25T09:30:00Z): MCAP log times become dates (sensor time
+        /// plus this epoch) instead of 1970-01-01. MCAP output only.
+        #[arg(long, value_name = "RFC3339")]
+        utc_start: Option<String>,
     },
     /// Print the shell completion script (e.g. `nav-daemon completions bash >
     /// /usr/share/bash-completion/completions/nav-daemon`).
@@ -185,6 +195,7 @@ fn main() -> ExitCode {
             align,
             preset,
             every,
+            utc_start,
         }) => {
             let usage = |m: String| {
                 eprintln!("error: {m}");
@@ -201,6 +212,10 @@ fn main() -> ExitCode {
             let every = match every.map(RowInterval::new).transpose() {
                 Ok(e) => e,
                 Err(e) => return usage(format!("--every: {e}")),
+            };
+            let utc_start = match utc_start.as_deref().map(UtcStart::parse).transpose() {
+                Ok(u) => u,
+                Err(m) => return usage(format!("--utc-start: {m}")),
             };
             let conversion = match conversion.as_deref() {
                 None => None,
@@ -248,11 +263,29 @@ fn main() -> ExitCode {
             let is_mcap = out
                 .extension()
                 .is_some_and(|e| e.eq_ignore_ascii_case("mcap"));
+            if utc_start.is_some() && !is_mcap {
+                return usage(format!(
+                    "--utc-start: only an MCAP output has log times (the CSV's t_s is sensor time); --out {} is not .mcap",
+                    out.display()
+                ));
+            }
             let output = if is_mcap {
-                match polarnav_foxglove::McapFile::create(
+                let created = polarnav_foxglove::McapFile::create(
                     &out,
                     polarnav_foxglove::AidSource::Updates,
-                ) {
+                )
+                .and_then(|mut m| {
+                    if let Some(u) = &utc_start {
+                        m.channels().set_epoch_ns(u.ns);
+                    }
+                    let args: Vec<String> = std::env::args().collect();
+                    m.metadata(
+                        "polarnav.provenance",
+                        provenance("nav-daemon batch", &args, utc_start.as_ref()),
+                    )?;
+                    Ok(m)
+                });
+                match created {
                     Ok(m) => batch::Output::Mcap(Box::new(m)),
                     Err(e) => {
                         eprintln!("error: {e}");
@@ -327,11 +360,12 @@ fn main() -> ExitCode {
                 }
             };
             tracing::info!(
-                version = env!("CARGO_PKG_VERSION"),
+                version = build_info::VERSION,
+                commit = build_info::COMMIT,
                 config = %config.origin,
                 prefix = %settings.config.prefix,
                 "nav-daemon {} starting with {}",
-                env!("CARGO_PKG_VERSION"),
+                build_info::LONG_VERSION,
                 config.origin
             );
             tracing::info!("effective settings:\n{}", settings.describe());
@@ -425,6 +459,16 @@ mod tests {
             "{text}"
         );
         assert!(text.contains("batch"), "{text}");
+    }
+
+    #[test]
+    fn version_names_the_commit() {
+        let v = Cli::command().render_version();
+        assert!(
+            v.starts_with(&format!("nav-daemon {} (commit ", build_info::VERSION)),
+            "{v}"
+        );
+        assert!(v.contains(build_info::COMMIT), "{v}");
     }
 
     #[test]
