@@ -129,6 +129,10 @@ enum Cmd {
         /// TCP port (Foxglove's default is 8765; 0 picks a free one).
         #[arg(long, default_value_t = 8765)]
         port: u16,
+        /// Most messages per second sent on each channel (0: no limit);
+        /// above it messages are dropped, not queued, and counted.
+        #[arg(long, value_name = "HZ", default_value_t = sensor_replay::view::DEFAULT_MAX_RATE_HZ)]
+        max_rate: f64,
         /// Stop after this many seconds.
         #[arg(long)]
         duration: Option<f64>,
@@ -520,6 +524,7 @@ fn run(cli: Cli) -> Result<(), Fail> {
             prefix,
             host,
             port,
+            max_rate,
             duration,
         } => {
             if let Some(d) = duration
@@ -527,12 +532,15 @@ fn run(cli: Cli) -> Result<(), Fail> {
             {
                 return Err(bad(format!("--duration: expected seconds ≥ 0, got {d}")));
             }
+            let max_rate = sensor_replay::view::check_max_rate(max_rate)
+                .map_err(|m| bad(format!("--max-rate: {m}")))?;
             let stop = stop_flag()?;
             let cfg = polarnav_ipc::TransportConfig::new(&prefix);
             let n = sensor_replay::view::view(
                 &cfg,
                 &host,
                 port,
+                max_rate,
                 &stop,
                 duration.map(std::time::Duration::from_secs_f64),
                 |port| {
@@ -541,9 +549,18 @@ fn run(cli: Cli) -> Result<(), Fail> {
                 },
             )
             .map_err(|e| Fail(1, e.to_string()))?;
+            let dropped: Vec<String> = n.dropped.iter().map(|(t, k)| format!("{t} {k}")).collect();
             println!(
-                "view: {} solutions and {} status forwarded, {} solutions missed",
-                n.solutions, n.status, n.solution_gaps
+                "view: {} solutions and {} status forwarded, {} solutions missed; dropped by --max-rate: {}; {} client(s) refused",
+                n.solutions,
+                n.status,
+                n.solution_gaps,
+                if dropped.is_empty() {
+                    "none".to_owned()
+                } else {
+                    dropped.join(", ")
+                },
+                n.refused_clients
             );
             Ok(())
         }
