@@ -43,8 +43,8 @@ fn view_advertises_only_channels_with_data_at_most_max_rate_and_names_an_old_pro
     // only this) is refused, and the view says so, naming the client.
     let old = env
         .command_for(&python(), "old")
-        .arg(repo("tests/python/foxglove_all.py"))
-        .args([&url, "10", "1", "foxglove.websocket.v1"])
+        .arg(repo("tests/python/foxglove_client.py"))
+        .args([&url, "*", "/dev/null", "10", "1", "foxglove.websocket.v1"])
         .status()
         .expect("old client");
     let said: serde_json::Value = serde_json::from_str(env.read("old.out").trim())
@@ -73,8 +73,8 @@ fn view_advertises_only_channels_with_data_at_most_max_rate_and_names_an_old_pro
     // flight starts; it stops 3 s after the last solution.
     let mut client = env
         .command_for(&python(), "client")
-        .arg(repo("tests/python/foxglove_all.py"))
-        .args([&url, "90", "3"])
+        .arg(repo("tests/python/foxglove_client.py"))
+        .args([&url, "*", "/dev/null", "90", "3"])
         .spawn()
         .map(Proc)
         .expect("client");
@@ -93,9 +93,9 @@ fn view_advertises_only_channels_with_data_at_most_max_rate_and_names_an_old_pro
         serde_json::from_str(env.read("client.out").trim()).expect("client summary");
     eprintln!("{got}");
     assert_eq!(got["subprotocol"], "foxglove.sdk.v1");
-    let advertised: Vec<&str> = got["advertised"]
+    let advertised: Vec<&str> = got["topics"]
         .as_array()
-        .expect("advertised")
+        .expect("advertised topics")
         .iter()
         .filter_map(|t| t.as_str())
         .collect();
