@@ -855,3 +855,80 @@ pub fn json_of<T: Serialize>(v: &T) -> Value {
     schema::strip_padding(&mut value);
     value
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn solution(t_ns: u64) -> Solution {
+        Solution {
+            t_ns,
+            q_b_e: [1.0, 0.0, 0.0, 0.0],
+            ..Default::default()
+        }
+    }
+
+    /// Files list every channel; the live mapping creates a channel with
+    /// its first message or while its feed's publisher is up, and closes
+    /// it (removes it from the context) when the publisher goes.
+    #[test]
+    fn live_channels_exist_only_with_data_or_a_publisher() {
+        let ctx = Context::new();
+        let all = FlightChannels::new(&ctx, AidSource::Updates);
+        for t in TOPICS {
+            assert!(ctx.get_channel_by_topic(t).is_some(), "{t} missing");
+        }
+        assert_eq!(all.open_topics().len(), TOPICS.len());
+
+        let ctx = Context::new();
+        let mut live = FlightChannels::new_live(&ctx, AidSource::Status, None);
+        assert!(live.open_topics().is_empty());
+        assert!(TOPICS.iter().all(|t| ctx.get_channel_by_topic(t).is_none()));
+        live.advertise(Feed::Status);
+        assert_eq!(live.open_topics(), ["/status"]);
+        live.solution(&solution(1));
+        assert_eq!(
+            live.open_topics(),
+            ["/solution", "/solution/fix", "/solution/pose", "/status"]
+        );
+        // A frame change creates the event channels.
+        live.solution(&Solution {
+            frame: 1,
+            ..solution(2)
+        });
+        assert!(live.open_topics().contains(&"/events/switch"));
+        live.withdraw(Feed::Solution);
+        assert_eq!(live.open_topics(), ["/status"]);
+        assert!(ctx.get_channel_by_topic("/solution").is_none());
+        assert!(ctx.get_channel_by_topic("/events").is_none());
+        live.withdraw(Feed::Status);
+        assert!(live.open_topics().is_empty());
+    }
+
+    /// A 100 Hz limit passes at most one message per 10 ms and counts the
+    /// rest as dropped; no limit drops nothing.
+    #[test]
+    fn the_rate_gate_drops_and_counts_what_comes_too_fast() {
+        let mut g = RateGate::new(Some(100.0));
+        let t0 = Instant::now();
+        let mut passed = 0u64;
+        let mut offered = 0u64;
+        while t0.elapsed() < Duration::from_millis(200) {
+            offered += 1;
+            passed += u64::from(g.pass());
+        }
+        let elapsed_s = t0.elapsed().as_secs_f64();
+        assert!(
+            (passed as f64) <= 100.0 * elapsed_s + 1.0,
+            "{passed} passed in {elapsed_s} s"
+        );
+        assert!(passed >= 10, "{passed} passed in {elapsed_s} s");
+        assert_eq!(passed + g.dropped, offered);
+        let mut free = RateGate::new(None);
+        assert!((0..1000).all(|_| free.pass()));
+        assert_eq!(free.dropped, 0);
+        for absurd in [Some(0.0), Some(-5.0), Some(f64::NAN), Some(f64::INFINITY)] {
+            assert!(RateGate::new(absurd).period.is_zero(), "{absurd:?}");
+        }
+    }
+}
