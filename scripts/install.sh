@@ -36,7 +36,7 @@ install -d -m 0755 "$DESTDIR$PREFIX/bin" "$DESTDIR$PREFIX/share/doc/polarnav" \
   "$DESTDIR/etc/systemd/system" "$DESTDIR/etc/sysusers.d" "$DESTDIR/etc/tmpfiles.d"
 install -d -m 0755 "$DESTDIR/etc/polarnav"
 install -m 0755 "$BIN_DIR/nav-daemon" "$BIN_DIR/sensor-replay" "$DESTDIR$PREFIX/bin/"
-units="nav-daemon.service nav-recorder.service sensor-replay@.service"
+units="nav-daemon.service nav-recorder.service nav-view.service sensor-replay@.service"
 for u in $units; do
   # The units start the binaries where this script puts them.
   sed -e "s|/usr/local/bin/|$PREFIX/bin/|g" \

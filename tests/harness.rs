@@ -217,3 +217,18 @@ pub fn short_log_of(dir: &Path, seconds: f64, scenario: &str) -> PathBuf {
     .expect("simulate");
     log
 }
+
+/// The port a `sensor-replay view` listens on, from its start line.
+pub fn view_port(env: &Env, log: &str) -> u16 {
+    env.wait_for(log, "view: serving", Duration::from_secs(20));
+    let err = std::fs::read_to_string(env.dir.join(format!("{log}.err"))).expect("view log");
+    let line = err
+        .lines()
+        .find(|l| l.contains("view: serving"))
+        .expect("start line");
+    line.rsplit(':')
+        .next()
+        .and_then(|p| p.split_whitespace().next())
+        .and_then(|p| p.parse().ok())
+        .unwrap_or_else(|| panic!("no port in {line:?}"))
+}

@@ -330,6 +330,10 @@ pub fn run_to<R: BufRead + Send, W: Write>(
             if let Some(Record::Header(h)) = &first {
                 m.header(h)?;
             }
+            m.metadata(
+                "polarnav.settings",
+                polarnav_config::provenance::settings(&eff),
+            )?;
         }
     }
     let mut next_status_ns = 0;

@@ -8,12 +8,15 @@ use std::process::ExitCode;
 use clap::{Parser, Subcommand};
 use nav_daemon::batch::{self, BatchOptions};
 use polarnav::row_interval::RowInterval;
-use polarnav_config::{AidSet, CliOverrides, ConfigFile, Conversion, SensorGrade, effective};
+use polarnav_config::provenance::{UtcStart, provenance};
+use polarnav_config::{
+    AidSet, CliOverrides, ConfigFile, Conversion, SensorGrade, build_info, effective,
+};
 
 #[derive(Debug, Parser)]
 #[command(
     name = "nav-daemon",
-    version,
+    version = build_info::LONG_VERSION,
     about = "polarnav navigation daemon (SINS/SRS/CNS/baro, g/G frame switching)",
     after_help = "Without a subcommand, nav-daemon runs the live navigation service: it \
         reads its inputs from and publishes its solution over iceoryx2 under the \
@@ -33,6 +36,8 @@ struct Cli {
     cmd: Option<Cmd>,
 }
 
+// Parsed once per process: the size of the `batch` variant costs nothing.
+#[allow(clippy::large_enum_variant)]
 #[derive(Debug, Subcommand)]
 enum Cmd {
     /// Run the navigator over a navlog as fast as possible and write the solution
@@ -79,11 +84,16 @@ enum Cmd {
         /// Write the fixed-interval smoothed solution (Rauch–Tung–Striebel over
         /// the forward run, through frame switches; breaks at resets) in the
         /// forward solution's columns. Its record of the forward run is kept in
-        /// memory up to 512 MiB (about 1.5 h at 200 Hz), beyond that in an
+        /// memory up to 384 MiB (about 1.7 h at 200 Hz), beyond that in an
         /// unnamed temporary file in the output's directory (about 0.23 GB per
         /// flight hour at 200 Hz); memory stays under 1 GB whatever the length.
         #[arg(long)]
         smooth: bool,
+        /// UTC time of the log's sensor time 0 (RFC 3339, e.g.
+        /// 2026-11-25T09:30:00Z): MCAP log times become dates (sensor time
+        /// plus this epoch) instead of 1970-01-01. MCAP output only.
+        #[arg(long, value_name = "RFC3339")]
+        utc_start: Option<String>,
     },
     /// Print the shell completion script (e.g. `nav-daemon completions bash >
     /// /usr/share/bash-completion/completions/nav-daemon`).
@@ -194,6 +204,7 @@ fn main() -> ExitCode {
             preset,
             every,
             smooth,
+            utc_start,
         }) => {
             let usage = |m: String| {
                 eprintln!("error: {m}");
@@ -210,6 +221,10 @@ fn main() -> ExitCode {
             let every = match every.map(RowInterval::new).transpose() {
                 Ok(e) => e,
                 Err(e) => return usage(format!("--every: {e}")),
+            };
+            let utc_start = match utc_start.as_deref().map(UtcStart::parse).transpose() {
+                Ok(u) => u,
+                Err(m) => return usage(format!("--utc-start: {m}")),
             };
             let conversion = match conversion.as_deref() {
                 None => None,
@@ -261,11 +276,29 @@ fn main() -> ExitCode {
             let is_mcap = out
                 .extension()
                 .is_some_and(|e| e.eq_ignore_ascii_case("mcap"));
+            if utc_start.is_some() && !is_mcap {
+                return usage(format!(
+                    "--utc-start: only an MCAP output has log times (the CSV's t_s is sensor time); --out {} is not .mcap",
+                    out.display()
+                ));
+            }
             let output = if is_mcap {
-                match polarnav_foxglove::McapFile::create(
+                let created = polarnav_foxglove::McapFile::create(
                     &out,
                     polarnav_foxglove::AidSource::Updates,
-                ) {
+                )
+                .and_then(|mut m| {
+                    if let Some(u) = &utc_start {
+                        m.channels().set_epoch_ns(u.ns);
+                    }
+                    let args: Vec<String> = std::env::args().collect();
+                    m.metadata(
+                        "polarnav.provenance",
+                        provenance("nav-daemon batch", &args, utc_start.as_ref()),
+                    )?;
+                    Ok(m)
+                });
+                match created {
                     Ok(m) => batch::Output::Mcap(Box::new(m)),
                     Err(e) => {
                         eprintln!("error: {e}");
@@ -340,11 +373,12 @@ fn main() -> ExitCode {
                 }
             };
             tracing::info!(
-                version = env!("CARGO_PKG_VERSION"),
+                version = build_info::VERSION,
+                commit = build_info::COMMIT,
                 config = %config.origin,
                 prefix = %settings.config.prefix,
                 "nav-daemon {} starting with {}",
-                env!("CARGO_PKG_VERSION"),
+                build_info::LONG_VERSION,
                 config.origin
             );
             tracing::info!("effective settings:\n{}", settings.describe());
@@ -438,6 +472,16 @@ mod tests {
             "{text}"
         );
         assert!(text.contains("batch"), "{text}");
+    }
+
+    #[test]
+    fn version_names_the_commit() {
+        let v = Cli::command().render_version();
+        assert!(
+            v.starts_with(&format!("nav-daemon {} (commit ", build_info::VERSION)),
+            "{v}"
+        );
+        assert!(v.contains(build_info::COMMIT), "{v}");
     }
 
     #[test]

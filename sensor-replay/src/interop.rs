@@ -665,10 +665,9 @@ pub fn import_kfgins<W: Write>(
     write_log(
         out,
         Header::new(
-            concat!(
-                "sensor-replay ",
-                env!("CARGO_PKG_VERSION"),
-                " import-kfgins"
+            &format!(
+                "sensor-replay {} import-kfgins",
+                polarnav_config::build_info::LONG_VERSION
             ),
             "kfgins",
             aids.seed,
@@ -864,7 +863,10 @@ pub fn import_psins<W: Write>(
     write_log(
         out,
         Header::new(
-            concat!("sensor-replay ", env!("CARGO_PKG_VERSION"), " import-psins"),
+            &format!(
+                "sensor-replay {} import-psins",
+                polarnav_config::build_info::LONG_VERSION
+            ),
             "psins",
             aids.seed,
             &import_metadata(&meta, aids.preset),

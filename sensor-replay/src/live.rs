@@ -416,7 +416,10 @@ pub fn record(
     let mut pieces = Pieces::new(
         out,
         open,
-        concat!("sensor-replay ", env!("CARGO_PKG_VERSION"), " record"),
+        &format!(
+            "sensor-replay {} record",
+            polarnav_config::build_info::LONG_VERSION
+        ),
         &cfg.prefix,
     );
     let mut started = false;

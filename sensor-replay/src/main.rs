@@ -16,7 +16,7 @@ use sensor_replay::interop::{self, AidSynthesis, ImportError};
 #[derive(Debug, Parser)]
 #[command(
     name = "sensor-replay",
-    version,
+    version = polarnav_config::build_info::LONG_VERSION,
     about = "polarnav flight simulator, log tools and evaluator"
 )]
 struct Cli {
@@ -130,6 +130,10 @@ enum Cmd {
         /// TCP port (Foxglove's default is 8765; 0 picks a free one).
         #[arg(long, default_value_t = 8765)]
         port: u16,
+        /// Most messages per second sent on each channel (0: no limit);
+        /// above it messages are dropped, not queued, and counted.
+        #[arg(long, value_name = "HZ", default_value_t = sensor_replay::view::DEFAULT_MAX_RATE_HZ)]
+        max_rate: f64,
         /// Stop after this many seconds.
         #[arg(long)]
         duration: Option<f64>,
@@ -153,6 +157,10 @@ enum Cmd {
         /// switches, truth); the log is streamed, not loaded.
         #[arg(long)]
         mcap: Option<PathBuf>,
+        /// With --mcap: UTC time of the log's sensor time 0 (RFC 3339, e.g.
+        /// 2026-11-25T09:30:00Z), so the MCAP log times are dates.
+        #[arg(long, value_name = "RFC3339", requires = "mcap")]
+        utc_start: Option<String>,
     },
     /// Import KF-GINS text logs (IMU increments FRD, NED truth).
     ImportKfgins {
@@ -558,6 +566,7 @@ fn run(cli: Cli) -> Result<(), Fail> {
             prefix,
             host,
             port,
+            max_rate,
             duration,
         } => {
             if let Some(d) = duration
@@ -565,12 +574,15 @@ fn run(cli: Cli) -> Result<(), Fail> {
             {
                 return Err(bad(format!("--duration: expected seconds ≥ 0, got {d}")));
             }
+            let max_rate = sensor_replay::view::check_max_rate(max_rate)
+                .map_err(|m| bad(format!("--max-rate: {m}")))?;
             let stop = stop_flag()?;
             let cfg = polarnav_ipc::TransportConfig::new(&prefix);
             let n = sensor_replay::view::view(
                 &cfg,
                 &host,
                 port,
+                max_rate,
                 &stop,
                 duration.map(std::time::Duration::from_secs_f64),
                 |port| {
@@ -579,9 +591,18 @@ fn run(cli: Cli) -> Result<(), Fail> {
                 },
             )
             .map_err(|e| Fail(1, e.to_string()))?;
+            let dropped: Vec<String> = n.dropped.iter().map(|(t, k)| format!("{t} {k}")).collect();
             println!(
-                "view: {} solutions and {} status forwarded, {} solutions missed",
-                n.solutions, n.status, n.solution_gaps
+                "view: {} solutions and {} status forwarded, {} solutions missed; dropped by --max-rate: {}; {} client(s) refused",
+                n.solutions,
+                n.status,
+                n.solution_gaps,
+                if dropped.is_empty() {
+                    "none".to_owned()
+                } else {
+                    dropped.join(", ")
+                },
+                n.refused_clients
             );
             Ok(())
         }
@@ -613,9 +634,15 @@ fn run(cli: Cli) -> Result<(), Fail> {
             solution_csv,
             kfgins,
             mcap,
+            utc_start,
         } => {
+            let utc_start = utc_start
+                .as_deref()
+                .map(polarnav_config::provenance::UtcStart::parse)
+                .transpose()
+                .map_err(|m| bad(format!("--utc-start: {m}")))?;
             if let Some(p) = &mcap {
-                let n = export_mcap(&log, p)?;
+                let n = export_mcap(&log, p, utc_start.as_ref())?;
                 eprintln!("export: {n} records to {}", p.display());
                 if truth_csv.is_none() && solution_csv.is_none() && kfgins.is_none() {
                     return Ok(());
@@ -794,11 +821,26 @@ fn run(cli: Cli) -> Result<(), Fail> {
 }
 
 /// Streams a navlog into an MCAP file, record by record (bounded memory);
-/// a damaged record costs itself, as in every reader of the project.
-fn export_mcap(log: &std::path::Path, out: &std::path::Path) -> Result<u64, Fail> {
+/// a damaged record costs itself, as in every reader of the project. Its
+/// provenance (this program, version, commit, command line) is a metadata
+/// record; `utc_start` makes the log times dates.
+fn export_mcap(
+    log: &std::path::Path,
+    out: &std::path::Path,
+    utc_start: Option<&polarnav_config::provenance::UtcStart>,
+) -> Result<u64, Fail> {
     let f = File::open(log).map_err(|e| Fail(2, format!("{}: cannot open: {e}", log.display())))?;
     let mut reader = msgs::navlog::NavlogReader::new(std::io::BufReader::with_capacity(1 << 20, f));
     let mut m = McapFile::create(out, AidSource::Status).map_err(|e| Fail(1, e.to_string()))?;
+    if let Some(u) = utc_start {
+        m.channels().set_epoch_ns(u.ns);
+    }
+    let args: Vec<String> = std::env::args().collect();
+    m.metadata(
+        "polarnav.provenance",
+        polarnav_config::provenance::provenance("sensor-replay export", &args, utc_start),
+    )
+    .map_err(|e| Fail(1, e.to_string()))?;
     let mut n = 0u64;
     while let Some(r) = reader
         .next_record()

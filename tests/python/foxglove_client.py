@@ -1,12 +1,20 @@
 """A Foxglove WebSocket client: connects with the protocol's subprotocol,
-subscribes to one topic and writes every message it receives.
+subscribes to one topic (or to every channel, as the server advertises it)
+and records what arrives.
 
-usage: foxglove_client.py URL TOPIC OUT.jsonl MAX_SECONDS IDLE_SECONDS
+usage: foxglove_client.py URL TOPIC OUT.jsonl MAX_SECONDS IDLE_SECONDS [SUBPROTOCOL ...]
 
-Writes one JSON line per message: {"log_time": ns, "msg": <the JSON payload>}.
-Stops IDLE_SECONDS after the last message (once one arrived) or after
-MAX_SECONDS. Prints one JSON line: the negotiated subprotocol, the server
-name, the topics advertised and the number of messages.
+TOPIC `*` subscribes to every advertised channel and writes no messages;
+otherwise every message of TOPIC goes to OUT.jsonl, one JSON line each:
+{"log_time": ns, "msg": <the JSON payload>}. Offers the given subprotocols
+(default foxglove.sdk.v1). Stops IDLE_SECONDS after the last message of
+TOPIC (of /solution for `*`), once one arrived, or after MAX_SECONDS.
+Prints one JSON line: the negotiated subprotocol, the server name, the
+topics ever advertised and those unadvertised (channel ids), the number of
+messages of TOPIC, and per topic the message count and [first, last] log
+time; or, when the server refuses the handshake, {"refused": HTTP status,
+"body": text}. Writes "foxglove_client: subscribed to T" to stderr for each
+subscription.
 """
 
 import json
@@ -14,6 +22,7 @@ import struct
 import sys
 import time
 
+from websockets.exceptions import InvalidStatus
 from websockets.sync.client import connect
 
 SUBPROTOCOL = "foxglove.sdk.v1"
@@ -21,17 +30,25 @@ SUBPROTOCOL = "foxglove.sdk.v1"
 
 def main():
     url, topic, out, max_s, idle_s = sys.argv[1:6]
+    offered = sys.argv[6:] or [SUBPROTOCOL]
     max_s, idle_s = float(max_s), float(idle_s)
+    every = topic == "*"
+    idle_topic = "/solution" if every else topic
     t0 = time.monotonic()
     last = None
-    n = 0
-    topics = []
     server = None
-    sub_id = 1
-    with connect(url, subprotocols=[SUBPROTOCOL], open_timeout=10, max_size=None) as ws, open(out, "w") as f:
-        if ws.subprotocol != SUBPROTOCOL:
+    topics, unadvertised = [], []
+    topic_of_sub = {}
+    counts, log_times = {}, {}
+    try:
+        ws = connect(url, subprotocols=offered, open_timeout=10, max_size=None)
+    except InvalidStatus as e:
+        body = e.response.body.decode("utf-8", "replace") if e.response.body else ""
+        print(json.dumps({"refused": e.response.status_code, "body": body}))
+        return
+    with ws, open(out, "w") as f:
+        if ws.subprotocol not in offered:
             sys.exit(f"foxglove_client: server chose subprotocol {ws.subprotocol!r}")
-        subscribed = False
         while True:
             now = time.monotonic()
             if now - t0 > max_s or (last is not None and now - last > idle_s):
@@ -45,23 +62,41 @@ def main():
                 if op.get("op") == "serverInfo":
                     server = op.get("name")
                 elif op.get("op") == "advertise":
+                    subs = []
                     for ch in op["channels"]:
                         topics.append(ch["topic"])
-                        if ch["topic"] == topic and not subscribed:
-                            ws.send(json.dumps({"op": "subscribe", "subscriptions": [{"id": sub_id, "channelId": ch["id"]}]}))
-                            subscribed = True
-                            print(f"foxglove_client: subscribed to {topic}", file=sys.stderr, flush=True)
+                        if (every or ch["topic"] == topic) and ch["topic"] not in topic_of_sub.values():
+                            sid = len(topic_of_sub) + 1
+                            topic_of_sub[sid] = ch["topic"]
+                            subs.append({"id": sid, "channelId": ch["id"]})
+                            print(f"foxglove_client: subscribed to {ch['topic']}", file=sys.stderr, flush=True)
+                    if subs:
+                        ws.send(json.dumps({"op": "subscribe", "subscriptions": subs}))
+                elif op.get("op") == "unadvertise":
+                    unadvertised.extend(op.get("channelIds", []))
                 continue
-            opcode = m[0]
-            if opcode != 0x01:
+            if m[0] != 0x01:
                 continue
             sid, log_time = struct.unpack_from("<IQ", m, 1)
-            if sid != sub_id:
+            got = topic_of_sub.get(sid)
+            if got is None:
                 sys.exit(f"foxglove_client: message for subscription {sid}")
-            f.write(json.dumps({"log_time": log_time, "msg": json.loads(m[13:])}) + "\n")
-            n += 1
-            last = time.monotonic()
-    print(json.dumps({"subprotocol": SUBPROTOCOL, "server": server, "topics": sorted(set(topics)), "messages": n}))
+            counts[got] = counts.get(got, 0) + 1
+            log_times.setdefault(got, [log_time, log_time])[1] = log_time
+            if not every:
+                f.write(json.dumps({"log_time": log_time, "msg": json.loads(m[13:])}) + "\n")
+            if got == idle_topic:
+                last = time.monotonic()
+        negotiated = ws.subprotocol
+    print(json.dumps({
+        "subprotocol": negotiated,
+        "server": server,
+        "topics": sorted(set(topics)),
+        "unadvertised": unadvertised,
+        "messages": counts.get(topic, 0),
+        "counts": counts,
+        "log_times": log_times,
+    }))
 
 
 if __name__ == "__main__":

@@ -13,7 +13,7 @@ use polarnav::solution_csv;
 use polarnav_config::{CliOverrides, ConfigFile, effective};
 use polarnav_sim::scenario::Scenario;
 use polarnav_sim::simulate::{SimOptions, simulate};
-use polarnav_tests::harness::{Env, Proc, short_log, short_log_of, terminate, wait};
+use polarnav_tests::harness::{Env, Proc, short_log, short_log_of, terminate, view_port, wait};
 use polarnav_tests::{bin, check_mcap, python, repo};
 
 /// What `nav-daemon batch` computes on `log` with `env`'s configuration:
@@ -862,8 +862,8 @@ fn units_order_after_a_daemon_that_is_ready_without_input() {
         }
     }
     assert_eq!(
-        clients, 2,
-        "replay and recorder are ordered after the daemon"
+        clients, 3,
+        "replay, recorder and view are ordered after the daemon"
     );
 }
 
@@ -1925,21 +1925,6 @@ fn service_user_model_keeps_other_users_out() {
     );
 }
 
-/// The port a `sensor-replay view` listens on, from its start line.
-fn view_port(env: &Env, log: &str) -> u16 {
-    env.wait_for(log, "view: serving", Duration::from_secs(20));
-    let err = std::fs::read_to_string(env.dir.join(format!("{log}.err"))).expect("view log");
-    let line = err
-        .lines()
-        .find(|l| l.contains("view: serving"))
-        .expect("start line");
-    line.rsplit(':')
-        .next()
-        .and_then(|p| p.split_whitespace().next())
-        .and_then(|p| p.parse().ok())
-        .unwrap_or_else(|| panic!("no port in {line:?}"))
-}
-
 /// The live view serves the daemon's solutions over the Foxglove WebSocket
 /// protocol: a client that negotiates the protocol's subprotocol and
 /// subscribes to `/solution` receives, while a replay runs, the solutions the
@@ -1965,7 +1950,16 @@ fn foxglove_view_serves_the_recorded_solutions_and_mcap_recordings_read_back() {
     env.wait_for("record-mcap", "subscribed", Duration::from_secs(20));
     let mut view = env
         .command("sensor-replay", "view")
-        .args(["view", "--prefix", &env.cfg.prefix, "--port", "0"])
+        // Every solution: no rate limit.
+        .args([
+            "view",
+            "--prefix",
+            &env.cfg.prefix,
+            "--port",
+            "0",
+            "--max-rate",
+            "0",
+        ])
         .spawn()
         .map(Proc)
         .expect("view");
@@ -2007,11 +2001,16 @@ fn foxglove_view_serves_the_recorded_solutions_and_mcap_recordings_read_back() {
     )
     .expect("client summary JSON");
     let topics = summary["topics"].as_array().expect("topics");
-    for t in ["/solution", "/solution/fix", "/status", "/events/switch"] {
+    for t in ["/solution", "/solution/fix", "/status"] {
         assert!(
             topics.iter().any(|x| x == t),
             "{t} not advertised: {topics:?}"
         );
+    }
+    // Only channels that carry data: the view has no inputs, and this
+    // 40 s flight no frame switch.
+    for t in ["/imu", "/cns", "/truth", "/events/switch"] {
+        assert!(!topics.iter().any(|x| x == t), "{t} advertised: {topics:?}");
     }
     let (records, report) = msgs::navlog::read_all(&std::fs::read(&rec_path).expect("recording"));
     assert!(report.is_clean(), "{report}");

@@ -508,6 +508,13 @@ impl<T: Debug + ZeroCopySend + Copy + 'static> TopicSubscriber<T> {
         found
     }
 
+    /// Publishers connected to this service now (a publisher of a process
+    /// killed without cleanup counts until its dead node is removed).
+    pub fn publishers(&self) -> usize {
+        use iceoryx2::service::port_factory::PortFactory as _;
+        self.service.dynamic_config().number_of_publishers()
+    }
+
     /// Takes every received sample, oldest first, into `f` (copied out of shared memory).
     pub fn drain(&self, mut f: impl FnMut(T)) -> Result<usize, TransportError> {
         let mut n = 0;

@@ -144,10 +144,9 @@ impl Effective {
         self.sources.get(key)
     }
 
-    /// One line per setting, `key = value  # source`, sorted by key: what
-    /// the daemon and `batch` print at start.
-    pub fn describe(&self) -> String {
-        let mut out = String::new();
+    /// Every setting as `(key, value as TOML, where it came from)`, sorted
+    /// by key; the place names the file for a file's value.
+    pub fn settings(&self) -> Vec<(String, String, String)> {
         let table = to_table(&self.config);
         let mut lines = Vec::new();
         leaves(&table, "", &mut |k, v| lines.push((k, v.to_string())));
@@ -155,15 +154,26 @@ impl Effective {
             lines.push(("align_s".to_owned(), toml::Value::Float(a).to_string()));
         }
         lines.sort();
-        for (k, v) in lines {
-            let src = self.sources.get(&k).unwrap_or(&Source::Default);
-            let place = match src {
-                Source::File => format!("{src} {}", self.origins.file),
-                _ => src.to_string(),
-            };
-            out.push_str(&format!("{k} = {v}  # {place}\n"));
-        }
-        out
+        lines
+            .into_iter()
+            .map(|(k, v)| {
+                let src = self.sources.get(&k).unwrap_or(&Source::Default);
+                let place = match src {
+                    Source::File => format!("{src} {}", self.origins.file),
+                    _ => src.to_string(),
+                };
+                (k, v, place)
+            })
+            .collect()
+    }
+
+    /// One line per setting, `key = value  # source`, sorted by key: what
+    /// the daemon and `batch` print at start.
+    pub fn describe(&self) -> String {
+        self.settings()
+            .into_iter()
+            .map(|(k, v, place)| format!("{k} = {v}  # {place}\n"))
+            .collect()
     }
 
     /// The navigator settings as a navlog header's `[navigator]` table (every

@@ -5,7 +5,9 @@
 //! `batch` alike, and says where each value came from. Unknown keys and bad
 //! values are errors that name the file (or header, or option) and the key.
 
+pub mod build_info;
 mod effective;
+pub mod provenance;
 
 use std::path::Path;
 

@@ -24,13 +24,10 @@
 //! [`TRACK_SEGMENT_POINTS`] points that accumulate (a flight of a day is a
 //! few thousand small messages, not one growing line).
 
-use std::sync::Arc;
-
 use foxglove::messages::{
     Color, FrameTransform, LinePrimitive, Point3, Pose, Quaternion, SceneEntity, SceneUpdate,
     SpherePrimitive, TextPrimitive, Timestamp, Vector3,
 };
-use foxglove::{Channel, Context};
 use msgs::{Solution, TruthRecord, WireFrame};
 use nalgebra::UnitQuaternion;
 use polarnav::earth;
@@ -161,6 +158,7 @@ struct Track {
     color: Color,
     pole: Option<Pole>,
     next_ns: u64,
+    last_ns: u64,
     points: Vec<Point3>,
     segment: u64,
 }
@@ -172,6 +170,7 @@ impl Track {
             color,
             pole: None,
             next_ns: 0,
+            last_ns: 0,
             points: Vec::with_capacity(TRACK_SEGMENT_POINTS + 1),
             segment: 0,
         }
@@ -190,6 +189,7 @@ impl Track {
             return out;
         }
         self.next_ns = t_ns.saturating_add(TRACK_POINT_NS);
+        self.last_ns = t_ns;
         self.points.push(point(pole.from_ecef(r_e)));
         if self.points.len() > TRACK_SEGMENT_POINTS {
             out = self.flush(t_ns);
@@ -226,16 +226,49 @@ impl Track {
     }
 }
 
-/// The frames and the track of one run.
+/// `polar` → `body` of a solution as the `/solution/pose` message, stamped `at_ns`.
+pub fn pose_message(s: &Solution, at_ns: u64) -> FrameTransform {
+    let (pole, t, q) = body_in_polar(s);
+    transform(at_ns, pole.frame_id(), "body", t, &q)
+}
+
+/// `polar` → `nav` (ENU in g, grid in G, at the aircraft) as the
+/// `/solution/nav_frame` message, stamped `at_ns`.
+pub fn nav_frame_message(s: &Solution, at_ns: u64) -> FrameTransform {
+    let (pole, t, _) = body_in_polar(s);
+    let c_e_n = if s.frame == WireFrame::Grid as u8 {
+        frames::c_e_grid(s.lat_rad, s.lon_rad)
+    } else {
+        frames::c_e_g(s.lat_rad, s.lon_rad)
+    };
+    let q_n_e = frames::quat_from_dcm(&c_e_n.transpose());
+    transform(
+        at_ns,
+        pole.frame_id(),
+        "nav",
+        t,
+        &(pole.q_e_polar() * q_n_e),
+    )
+}
+
+/// What the scene sends with one input: the static frames (when due) and
+/// a scene update (when there is one).
+#[derive(Debug, Default)]
+pub struct SceneOut {
+    /// `ecef` → `polar_north` and `ecef` → `polar_south`, for `/tf/polar`.
+    pub statics: Vec<FrameTransform>,
+    /// For `/track`.
+    pub update: Option<SceneUpdate>,
+}
+
+/// The state of the scene of one run: the tracks being drawn, the switch
+/// latitudes drawn, when the static frames go out again. It owns no
+/// channel: the caller logs what it returns.
 #[derive(Debug)]
 pub struct PolarScene {
-    tf: Channel<FrameTransform>,
-    pose: Channel<FrameTransform>,
-    nav: Channel<FrameTransform>,
-    track: Channel<SceneUpdate>,
     solution: Track,
     truth: Track,
-    /// The last time the static frames and the pole were sent.
+    /// When the static frames and the poles go out again.
     next_static_ns: Option<u64>,
     switch_latitudes_cdeg: Vec<i64>,
 }
@@ -244,14 +277,16 @@ pub struct PolarScene {
 /// sensor time, so that a player that seeks finds them (60 s).
 const STATIC_PERIOD_NS: u64 = 60_000_000_000;
 
+impl Default for PolarScene {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
 impl PolarScene {
-    /// Creates the channels in `ctx`.
-    pub fn new(ctx: &Arc<Context>) -> Self {
+    /// A scene with nothing drawn yet.
+    pub fn new() -> Self {
         Self {
-            tf: ctx.channel_builder("/tf/polar").build(),
-            pose: ctx.channel_builder("/solution/pose").build(),
-            nav: ctx.channel_builder("/solution/nav_frame").build(),
-            track: ctx.channel_builder("/track").build(),
             solution: Track::new(
                 "solution",
                 Color {
@@ -275,25 +310,22 @@ impl PolarScene {
         }
     }
 
-    fn statics(&mut self, t_ns: u64) {
-        if self.next_static_ns.is_some_and(|n| t_ns < n) {
+    /// The static frames and the poles, when due at `at_ns`.
+    fn statics(&mut self, at_ns: u64, out: &mut SceneOut, entities: &mut Vec<SceneEntity>) {
+        if self.next_static_ns.is_some_and(|n| at_ns < n) {
             return;
         }
-        self.next_static_ns = Some(t_ns.saturating_add(STATIC_PERIOD_NS));
-        let mut entities = Vec::new();
+        self.next_static_ns = Some(at_ns.saturating_add(STATIC_PERIOD_NS));
         for pole in [Pole::North, Pole::South] {
-            self.tf.log_with_time(
-                &transform(
-                    t_ns,
-                    "ecef",
-                    pole.frame_id(),
-                    pole.origin_e(),
-                    &pole.q_e_polar().inverse(),
-                ),
-                t_ns,
-            );
+            out.statics.push(transform(
+                at_ns,
+                "ecef",
+                pole.frame_id(),
+                pole.origin_e(),
+                &pole.q_e_polar().inverse(),
+            ));
             entities.push(SceneEntity {
-                timestamp: Some(stamp(t_ns)),
+                timestamp: Some(stamp(at_ns)),
                 frame_id: pole.frame_id().into(),
                 id: format!("{}-pole", pole.frame_id()),
                 spheres: vec![SpherePrimitive {
@@ -331,76 +363,52 @@ impl PolarScene {
                 ..Default::default()
             });
         }
-        self.send(t_ns, entities);
     }
 
-    fn send(&mut self, t_ns: u64, entities: Vec<SceneEntity>) {
-        if !entities.is_empty() && self.track.has_sinks() {
-            self.track.log_with_time(
-                &SceneUpdate {
-                    deletions: Vec::new(),
-                    entities,
-                },
-                t_ns,
-            );
+    fn finish_out(mut out: SceneOut, entities: Vec<SceneEntity>) -> SceneOut {
+        if !entities.is_empty() {
+            out.update = Some(SceneUpdate {
+                deletions: Vec::new(),
+                entities,
+            });
         }
+        out
     }
 
-    /// A solution: its pose and nav frame, a track point, and the circle
-    /// of its latitude when its frame switched.
-    pub fn solution(&mut self, s: &Solution, switched: bool) {
-        self.statics(s.t_ns);
-        let (pole, t, q) = body_in_polar(s);
-        if self.pose.has_sinks() {
-            self.pose
-                .log_with_time(&transform(s.t_ns, pole.frame_id(), "body", t, &q), s.t_ns);
-        }
-        if self.nav.has_sinks() {
-            let c_e_n = if s.frame == WireFrame::Grid as u8 {
-                frames::c_e_grid(s.lat_rad, s.lon_rad)
-            } else {
-                frames::c_e_g(s.lat_rad, s.lon_rad)
-            };
-            let q_n_e = frames::quat_from_dcm(&c_e_n.transpose());
-            self.nav.log_with_time(
-                &transform(
-                    s.t_ns,
-                    pole.frame_id(),
-                    "nav",
-                    t,
-                    &(pole.q_e_polar() * q_n_e),
-                ),
-                s.t_ns,
-            );
-        }
+    /// A solution at log time `at_ns`: the static frames when due, a track
+    /// point, and the circle of its latitude when its frame `switched`.
+    pub fn solution(&mut self, s: &Solution, switched: bool, at_ns: u64) -> SceneOut {
+        let mut out = SceneOut::default();
         let mut entities = Vec::new();
+        self.statics(at_ns, &mut out, &mut entities);
         if switched {
             let cdeg = (s.lat_rad.to_degrees() * 100.0).round() as i64;
             if !self.switch_latitudes_cdeg.contains(&cdeg) {
                 self.switch_latitudes_cdeg.push(cdeg);
                 entities.push(latitude_circle(
-                    s.t_ns,
+                    at_ns,
                     cdeg,
-                    self.switch_latitudes_cdeg.len(),
+                    self.switch_latitudes_cdeg.len() - 1,
                 ));
             }
         }
-        entities.extend(self.solution.add(s.t_ns, s.lat_rad, s.r_e_m));
-        self.send(s.t_ns, entities);
+        entities.extend(self.solution.add(at_ns, s.lat_rad, s.r_e_m));
+        Self::finish_out(out, entities)
     }
 
-    /// A truth record: a point of the truth track.
-    pub fn truth(&mut self, t: &TruthRecord, lat_rad: f64) {
-        let e = self.truth.add(t.t_ns, lat_rad, t.r_e_m);
-        self.send(t.t_ns, e.into_iter().collect());
+    /// A truth record at log time `at_ns` (latitude `lat_rad`): a point of the truth track.
+    pub fn truth(&mut self, t: &TruthRecord, lat_rad: f64, at_ns: u64) -> SceneOut {
+        let e = self.truth.add(at_ns, lat_rad, t.r_e_m);
+        Self::finish_out(SceneOut::default(), e.into_iter().collect())
     }
 
-    /// The end: the segments not yet sent.
-    pub fn finish(&mut self) {
-        let t = self.solution.next_ns.max(self.truth.next_ns);
+    /// The end: the segments not yet sent, and their log time (that of the
+    /// last point drawn).
+    pub fn finish(&mut self) -> (SceneOut, u64) {
+        let t = self.solution.last_ns.max(self.truth.last_ns);
         let mut entities: Vec<SceneEntity> = self.solution.flush(t).into_iter().collect();
         entities.extend(self.truth.flush(t));
-        self.send(t, entities);
+        (Self::finish_out(SceneOut::default(), entities), t)
     }
 }
 
