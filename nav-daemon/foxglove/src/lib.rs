@@ -14,7 +14,7 @@
 //! | `/solution/fix` | `foxglove.LocationFix` (ENU covariance from σ) | solutions |
 //! | `/solution/pose` | `foxglove.FrameTransform` `polar_north|south` → `body` | solutions |
 //! | `/solution/nav_frame` | `foxglove.FrameTransform` `polar_north|south` → `nav` (ENU or grid) | solutions |
-//! | `/tf/polar` | `foxglove.FrameTransform` `ecef` → `polar_north`, `polar_south` | every 60 s |
+//! | `/tf/polar` | `foxglove.FrameTransform` `ecef` → `polar_north`, `polar_south` | every 5 s |
 //! | `/track` | `foxglove.SceneUpdate`: poles, switch latitudes, solution and truth tracks | 1 point/s |
 //! | `/status` | JSON, every field of `Status` | status records |
 //! | `/aid/srs`, `/aid/cns`, `/aid/baro`, `/aid/star` | JSON [`AidUpdate`] | each gated update, or status |

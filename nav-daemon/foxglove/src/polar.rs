@@ -274,8 +274,9 @@ pub struct PolarScene {
 }
 
 /// The static frames and the pole markers are sent again every this much
-/// sensor time, so that a player that seeks finds them (60 s).
-const STATIC_PERIOD_NS: u64 = 60_000_000_000;
+/// sensor time, so that a player that seeks, or a live client that joins,
+/// finds them within it (5 s).
+const STATIC_PERIOD_NS: u64 = 5_000_000_000;
 
 impl Default for PolarScene {
     fn default() -> Self {
