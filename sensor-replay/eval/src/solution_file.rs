@@ -390,6 +390,10 @@ mod tests {
             ..Default::default()
         };
         let mut v = serde_json::to_value(s).expect("json");
+        // A version 2 message: without the bias σ fields.
+        for f in BIAS_SIGMA_FIELDS {
+            v.as_object_mut().expect("object").remove(f);
+        }
         let plain = serde_json::to_vec(&v).expect("bytes");
         let (back, sig) = solution_of_json(&plain).expect("v2 message");
         assert_eq!(back.t_ns, 5);
@@ -421,7 +425,15 @@ mod tests {
             })
             .trim_end()
             .to_owned();
-        let header = solution_csv::HEADER;
+        // A CSV written before the bias σ columns: the header and the row
+        // without them (they close today's header).
+        let header = solution_csv::HEADER
+            .split(',')
+            .filter(|c| !BIAS_SIGMA_COLUMNS.contains(c))
+            .collect::<Vec<_>>()
+            .join(",");
+        let n = header.split(',').count();
+        let row = row.split(',').take(n).collect::<Vec<_>>().join(",");
         let dir = std::env::temp_dir();
         let plain = dir.join(format!("polarnav-sf-{}-plain.csv", std::process::id()));
         std::fs::write(&plain, format!("{header}\n{row}\n")).expect("write");
