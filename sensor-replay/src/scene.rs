@@ -5,18 +5,11 @@
 //! on: orthographic, looking down the polar frame's z axis, x to the right.
 
 use std::collections::HashMap;
-use std::io::Read;
 use std::path::Path;
 
 use foxglove::messages::{FrameTransform, SceneUpdate};
-use mcap::records::Record;
-use mcap::sans_io::linear_reader::{LinearReadEvent, LinearReader, LinearReaderOptions};
 use plotters::prelude::*;
 use prost::Message;
-
-/// A chunk or record longer than this is refused as damage (the writers
-/// make 1 MiB chunks).
-const MAX_RECORD_BYTES: usize = 256 << 20;
 
 /// A polyline of a scene entity (km), its colour (RGB), whether closed.
 #[derive(Debug, Clone)]
@@ -43,11 +36,6 @@ pub struct Scene {
 /// Reads the scene of `frame` (e.g. `polar_north`) from `mcap`.
 pub fn read(mcap: &Path, frame: &str) -> Result<Scene, String> {
     let p = mcap.display();
-    let mut file = std::fs::File::open(mcap).map_err(|e| format!("{p}: {e}"))?;
-    let mut reader = LinearReader::new_with_options(
-        LinearReaderOptions::default().with_record_length_limit(MAX_RECORD_BYTES),
-    );
-    let mut topic_of: HashMap<u16, String> = HashMap::new();
     let mut scene = Scene {
         frame: frame.to_owned(),
         ..Default::default()
@@ -55,104 +43,74 @@ pub fn read(mcap: &Path, frame: &str) -> Result<Scene, String> {
     // Entities replace earlier ones of the same id, as in the panel.
     let mut entities: HashMap<String, usize> = HashMap::new();
     let mut all_poses = Vec::new();
-    while let Some(event) = reader.next_event() {
-        match event.map_err(|e| format!("{p}: MCAP: {e}"))? {
-            LinearReadEvent::ReadRequest(need) => {
-                let n = file
-                    .read(reader.insert(need))
-                    .map_err(|e| format!("{p}: {e}"))?;
-                reader.notify_read(n);
-            }
-            LinearReadEvent::Record { opcode, data } => {
-                match mcap::parse_record(opcode, data).map_err(|e| format!("{p}: MCAP: {e}"))? {
-                    Record::Channel(c) => {
-                        topic_of.insert(c.id, c.topic);
-                    }
-                    Record::Message { header, data } => {
-                        match topic_of.get(&header.channel_id).map(String::as_str) {
-                            Some("/track") => {
-                                let u = SceneUpdate::decode(&data[..]).map_err(|e| {
-                                    format!("{p}: /track message {}: {e}", header.sequence)
-                                })?;
-                                for e in u.entities.into_iter().filter(|e| e.frame_id == frame) {
-                                    let mut lines = Vec::new();
-                                    for l in &e.lines {
-                                        let c = l.color.unwrap_or_default();
-                                        let rgb = (
-                                            (c.r * 255.0) as u8,
-                                            (c.g * 255.0) as u8,
-                                            (c.b * 255.0) as u8,
-                                        );
-                                        let pts = l
-                                            .points
-                                            .iter()
-                                            .map(|q| (q.x / 1e3, q.y / 1e3))
-                                            .collect();
-                                        lines.push(Line {
-                                            points: pts,
-                                            rgb,
-                                            closed: l.r#type == 1,
-                                        });
-                                    }
-                                    for s in &e.spheres {
-                                        if let Some(pos) =
-                                            s.pose.as_ref().and_then(|p| p.position.as_ref())
-                                        {
-                                            let name = e
-                                                .texts
-                                                .first()
-                                                .map_or(e.id.clone(), |t| t.text.clone());
-                                            scene.markers.push(((pos.x / 1e3, pos.y / 1e3), name));
-                                        }
-                                    }
-                                    if e.spheres.is_empty() {
-                                        for t in &e.texts {
-                                            if let Some(pos) =
-                                                t.pose.as_ref().and_then(|p| p.position.as_ref())
-                                            {
-                                                scene.labels.push((
-                                                    (pos.x / 1e3, pos.y / 1e3),
-                                                    t.text.clone(),
-                                                ));
-                                            }
-                                        }
-                                    }
-                                    match entities.get(&e.id) {
-                                        Some(&k) => {
-                                            for (i, l) in lines.into_iter().enumerate() {
-                                                if let Some(slot) = scene.lines.get_mut(k + i) {
-                                                    *slot = l;
-                                                }
-                                            }
-                                        }
-                                        None => {
-                                            entities.insert(e.id.clone(), scene.lines.len());
-                                            scene.lines.extend(lines);
-                                        }
-                                    }
-                                }
+    polarnav_eval::solution_file::for_each_message(mcap, |topic, data, sequence| {
+        match topic {
+            "/track" => {
+                let u = SceneUpdate::decode(data)
+                    .map_err(|e| format!("{p}: /track message {sequence}: {e}"))?;
+                for e in u.entities.into_iter().filter(|e| e.frame_id == frame) {
+                    let lines: Vec<Line> = e
+                        .lines
+                        .iter()
+                        .map(|l| {
+                            let c = l.color.unwrap_or_default();
+                            Line {
+                                points: l.points.iter().map(|q| (q.x / 1e3, q.y / 1e3)).collect(),
+                                rgb: (
+                                    (c.r * 255.0) as u8,
+                                    (c.g * 255.0) as u8,
+                                    (c.b * 255.0) as u8,
+                                ),
+                                closed: l.r#type == 1,
                             }
-                            Some("/solution/pose") => {
-                                let t = FrameTransform::decode(&data[..]).map_err(|e| {
-                                    format!("{p}: /solution/pose message {}: {e}", header.sequence)
-                                })?;
-                                if t.parent_frame_id == frame
-                                    && let (Some(tr), Some(q)) = (t.translation, t.rotation)
-                                {
-                                    // The body's y axis (forward) in the frame: R ŷ.
-                                    let (w, x, y, z) = (q.w, q.x, q.y, q.z);
-                                    let fwd = (2.0 * (x * y - w * z), 1.0 - 2.0 * (x * x + z * z));
-                                    all_poses.push(((tr.x / 1e3, tr.y / 1e3), fwd));
-                                }
-                            }
-                            _ => {}
+                        })
+                        .collect();
+                    for s in &e.spheres {
+                        if let Some(pos) = s.pose.as_ref().and_then(|p| p.position.as_ref()) {
+                            let name = e.texts.first().map_or(e.id.clone(), |t| t.text.clone());
+                            scene.markers.push(((pos.x / 1e3, pos.y / 1e3), name));
                         }
                     }
-                    _ => {}
+                    if e.spheres.is_empty() {
+                        for t in &e.texts {
+                            if let Some(pos) = t.pose.as_ref().and_then(|p| p.position.as_ref()) {
+                                scene
+                                    .labels
+                                    .push(((pos.x / 1e3, pos.y / 1e3), t.text.clone()));
+                            }
+                        }
+                    }
+                    match entities.get(&e.id) {
+                        Some(&k) => {
+                            for (i, l) in lines.into_iter().enumerate() {
+                                if let Some(slot) = scene.lines.get_mut(k + i) {
+                                    *slot = l;
+                                }
+                            }
+                        }
+                        None => {
+                            entities.insert(e.id.clone(), scene.lines.len());
+                            scene.lines.extend(lines);
+                        }
+                    }
                 }
             }
+            "/solution/pose" => {
+                let t = FrameTransform::decode(data)
+                    .map_err(|e| format!("{p}: /solution/pose message {sequence}: {e}"))?;
+                if t.parent_frame_id == frame
+                    && let (Some(tr), Some(q)) = (t.translation, t.rotation)
+                {
+                    // The body's y axis (forward) in the frame: R ŷ.
+                    let (w, x, y, z) = (q.w, q.x, q.y, q.z);
+                    let fwd = (2.0 * (x * y - w * z), 1.0 - 2.0 * (x * x + z * z));
+                    all_poses.push(((tr.x / 1e3, tr.y / 1e3), fwd));
+                }
+            }
+            _ => {}
         }
-    }
+        Ok(())
+    })?;
     if scene.lines.is_empty() && all_poses.is_empty() && scene.markers.is_empty() {
         return Err(format!(
             "{p}: nothing in frame {frame} (no /track entity, no /solution/pose)"

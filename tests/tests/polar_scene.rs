@@ -10,12 +10,12 @@ use polarnav_config::ConfigFile;
 use polarnav_foxglove::{AidSource, McapFile};
 use polarnav_tests::{python, repo, simulate_file};
 
-#[test]
-fn frame_tree_composes_back_to_the_solution_across_the_pole() {
-    let dir = std::env::temp_dir().join(format!("polarnav-polar-scene-{}", std::process::id()));
+/// A batch MCAP of 90 s of paper-sim's aircraft and sensors from 89.9° N
+/// heading north (over the pole after about 42 s, then south along the
+/// 210° meridian), in a new directory named after `tag`: (directory, MCAP, rows).
+fn over_the_pole_mcap(tag: &str) -> (std::path::PathBuf, std::path::PathBuf, u64) {
+    let dir = std::env::temp_dir().join(format!("polarnav-{tag}-{}", std::process::id()));
     std::fs::create_dir_all(&dir).expect("dir");
-    // paper-sim's aircraft and sensors, from 89.9° N heading north: over
-    // the pole after about 42 s, then south along the 210° meridian.
     let text = std::fs::read_to_string(repo("config/scenarios/paper-sim.toml"))
         .expect("scenario")
         .replace("lat_deg = 87.5", "lat_deg = 89.9")
@@ -33,7 +33,13 @@ fn frame_tree_composes_back_to_the_solution_across_the_pole() {
         &BatchOptions::default(),
     )
     .expect("batch mcap");
-    assert_eq!(r.rows, 18_000);
+    (dir, mcap, r.rows)
+}
+
+#[test]
+fn frame_tree_composes_back_to_the_solution_across_the_pole() {
+    let (dir, mcap, rows) = over_the_pole_mcap("polar-scene");
+    assert_eq!(rows, 18_000);
     let out = std::process::Command::new(python())
         .arg(repo("tests/python/check_polar.py"))
         .arg(&mcap)
@@ -91,25 +97,7 @@ fn shipped_layout_names_written_frames_and_topics_and_the_scene_draws() {
         assert!(polarnav_foxglove::TOPICS.contains(&topic), "{topic}");
     }
 
-    let dir = std::env::temp_dir().join(format!("polarnav-polar-layout-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).expect("dir");
-    let text = std::fs::read_to_string(repo("config/scenarios/paper-sim.toml"))
-        .expect("scenario")
-        .replace("lat_deg = 87.5", "lat_deg = 89.9")
-        .replace("duration_s = 600.0", "duration_s = 90.0");
-    let log = dir.join("pole.navlog");
-    simulate_file(&text, "over the pole (90 s)", &log);
-    let mcap = dir.join("pole.mcap");
-    batch::run_to::<_, std::io::Sink>(
-        BufReader::new(std::fs::File::open(&log).expect("open")),
-        "pole.navlog",
-        Output::Mcap(Box::new(
-            McapFile::create(&mcap, AidSource::Updates).expect("mcap"),
-        )),
-        &ConfigFile::defaults(),
-        &BatchOptions::default(),
-    )
-    .expect("batch mcap");
+    let (dir, mcap, _) = over_the_pole_mcap("polar-layout");
     let scene = sensor_replay::scene::read(&mcap, "polar_north").expect("scene");
     assert!(
         scene.lines.len() >= 2,

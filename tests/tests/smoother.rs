@@ -113,6 +113,17 @@ fn run(
     }
 }
 
+/// [`run`] with the shipped chunk size and first-pass cache.
+fn run_std(records: &[Record], settings: SessionSettings, keep_all: bool) -> Run {
+    run(
+        records,
+        settings,
+        keep_all,
+        16 << 20,
+        polarnav::smoother::CACHE_BYTES,
+    )
+}
+
 /// Errors of a solution against its truth, in local east/north/up:
 /// position (m), velocity (m/s), attitude φ (rad).
 fn errors(s: &Solution, t: &TruthRecord) -> (Vector3<f64>, Vector3<f64>, Vector3<f64>) {
@@ -193,12 +204,10 @@ fn smoothed_flights_are_twice_as_accurate_as_forward_and_consistent() {
         "config/scenarios/polar-crossing.toml",
     ] {
         let records = simulate_records(&scenario(rel), 1);
-        let r = run(
+        let r = run_std(
             &records,
             settings(&records, &CliOverrides::default()),
             false,
-            16 << 20,
-            polarnav::smoother::CACHE_BYTES,
         );
         let f = accuracy(&r.truth, &r.forward);
         let s = accuracy(&r.truth, &r.smoothed);
@@ -339,12 +348,10 @@ fn smoothed_nees_over_30_seeds_is_inside_its_95_percent_bounds() {
     let seeds = 30;
     for seed in 1..=seeds {
         let records = simulate_records(&text, seed);
-        let r = run(
+        let r = run_std(
             &records,
             settings(&records, &CliOverrides::default()),
             false,
-            16 << 20,
-            polarnav::smoother::CACHE_BYTES,
         );
         for (j, at) in epochs_s.iter().enumerate() {
             let k = r
@@ -389,13 +396,7 @@ fn where_nothing_can_be_learned_smoothed_equals_forward() {
         fuse: Some(polarnav::settings::AidSet::parse("none").expect("none")),
         ..Default::default()
     };
-    let r = run(
-        &records,
-        settings(&records, &none),
-        true,
-        16 << 20,
-        polarnav::smoother::CACHE_BYTES,
-    );
+    let r = run_std(&records, settings(&records, &none), true);
     assert_eq!(r.all_forward.len(), 6000);
     assert!(r.all_smoothed == r.all_forward, "pure inertial");
     assert_eq!(r.report.passed_through, 6000);
@@ -405,13 +406,7 @@ fn where_nothing_can_be_learned_smoothed_equals_forward() {
         .position(|x| matches!(x, Record::Imu(_)))
         .expect("imu");
     let one: Vec<Record> = records[..=first_imu].to_vec();
-    let r = run(
-        &one,
-        settings(&one, &CliOverrides::default()),
-        true,
-        16 << 20,
-        polarnav::smoother::CACHE_BYTES,
-    );
+    let r = run_std(&one, settings(&one, &CliOverrides::default()), true);
     assert_eq!(r.all_forward.len(), 1);
     assert!(r.all_smoothed == r.all_forward, "one sample");
 
@@ -441,7 +436,7 @@ fn where_nothing_can_be_learned_smoothed_equals_forward() {
         .collect();
     let mut st = settings(&bad, &CliOverrides::default());
     st.navigator.aid_settings.reset_after_s = 0.0;
-    let r = run(&bad, st, true, 16 << 20, polarnav::smoother::CACHE_BYTES);
+    let r = run_std(&bad, st, true);
     assert_eq!(r.all_forward.len(), 6000);
     assert!(r.all_smoothed == r.all_forward, "every aid refused");
 }
@@ -521,13 +516,7 @@ fn stationary_rlg_record_smoothed_position_stays_within_a_metre_of_the_start() {
             .map(|s| (Vector3::from(s.r_e_m) - start).norm())
             .fold(0.0f64, f64::max)
     };
-    let r = run(
-        &aided,
-        settings(&aided, &align),
-        true,
-        16 << 20,
-        polarnav::smoother::CACHE_BYTES,
-    );
+    let r = run_std(&aided, settings(&aided, &align), true);
     assert!(
         r.all_smoothed.len() > 120_000,
         "{} solutions",
@@ -541,13 +530,7 @@ fn stationary_rlg_record_smoothed_position_stays_within_a_metre_of_the_start() {
         seed: 1,
         preset: None,
     });
-    let pure = run(
-        &bare,
-        settings(&bare, &align),
-        true,
-        16 << 20,
-        polarnav::smoother::CACHE_BYTES,
-    );
+    let pure = run_std(&bare, settings(&bare, &align), true);
     eprintln!(
         "RLG record after a 600 s alignment, {} s: farthest from the start: smoothed {smo:.3} m, forward {fwd:.3} m; pure inertial (smoothed = forward) {:.0} m",
         r.all_smoothed.len() / 100,
@@ -630,13 +613,7 @@ fn fault_campaign_flights_smooth_soundly() {
     for path in names {
         let text = std::fs::read_to_string(&path).expect("scenario");
         let records = simulate_records(&text, 1);
-        let r = run(
-            &records,
-            settings(&records, &CliOverrides::default()),
-            true,
-            16 << 20,
-            polarnav::smoother::CACHE_BYTES,
-        );
+        let r = run_std(&records, settings(&records, &CliOverrides::default()), true);
         let name = path
             .file_name()
             .map(|n| n.to_string_lossy().into_owned())

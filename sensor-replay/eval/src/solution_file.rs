@@ -99,16 +99,62 @@ pub fn load(path: &Path) -> Result<Loaded, String> {
         });
     }
     let p = path.display();
-    let mut file = std::fs::File::open(path).map_err(|e| format!("{p}: {e}"))?;
     let mut rows = Vec::new();
     let mut bias_sigma = Vec::new();
     let mut aids = Aids::default();
-    // Streamed record by record (chunks decompressed one at a time): memory
-    // holds the rows, not the file, which carries every IMU sample too.
+    for_each_message(path, |topic, data, sequence| {
+        let aid = match topic {
+            "/solution" => {
+                let (s, sig) = solution_of_json(data)
+                    .map_err(|e| format!("{p}: /solution message {sequence}: {e}"))?;
+                rows.push(Row::from_solution(&s));
+                bias_sigma.push(sig);
+                return Ok(());
+            }
+            "/aid/srs" => &mut aids.srs,
+            "/aid/cns" => &mut aids.cns,
+            "/aid/baro" => &mut aids.baro,
+            "/aid/star" => &mut aids.star,
+            _ => return Ok(()),
+        };
+        aid.push(
+            serde_json::from_slice(data)
+                .map_err(|e| format!("{p}: {topic} message {sequence}: {e}"))?,
+        );
+        Ok(())
+    })?;
+    if rows.is_empty() {
+        return Err(format!(
+            "{p}: no /solution message (write it with nav-daemon batch --out FILE.mcap)"
+        ));
+    }
+    // Chunks are in log-time order already; a stable sort keeps ties as written.
+    let mut both: Vec<(Row, Option<[f64; 6]>)> = rows.into_iter().zip(bias_sigma).collect();
+    both.sort_by(|a, b| a.0.t_s.total_cmp(&b.0.t_s));
+    let (rows, bias_sigma) = both.into_iter().unzip();
+    for v in [&mut aids.srs, &mut aids.cns, &mut aids.baro, &mut aids.star] {
+        v.sort_by_key(|a| a.t_ns);
+    }
+    Ok(Loaded {
+        rows,
+        aids: Some(aids),
+        bias_sigma,
+    })
+}
+
+/// Calls `f` with the topic, payload and sequence number of every message
+/// of the MCAP file `path`, in file order. The file is streamed record by
+/// record (chunks decompressed one at a time): memory holds one chunk, not
+/// the file. A record or chunk longer than [`MAX_MCAP_RECORD_BYTES`] is
+/// refused as damage, so that a corrupt or hostile length cannot make the
+/// reader allocate it. Errors name the file.
+pub fn for_each_message(
+    path: &Path,
+    mut f: impl FnMut(&str, &[u8], u32) -> Result<(), String>,
+) -> Result<(), String> {
+    let p = path.display();
+    let mut file = std::fs::File::open(path).map_err(|e| format!("{p}: {e}"))?;
     let mut topic_of: HashMap<u16, String> = HashMap::new();
-    // A record or chunk (compressed or not) longer than this is refused as
-    // damage: a corrupt or hostile length must not make the reader allocate
-    // it. The project's writers make 1 MiB chunks.
     let mut reader = LinearReader::new_with_options(
         LinearReaderOptions::default().with_record_length_limit(MAX_MCAP_RECORD_BYTES),
     );
@@ -127,47 +173,14 @@ pub fn load(path: &Path) -> Result<Loaded, String> {
                     }
                     Record::Message { header, data } => {
                         let topic = topic_of.get(&header.channel_id).map_or("", String::as_str);
-                        let aid = match topic {
-                            "/solution" => {
-                                let (s, sig) = solution_of_json(&data).map_err(|e| {
-                                    format!("{p}: /solution message {}: {e}", header.sequence)
-                                })?;
-                                rows.push(Row::from_solution(&s));
-                                bias_sigma.push(sig);
-                                continue;
-                            }
-                            "/aid/srs" => &mut aids.srs,
-                            "/aid/cns" => &mut aids.cns,
-                            "/aid/baro" => &mut aids.baro,
-                            "/aid/star" => &mut aids.star,
-                            _ => continue,
-                        };
-                        aid.push(serde_json::from_slice(&data).map_err(|e| {
-                            format!("{p}: {topic} message {}: {e}", header.sequence)
-                        })?);
+                        f(topic, &data, header.sequence)?;
                     }
                     _ => {}
                 }
             }
         }
     }
-    if rows.is_empty() {
-        return Err(format!(
-            "{p}: no /solution message (write it with nav-daemon batch --out FILE.mcap)"
-        ));
-    }
-    // Chunks are in log-time order already; a stable sort keeps ties as written.
-    let mut both: Vec<(Row, Option<[f64; 6]>)> = rows.into_iter().zip(bias_sigma).collect();
-    both.sort_by(|a, b| a.0.t_s.total_cmp(&b.0.t_s));
-    let (rows, bias_sigma) = both.into_iter().unzip();
-    for v in [&mut aids.srs, &mut aids.cns, &mut aids.baro, &mut aids.star] {
-        v.sort_by_key(|a| a.t_ns);
-    }
-    Ok(Loaded {
-        rows,
-        aids: Some(aids),
-        bias_sigma,
-    })
+    Ok(())
 }
 
 /// A `/solution` JSON message (every `Solution` field but the zero padding),
