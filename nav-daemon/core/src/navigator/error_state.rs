@@ -14,7 +14,6 @@ use crate::filter::{self, ProcessNoise, UpdateOutcome};
 use crate::frames;
 use crate::mech::{AnyNav, FrameKind, Increment, Nominal};
 use crate::settings::FilterSettings;
-use crate::smoother;
 use crate::switch;
 
 use super::INIT_SIGMA_FLOOR;
@@ -87,14 +86,14 @@ impl ErrorState {
     /// Records a correction fed back.
     pub(super) fn tape_update(&mut self, dx: &nalgebra::SVector<f64, 15>) {
         if let Some(t) = &mut self.tape {
-            smoother::write::update(t, dx);
+            super::tape::write::update(t, dx);
         }
     }
 
     /// Records a break with P as it is now: no information flows back past it.
     pub(super) fn tape_break(&mut self) {
         if let Some(t) = &mut self.tape {
-            smoother::write::brk(t, &self.p);
+            super::tape::write::brk(t, &self.p);
         }
     }
 
@@ -131,7 +130,7 @@ impl ErrorState {
         let mut f = nominal.nav().error_dynamics(&f_b);
         self.noise.add_bias_dynamics(&mut f);
         if let Some(t) = &mut self.tape {
-            smoother::write::propagate(
+            super::tape::write::propagate(
                 t,
                 self.last_propagation_ns,
                 self.clock_ns,
@@ -181,7 +180,7 @@ impl ErrorState {
     /// P = Φ P Φᵀ for a switch from the state `before` to frame `to`.
     pub(super) fn convert(&mut self, to: FrameKind, before: &AnyNav) {
         if let Some(t) = &mut self.tape {
-            smoother::write::convert(t, to, before, &self.p);
+            super::tape::write::convert(t, to, before, &self.p);
         }
         let phi = phi_to(to, before);
         self.p = phi * self.p * phi.transpose();
@@ -210,7 +209,7 @@ impl ErrorState {
             }
         }
         if let (Some(t), Some(before)) = (&mut self.tape, before) {
-            smoother::write::add(t, &before, &self.p);
+            super::tape::write::add(t, &before, &self.p);
         }
     }
 

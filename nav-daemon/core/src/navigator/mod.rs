@@ -29,6 +29,7 @@ mod history;
 mod imu_input;
 mod recovery;
 pub(crate) mod report;
+pub(crate) mod tape;
 use error_state::ErrorState;
 pub(crate) use error_state::phi_to;
 use gating::AidGate;
@@ -331,7 +332,7 @@ impl Navigator {
     /// smoother (nothing when no record is kept).
     pub fn tape_solution(&mut self, s: &Solution) {
         if let Some(t) = &mut self.err.tape {
-            crate::smoother::write::solution(
+            tape::write::solution(
                 t,
                 s,
                 self.nominal.nav(),
