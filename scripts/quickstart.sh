@@ -12,6 +12,9 @@ speed=${SPEED:-200}
 out=out/quickstart
 prefix="quickstart_$$"
 mkdir -p "$out"
+# The recorder never overwrites a recording: this script's own one from an
+# earlier run goes first.
+rm -f "$out/live.navlog"
 B=./target/release
 pids=()
 cleanup() { for p in "${pids[@]:-}"; do [ -n "$p" ] && kill -TERM "$p" 2>/dev/null || true; done; }
