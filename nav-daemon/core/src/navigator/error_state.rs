@@ -45,10 +45,7 @@ pub(super) struct ErrorState {
 }
 
 impl ErrorState {
-    /// P₀ for a start at `nav_g` (the state in g) in frame `kind`: stated in
-    /// g from the init's σ and, for a start in G, converted with Φ as a
-    /// switch would (one initialization path in either frame, papers/001
-    /// eqs 26, 32–36).
+    /// P₀ for a start at `nav_g` (the state in g) in frame `kind` ([`p0_in`]).
     pub(super) fn new(
         nav_g: &AnyNav,
         kind: FrameKind,
@@ -56,7 +53,7 @@ impl ErrorState {
         f: &FilterSettings,
     ) -> Self {
         let bias_sigma = BiasSigma::from_settings(f);
-        let p = initial_covariance(kind, &nav_g.geodetic(), init, &bias_sigma);
+        let p = p0_in(kind, nav_g, init, &bias_sigma);
         Self {
             p,
             gyro_bias: Vector3::zeros(),
@@ -172,7 +169,8 @@ impl ErrorState {
             sigma_heading_rad: REPAIR_SIGMA.2,
             ..Default::default()
         };
-        self.p = initial_covariance(nominal.kind(), &nominal.geo(), &wide, &self.bias_sigma);
+        let nav_g = nominal.nav().converted(FrameKind::Geographic);
+        self.p = p0_in(nominal.kind(), &nav_g, &wide, &self.bias_sigma);
         self.tape_break();
         self.repairs += 1;
     }
@@ -301,17 +299,41 @@ impl BiasSigma {
     }
 }
 
+/// P₀ for a start at `nav_g` (the state in g) in frame `kind`: stated in g
+/// and, in G, converted with Φ as a switch would (one initialization path
+/// in either frame, papers/001 eqs 26, 32–36: the conversion couples grid
+/// heading with position through the grid angle, which a start stated in G
+/// would lack, 0.5 m and 0.23′ within 50 s on paper-sim). Within one
+/// position σ of the pole, where g's δλ is singular and the converted P
+/// loses its east variance (none at all at 90° exactly), P₀ is stated in G
+/// directly ([`initial_covariance`]).
+fn p0_in(kind: FrameKind, nav_g: &AnyNav, init: &InitState, b: &BiasSigma) -> Mat15 {
+    let geo = nav_g.geodetic();
+    let (_, rn) = earth::radii(geo.lat_rad);
+    let sigma_h = init.sigma_pos_h_m.max(INIT_SIGMA_FLOOR[0]).max(1.0);
+    let near_pole = (rn + geo.h_m) * geo.lat_rad.cos().abs() < sigma_h;
+    match kind {
+        FrameKind::Grid if !near_pole => {
+            let p_g = initial_covariance(FrameKind::Geographic, &geo, init, b);
+            let phi = phi_to(FrameKind::Grid, nav_g);
+            let mut p = phi * p_g * phi.transpose();
+            filter::symmetrize(&mut p);
+            p
+        }
+        _ => initial_covariance(kind, &geo, init, b),
+    }
+}
+
 /// P₀ in frame `kind` at `geo`, from the init record's σ (floored at
 /// [`INIT_SIGMA_FLOOR`]) and the configured bias uncertainty: uncorrelated,
 /// horizontally isotropic in velocity, tilt and position.
 ///
 /// In G it is stated in G directly (δr^e = C_e^gᵀ [E, N, U] with E, N σ_h
 /// and U σ_v; φ and δv diagonal, which a rotation about up leaves as they
-/// are), not as a g-frame P₀ converted with Φ: g's δλ is singular at the
-/// pole, and the converted P then has no east variance at all at latitude
-/// 90° exactly (found by `adversarial_inputs_keep_the_session_sound`).
-/// Away from the pole the two differ only by the δσ coupling Φ adds
-/// between δλ and heading, which is no knowledge the init ever had.
+/// are): [`p0_in`] uses it within one position σ of the pole, where the
+/// g-frame P₀ converted with Φ has no east variance at latitude 90° exactly
+/// (found by `adversarial_inputs_keep_the_session_sound`). Away from the
+/// pole its position block is the converted one's.
 fn initial_covariance(
     kind: FrameKind,
     geo: &earth::Geodetic,
