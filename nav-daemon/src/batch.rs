@@ -20,7 +20,7 @@ use polarnav::smoother::{FileStore, SmoothReport, Smoother};
 use crate::events::log_event;
 use polarnav::solution_csv;
 use polarnav_config::{CliOverrides, ConfigError, ConfigFile, Effective, effective};
-use polarnav_foxglove::{AidTopic, AidUpdate, McapError, McapFile};
+use polarnav_foxglove::{AidTopic, McapError, McapFile, UpdateAt};
 
 /// Where a batch run writes its solution.
 #[derive(Debug)]
@@ -245,6 +245,9 @@ impl<W: Write> Sink for CsvSink<'_, W> {
                 stream,
                 t_ns,
                 status,
+                frame,
+                lat_rad,
+                h_m,
             } => {
                 let topic = match stream {
                     Stream::Srs => Some(AidTopic::Srs),
@@ -254,8 +257,12 @@ impl<W: Write> Sink for CsvSink<'_, W> {
                     Stream::Imu => None,
                 };
                 if let (Output::Mcap(m), Some(topic)) = (&mut self.out, topic) {
-                    m.channels()
-                        .aid_update(topic, &AidUpdate::from_status(*t_ns, status));
+                    let at = UpdateAt {
+                        frame: *frame,
+                        lat_rad: *lat_rad,
+                        h_m: *h_m,
+                    };
+                    m.channels().aid_update(topic, *t_ns, status, at);
                 }
             }
             other => log_event(log, other),

@@ -43,8 +43,9 @@ pub fn read(mcap: &Path, frame: &str) -> Result<Scene, String> {
     // Entities replace earlier ones of the same id, as in the panel.
     let mut entities: HashMap<String, usize> = HashMap::new();
     let mut all_poses = Vec::new();
-    polarnav_eval::solution_file::for_each_message(mcap, |topic, data, sequence| {
-        match topic {
+    polarnav_eval::solution_file::for_each_message(mcap, |m| {
+        let (data, sequence) = (m.data, m.sequence);
+        match m.topic {
             "/track" => {
                 let u = SceneUpdate::decode(data)
                     .map_err(|e| format!("{p}: /track message {sequence}: {e}"))?;

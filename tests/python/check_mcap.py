@@ -1,15 +1,19 @@
-"""Reads a polarnav MCAP file with the reference reader (PyPI `mcap`) and
-checks it against the solution CSV of the same run.
+"""Reads a polarnav MCAP file with the reference reader (PyPI `mcap` with
+`mcap-protobuf-support`) and checks it against the solution CSV of the same
+run.
 
 usage: check_mcap.py FILE.mcap [SOLUTION.csv] [--require TOPIC ...]
 
 Checks, failing with a message that names the topic, message or row:
-- every channel has a schema with data; `/solution/fix` and `/truth/fix`
-  (when present) are `foxglove.LocationFix` in protobuf and decode;
-- every message's log time is its own `t_ns` (JSON channels);
+- every channel is protobuf with a protobuf schema, and every message of
+  every channel decodes with it; `/solution/fix` and `/truth/fix` (when
+  present) are `foxglove.LocationFix`;
+- every message that has a `t_ns` field is logged at that time;
 - with a CSV: one `/solution` message per CSV row, in order, and every CSV
-  column equal (bit for bit) to the value computed from the message as
-  the CSV writer computes it.
+  column equal (bit for bit) to the message's field of the same name
+  (`t_s` from `t_ns`, `frame` as the letter; the velocity columns under
+  their names with or without `_mps`, as CSVs of the last version wrote
+  them).
 Prints one JSON line with the per-topic counts.
 """
 
@@ -21,55 +25,34 @@ import sys
 from mcap.reader import make_reader
 from mcap_protobuf.decoder import DecoderFactory
 
-RAD = 180.0 / math.pi
-
-
-def csv_values(m):
-    """The CSV row's values from a solution message, as the writer forms them."""
-    flags = m["flags"]
-    bit = lambda b: float((flags >> b) & 1)
-    v = {
-        "t_s": m["t_ns"] * 1e-9,
-        "frame": "gG"[m["frame"]] if m["frame"] in (0, 1) else "?",
-        "lat_deg": m["lat_rad"] * RAD,
-        "lon_deg": m["lon_rad"] * RAD,
-        "h_m": m["h_m"],
-        "heading_deg": m["heading_rad"] * RAD,
-        "pitch_deg": m["pitch_rad"] * RAD,
-        "roll_deg": m["roll_rad"] * RAD,
-        "grid_heading_deg": m["grid_heading_rad"] * RAD,
-        "flags": float(flags),
-        "switch_count": float(m["switch_count"]),
-        "reset_count": float(m["reset_count"]),
-    }
-    for i, k in enumerate(["x_m", "y_m", "z_m"]):
-        v[k] = m["r_e_m"][i]
-    for i, k in enumerate(["vx", "vy", "vz"]):
-        v[k] = m["v_e_mps"][i]
-    for i, k in enumerate(["ve", "vn", "vu"]):
-        v[k] = m["v_enu_mps"][i]
-    for i, k in enumerate(["qw", "qx", "qy", "qz"]):
-        v[k] = m["q_b_e"][i]
-    for i, k in enumerate(["sig_e_m", "sig_n_m", "sig_u_m"]):
-        v[k] = m["sigma_pos_enu_m"][i]
-    for i, k in enumerate(["sig_vnav_x_mps", "sig_vnav_y_mps", "sig_vnav_z_mps"]):
-        v[k] = m["sigma_vel_mps"][i]
-    for i, k in enumerate(["sig_att_x_deg", "sig_att_y_deg", "sig_att_z_deg"]):
-        v[k] = m["sigma_att_rad"][i] * RAD
-    for i, k in enumerate(["bg_x_rps", "bg_y_rps", "bg_z_rps"]):
-        v[k] = m["gyro_bias_rps"][i]
-    for i, k in enumerate(["ba_x_mps2", "ba_y_mps2", "ba_z_mps2"]):
-        v[k] = m["accel_bias_mps2"][i]
-    for i, k in enumerate(["sig_bg_x_rps", "sig_bg_y_rps", "sig_bg_z_rps"]):
-        v[k] = m["sigma_gyro_bias_rps"][i]
-    for i, k in enumerate(["sig_ba_x_mps2", "sig_ba_y_mps2", "sig_ba_z_mps2"]):
-        v[k] = m["sigma_accel_bias_mps2"][i]
-    return v, bit
+# CSV columns of the previous version, read under the field they became.
+OLD_NAMES = {
+    "vx": "vx_mps",
+    "vy": "vy_mps",
+    "vz": "vz_mps",
+    "ve": "ve_mps",
+    "vn": "vn_mps",
+    "vu": "vu_mps",
+}
 
 
 def fail(msg):
     print(f"check_mcap: {msg}", file=sys.stderr)
     sys.exit(1)
+
+
+def field(m, col):
+    """The value of CSV column `col` from a decoded /solution message, as
+    the CSV writer forms it; None if the message has no such field."""
+    if col == "t_s":
+        return m.t_ns * 1e-9
+    if col == "frame":
+        return "gG"[m.frame] if m.frame in (0, 1) else "?"
+    name = OLD_NAMES.get(col, col)
+    if not hasattr(m, name) or name in ("t_ns",):
+        return None
+    v = getattr(m, name)
+    return float(v)
 
 
 def main():
@@ -93,49 +76,58 @@ def main():
             sc = summary.schemas.get(ch.schema_id)
             if sc is None or not sc.data:
                 fail(f"{path}: channel {ch.topic} has no schema")
-            if ch.topic.endswith("/fix") and (sc.name, sc.encoding) != ("foxglove.LocationFix", "protobuf"):
-                fail(f"{path}: {ch.topic} is {sc.name} ({sc.encoding}), not foxglove.LocationFix")
+            if ch.message_encoding != "protobuf" or sc.encoding != "protobuf":
+                fail(f"{path}: channel {ch.topic} is {ch.message_encoding} with a {sc.encoding} schema, not protobuf")
+            if ch.topic.endswith("/fix") and sc.name != "foxglove.LocationFix":
+                fail(f"{path}: {ch.topic} is {sc.name}, not foxglove.LocationFix")
         topics = {ch.topic for ch in summary.channels.values()}
         for t in required:
             if t not in topics:
                 fail(f"{path}: no channel {t} (channels: {sorted(topics)})")
         rows = None
         if csv_path:
-            with open(csv_path, newline="") as c:
-                rows = csv.DictReader(c)
-                rows = list(rows)
+            with open(csv_path, newline="", encoding="utf-8-sig") as c:
+                rows = list(csv.DictReader(c))
         k = 0
         fixes = 0
+        compared = set()
         for schema, channel, message in reader.iter_messages(log_time_order=False):
             counts[channel.topic] = counts.get(channel.topic, 0) + 1
-            if channel.message_encoding == "json":
-                m = json.loads(message.data)
-                if "t_ns" in m and m["t_ns"] != message.log_time:
-                    fail(f"{path}: {channel.topic} message {counts[channel.topic]}: log time {message.log_time} != t_ns {m['t_ns']}")
-                if channel.topic == "/solution" and rows is not None:
-                    if k >= len(rows):
-                        fail(f"{path}: more /solution messages than the {len(rows)} CSV rows")
-                    want, bit = csv_values(m)
-                    row = rows[k]
-                    for col, text in row.items():
-                        if col in want:
-                            got = want[col]
-                            if isinstance(got, str):
-                                ok = got == text
-                            else:
-                                ok = float(text) == got or (math.isnan(got) and math.isnan(float(text)))
-                            if not ok:
-                                fail(f"{path}: /solution message {k + 1} ({m['t_ns']} ns), CSV row {k + 2} column {col}: {text} != {got!r}")
-                    k += 1
+            if channel.id not in decoders:
+                decoders[channel.id] = protobuf.decoder_for(channel.message_encoding, schema)
+            try:
+                m = decoders[channel.id](message.data)
+            except Exception as e:  # noqa: BLE001 - any decode failure is the finding
+                fail(f"{path}: {channel.topic} message {counts[channel.topic]} does not decode as {schema.name}: {e}")
+            if hasattr(m, "t_ns") and m.t_ns != message.log_time:
+                fail(f"{path}: {channel.topic} message {counts[channel.topic]}: log time {message.log_time} != t_ns {m.t_ns}")
+            if channel.topic == "/solution" and rows is not None:
+                if k >= len(rows):
+                    fail(f"{path}: more /solution messages than the {len(rows)} CSV rows")
+                row = rows[k]
+                for col, text in row.items():
+                    got = field(m, col)
+                    if got is None:
+                        continue
+                    if isinstance(got, str):
+                        ok = got == text
+                    else:
+                        want = float(text)
+                        ok = want == got or (math.isnan(got) and math.isnan(want))
+                    if not ok:
+                        fail(f"{path}: /solution message {k + 1} ({m.t_ns} ns), CSV row {k + 2} column {col}: {text} != {got!r}")
+                    compared.add(col)
+                k += 1
             elif channel.topic.endswith("/fix"):
-                if channel.id not in decoders:
-                    decoders[channel.id] = protobuf.decoder_for(channel.message_encoding, schema)
-                decoded = decoders[channel.id](message.data)
-                if not (-90.0 <= decoded.latitude <= 90.0) or len(decoded.position_covariance) != 9:
-                    fail(f"{path}: {channel.topic}: bad LocationFix {decoded}")
+                if not (-90.0 <= m.latitude <= 90.0) or len(m.position_covariance) != 9:
+                    fail(f"{path}: {channel.topic}: bad LocationFix {m}")
                 fixes += 1
-        if rows is not None and k != len(rows):
-            fail(f"{path}: {k} /solution messages for {len(rows)} CSV rows")
+        if rows is not None:
+            if k != len(rows):
+                fail(f"{path}: {k} /solution messages for {len(rows)} CSV rows")
+            missing = [c for c in (rows[0].keys() if rows else []) if c not in compared]
+            if missing:
+                fail(f"{path}: CSV columns without a /solution field of the same name: {missing}")
     print(json.dumps({"counts": counts, "solutions_checked": k, "fixes_decoded": fixes}))
 
 

@@ -6,7 +6,9 @@ usage: foxglove_client.py URL TOPIC OUT.jsonl MAX_SECONDS IDLE_SECONDS [SUBPROTO
 
 TOPIC `*` subscribes to every advertised channel and writes no messages;
 otherwise every message of TOPIC goes to OUT.jsonl, one JSON line each:
-{"log_time": ns, "msg": <the JSON payload>}. Offers the given subprotocols
+{"log_time": ns, "data": <the payload in hex>, "schema": <its schema
+name>}, after checking that it decodes with the channel's advertised
+protobuf schema (mcap-protobuf-support's decoder). Offers the given subprotocols
 (default foxglove.sdk.v1). Stops IDLE_SECONDS after the last message of
 TOPIC (of /solution for `*`), once one arrived, or after MAX_SECONDS.
 Prints one JSON line: the negotiated subprotocol, the server name, the
@@ -17,10 +19,14 @@ time; or, when the server refuses the handshake, {"refused": HTTP status,
 subscription.
 """
 
+import base64
 import json
 import struct
 import sys
 import time
+
+from mcap.records import Schema
+from mcap_protobuf.decoder import DecoderFactory
 
 from websockets.exceptions import InvalidStatus
 from websockets.sync.client import connect
@@ -39,6 +45,8 @@ def main():
     server = None
     topics, unadvertised = [], []
     topic_of_sub = {}
+    channel_of_sub = {}
+    decoders = {}
     counts, log_times = {}, {}
     try:
         ws = connect(url, subprotocols=offered, open_timeout=10, max_size=None)
@@ -68,6 +76,7 @@ def main():
                         if (every or ch["topic"] == topic) and ch["topic"] not in topic_of_sub.values():
                             sid = len(topic_of_sub) + 1
                             topic_of_sub[sid] = ch["topic"]
+                            channel_of_sub[sid] = ch
                             subs.append({"id": sid, "channelId": ch["id"]})
                             print(f"foxglove_client: subscribed to {ch['topic']}", file=sys.stderr, flush=True)
                     if subs:
@@ -84,7 +93,16 @@ def main():
             counts[got] = counts.get(got, 0) + 1
             log_times.setdefault(got, [log_time, log_time])[1] = log_time
             if not every:
-                f.write(json.dumps({"log_time": log_time, "msg": json.loads(m[13:])}) + "\n")
+                ch = channel_of_sub[sid]
+                if ch.get("encoding") != "protobuf" or ch.get("schemaEncoding") != "protobuf":
+                    sys.exit(f"foxglove_client: {got} is {ch.get('encoding')!r}, not protobuf")
+                if sid not in decoders:
+                    schema = Schema(id=sid, name=ch["schemaName"], encoding="protobuf",
+                                    data=base64.b64decode(ch["schema"]))
+                    decoders[sid] = DecoderFactory().decoder_for("protobuf", schema)
+                payload = bytes(m[13:])
+                decoders[sid](payload)
+                f.write(json.dumps({"log_time": log_time, "data": payload.hex(), "schema": ch["schemaName"]}) + "\n")
             if got == idle_topic:
                 last = time.monotonic()
         negotiated = ws.subprotocol

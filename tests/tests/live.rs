@@ -2038,7 +2038,15 @@ fn foxglove_view_serves_the_recorded_solutions_and_mcap_recordings_read_back() {
     );
     let mut prev = 0;
     for (k, m) in received.iter().enumerate() {
-        let t = m["msg"]["t_ns"].as_u64().expect("t_ns");
+        assert_eq!(m["schema"], "polarnav.Solution", "message {k}");
+        let hex = m["data"].as_str().expect("data");
+        let bytes: Vec<u8> = (0..hex.len())
+            .step_by(2)
+            .map(|i| u8::from_str_radix(&hex[i..i + 2], 16).expect("hex"))
+            .collect();
+        let got = <polarnav_proto::Solution as prost::Message>::decode(bytes.as_slice())
+            .expect("a polarnav.Solution");
+        let t = got.t_ns;
         assert_eq!(m["log_time"].as_u64(), Some(t), "message {k}: log time");
         assert!(t > prev, "message {k}: out of order");
         prev = t;
@@ -2046,8 +2054,8 @@ fn foxglove_view_serves_the_recorded_solutions_and_mcap_recordings_read_back() {
             .get(&t)
             .unwrap_or_else(|| panic!("message {k}: {t} ns was not recorded"));
         assert_eq!(
-            m["msg"],
-            polarnav_foxglove::json_of(*want),
+            got,
+            polarnav_proto::Solution::from_wire(want),
             "message {k} ({t} ns) differs from the recorded solution"
         );
     }

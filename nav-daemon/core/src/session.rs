@@ -360,6 +360,12 @@ pub enum Event {
         stream: Stream,
         t_ns: u64,
         status: AidStatus,
+        /// The navigation frame the update was made in ([`msgs::WireFrame`]
+        /// as u8) and the position after it: what turns a CNS innovation
+        /// in g (Δlatitude, Δlongitude in rad) into metres.
+        frame: u8,
+        lat_rad: f64,
+        h_m: f64,
     },
     /// An aid rejected for `[aids] reset_after_s` while consistent reset the
     /// states it observes: the reset as published, the tests' findings, and
@@ -1224,10 +1230,16 @@ impl Session {
                     Aid::Baro(_) => baro,
                     Aid::Star(_) => star,
                 };
+                let state = n.state();
+                let geo = state.geodetic();
+                let frame = state.kind().to_wire();
                 sink.event(&Event::AidUpdate {
                     stream: a.stream(),
                     t_ns: a.t_ns(),
                     status,
+                    frame: frame as u8,
+                    lat_rad: geo.lat_rad,
+                    h_m: geo.h_m,
                 });
             }
             Err(reason) => sink.event(&Event::Rejected {

@@ -9,19 +9,19 @@
 //!
 //! | topic | schema | from |
 //! |---|---|---|
-//! | `/imu`, `/srs`, `/cns`, `/baro`, `/star`, `/init` | JSON, the wire payload | input records |
-//! | `/solution` | JSON, every field of `Solution` | solutions |
+//! | `/imu`, `/srs`, `/cns`, `/baro`, `/star`, `/init` | `polarnav.ImuSample`, ... (the wire payload) | input records |
+//! | `/solution` | `polarnav.Solution`: the solution CSV's columns and units, and more | solutions |
 //! | `/solution/fix` | `foxglove.LocationFix` (ENU covariance from σ) | solutions |
 //! | `/solution/pose` | `foxglove.FrameTransform` `polar_north|south` → `body` | solutions |
 //! | `/solution/nav_frame` | `foxglove.FrameTransform` `polar_north|south` → `nav` (ENU or grid) | solutions |
 //! | `/tf/polar` | `foxglove.FrameTransform` `ecef` → `polar_north`, `polar_south` | every 5 s |
 //! | `/track` | `foxglove.SceneUpdate`: poles, switch latitudes, solution and truth tracks | 1 point/s |
-//! | `/status` | JSON, every field of `Status` | status records |
-//! | `/aid/srs`, `/aid/cns`, `/aid/baro`, `/aid/star` | JSON [`AidUpdate`] | each gated update, or status |
-//! | `/events/switch` | JSON [`SwitchNote`] | a frame change between solutions |
+//! | `/status` | `polarnav.Status` | status records |
+//! | `/aid/srs`, `/aid/cns`, `/aid/baro`, `/aid/star` | `polarnav.AidUpdate` (innovation in the aid's one unit) | each gated update, or status |
+//! | `/events/switch` | `polarnav.SwitchNote` | a frame change between solutions |
 //! | `/events` | `foxglove.Log` | the same switch as a line for Foxglove's Log panel |
-//! | `/truth`, `/truth/fix` | JSON truth with geodetic position; `foxglove.LocationFix` | truth records |
-//! | `/truth/bias` | JSON, the simulated IMU bias (`msgs::navlog::TruthBias`) | truth-bias records |
+//! | `/truth`, `/truth/fix` | `polarnav.Truth` with geodetic position; `foxglove.LocationFix` | truth records |
+//! | `/truth/bias` | `polarnav.TruthBias`, the simulated IMU bias | truth-bias records |
 //!
 //! An MCAP file has every channel ([`FlightChannels::new`]). The live view
 //! ([`FlightChannels::new_live`]) advertises a channel with its first
@@ -33,18 +33,21 @@
 //!
 //! Every message's log time is its sensor time stamp `t_ns`, plus the UTC
 //! epoch of the time base when one is given ([`FlightChannels::set_epoch_ns`],
-//! `--utc-start`: the log times are then dates). JSON channels
-//! carry a JSON Schema derived from the payload's own serialization (field
-//! names with units, as on the wire; the `_pad` bytes are left out), so
-//! PlotJuggler and Foxglove's plot panel list every field. `t_ns` is an
-//! integer: readers that hold numbers as doubles (JavaScript) lose its last
-//! digits after 104 days of sensor time; the message log time is exact.
+//! `--utc-start`: the log times are then dates). Every channel is
+//! protobuf with its schema: Foxglove's well-known messages where one fits,
+//! else the messages of `polarnav.proto` (crate `polarnav_proto`: every
+//! field's name ends in its unit; the schema is the file's
+//! FileDescriptorSet), so Foxglove, PlotJuggler and the `mcap` readers
+//! decode every field. `t_ns` is an integer: readers that hold numbers as
+//! doubles (JavaScript) lose its last digits after 104 days of sensor time;
+//! the message log time is exact.
 
 #![warn(missing_docs)]
 
 use std::collections::BTreeMap;
 use std::fs::File;
 use std::io::BufWriter;
+use std::marker::PhantomData;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -53,79 +56,12 @@ use foxglove::messages::{FrameTransform, LocationFix, Log, SceneUpdate, Timestam
 use foxglove::{Channel, Context, Encode, McapWriterHandle, PartialMetadata, RawChannel, Schema};
 use msgs::navlog::{Header, Record};
 use msgs::{AidStatus, Solution, Status, TruthRecord, WireFrame};
-use serde::Serialize;
-use serde_json::Value;
+use polarnav_proto::{self as pb, FILE_DESCRIPTOR_SET, ProtoName};
 
+pub mod convert;
 pub mod polar;
-pub mod schema;
 
-/// An aid's gated update (or, where only status records exist, its last
-/// update as the status reports it).
-#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize)]
-pub struct AidUpdate {
-    /// Time of the measurement (ns, sensor time).
-    pub t_ns: u64,
-    /// Innovation, up to 3 components, in the aid's measurement space: SRS
-    /// velocity (m/s, nav-frame axes); CNS in g Δlatitude, Δlongitude
-    /// (rad), in G grid-horizontal position (m); baro height (m); star
-    /// tracker attitude (rad, nav-frame axes). Divided
-    /// by the square root of its variance it is unit-free in every frame.
-    pub innovation: [f64; 3],
-    /// Its variance (diagonal of S).
-    pub innovation_var: [f64; 3],
-    /// Normalized innovation squared over the gate: above 1 is rejected.
-    pub test_ratio: f64,
-    /// The gate in test-ratio units (always 1): a line for plots.
-    pub gate: f64,
-    /// 1 if fused, 0 if rejected at the gate.
-    pub fused: u8,
-    /// SRS lines excluded by fault detection so far.
-    pub exclusions: u64,
-}
-
-impl AidUpdate {
-    /// The update a status record reports as the aid's last.
-    pub fn from_status(t_ns: u64, a: &AidStatus) -> Self {
-        Self {
-            t_ns,
-            innovation: a.innovation,
-            innovation_var: a.innovation_var,
-            test_ratio: a.test_ratio,
-            gate: 1.0,
-            fused: a.fused,
-            exclusions: a.exclusions,
-        }
-    }
-}
-
-/// A frame switch, seen as a change of frame between two solutions.
-#[derive(Debug, Clone, PartialEq, Serialize)]
-pub struct SwitchNote {
-    /// Time of the first solution in the new frame (ns).
-    pub t_ns: u64,
-    /// `g` or `G`.
-    pub from: String,
-    /// `g` or `G`.
-    pub to: String,
-    /// Switches since start, after this one.
-    pub switch_count: u32,
-    /// Latitude at the switch (deg).
-    pub lat_deg: f64,
-    /// `"g -> G at 70.000 deg"`: a label for an event list.
-    pub label: String,
-}
-
-/// Truth with its geodetic position (derived from ECEF here).
-#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize)]
-struct TruthOut {
-    t_ns: u64,
-    lat_deg: f64,
-    lon_deg: f64,
-    h_m: f64,
-    r_e_m: [f64; 3],
-    v_e_mps: [f64; 3],
-    q_b_e: [f64; 4],
-}
+pub use convert::UpdateAt;
 
 /// Where a run's aid updates come from.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -147,6 +83,18 @@ pub enum AidTopic {
     Baro,
     /// `/aid/star`
     Star,
+}
+
+impl AidTopic {
+    /// The aid, for its innovation's unit.
+    pub fn aid(self) -> convert::Aid {
+        match self {
+            AidTopic::Srs => convert::Aid::Srs,
+            AidTopic::Cns => convert::Aid::Cns,
+            AidTopic::Baro => convert::Aid::Baro,
+            AidTopic::Star => convert::Aid::Star,
+        }
+    }
 }
 
 /// Why writing an MCAP file failed.
@@ -285,28 +233,27 @@ impl<T: Encode> WktChannel<T> {
     }
 }
 
-/// A JSON channel with its schema and reused encoding buffer.
+/// A channel of one `polarnav.proto` message type, with its schema and a
+/// reused encoding buffer.
 #[derive(Debug)]
-struct JsonChannel {
+struct ProtoChannel<M> {
     lazy: Lazy<Arc<RawChannel>>,
-    title: &'static str,
-    schema: Vec<u8>,
     buf: Vec<u8>,
+    _m: PhantomData<fn(M)>,
 }
 
-impl JsonChannel {
-    fn new<T: Serialize>(
-        topic: &'static str,
-        title: &'static str,
-        sample: &T,
-        gate: RateGate,
-    ) -> Self {
-        let schema = schema::json_schema(title, sample);
+/// The schema of every `polarnav.proto` channel: the message's full name
+/// and the file's descriptor set.
+fn proto_schema<M: ProtoName>() -> Schema {
+    Schema::new(M::NAME, "protobuf", FILE_DESCRIPTOR_SET)
+}
+
+impl<M: prost::Message + ProtoName> ProtoChannel<M> {
+    fn new(topic: &'static str, gate: RateGate) -> Self {
         Self {
             lazy: Lazy::new(topic, gate),
-            title,
-            schema: serde_json::to_vec(&schema).unwrap_or_default(),
-            buf: Vec::with_capacity(2048),
+            buf: Vec::with_capacity(1024),
+            _m: PhantomData,
         }
     }
 
@@ -315,14 +262,16 @@ impl JsonChannel {
             // The builder refuses only a channel without a message encoding.
             self.lazy.ch = ctx
                 .channel_builder(self.lazy.topic)
-                .message_encoding("json")
-                .schema(Schema::new(self.title, "jsonschema", self.schema.clone()))
+                .message_encoding("protobuf")
+                .schema(proto_schema::<M>())
                 .build_raw()
                 .ok();
         }
     }
 
-    fn log<T: Serialize>(&mut self, ctx: &Arc<Context>, log_ns: u64, v: &T) {
+    /// Logs the message `make` builds (only when the gate passes it and a
+    /// sink wants it) at log time `log_ns`.
+    fn log(&mut self, ctx: &Arc<Context>, log_ns: u64, make: impl FnOnce() -> M) {
         if !self.lazy.gate.pass() {
             return;
         }
@@ -332,7 +281,8 @@ impl JsonChannel {
             return;
         }
         self.buf.clear();
-        if schema::write_without_padding(&mut self.buf, v).is_ok() {
+        // Encoding into a Vec cannot run out of room.
+        if make().encode(&mut self.buf).is_ok() {
             ch.log_with_meta(
                 &self.buf,
                 PartialMetadata {
@@ -343,23 +293,61 @@ impl JsonChannel {
     }
 }
 
+/// A channel of the mapping, whatever its message type.
+trait AnyChannel {
+    fn lazy_topic(&self) -> &'static str;
+    fn is_open(&self) -> bool;
+    fn dropped(&self) -> u64;
+    fn open_in(&mut self, ctx: &Arc<Context>);
+}
+
+impl<M: prost::Message + ProtoName> AnyChannel for ProtoChannel<M> {
+    fn lazy_topic(&self) -> &'static str {
+        self.lazy.topic
+    }
+    fn is_open(&self) -> bool {
+        self.lazy.ch.is_some()
+    }
+    fn dropped(&self) -> u64 {
+        self.lazy.gate.dropped
+    }
+    fn open_in(&mut self, ctx: &Arc<Context>) {
+        self.open(ctx);
+    }
+}
+
+impl<T: Encode> AnyChannel for WktChannel<T> {
+    fn lazy_topic(&self) -> &'static str {
+        self.topic
+    }
+    fn is_open(&self) -> bool {
+        self.ch.is_some()
+    }
+    fn dropped(&self) -> u64 {
+        self.gate.dropped
+    }
+    fn open_in(&mut self, ctx: &Arc<Context>) {
+        self.open(ctx);
+    }
+}
+
 /// The channels of one run in one context, and what they need to remember
 /// (the last frame, for switch events).
 #[derive(Debug)]
 pub struct FlightChannels {
     ctx: Arc<Context>,
-    imu: JsonChannel,
-    srs: JsonChannel,
-    cns: JsonChannel,
-    baro: JsonChannel,
-    star: JsonChannel,
-    init: JsonChannel,
-    solution: JsonChannel,
-    status: JsonChannel,
-    aid: [JsonChannel; 4],
-    switch: JsonChannel,
-    truth: JsonChannel,
-    truth_bias: JsonChannel,
+    imu: ProtoChannel<pb::ImuSample>,
+    srs: ProtoChannel<pb::SrsSample>,
+    cns: ProtoChannel<pb::CnsFix>,
+    baro: ProtoChannel<pb::BaroSample>,
+    star: ProtoChannel<pb::StarSample>,
+    init: ProtoChannel<pb::InitState>,
+    solution: ProtoChannel<pb::Solution>,
+    status: ProtoChannel<pb::Status>,
+    aid: [ProtoChannel<pb::AidUpdate>; 4],
+    switch: ProtoChannel<pb::SwitchNote>,
+    truth: ProtoChannel<pb::Truth>,
+    truth_bias: ProtoChannel<pb::TruthBias>,
     fix: WktChannel<LocationFix>,
     truth_fix: WktChannel<LocationFix>,
     pose: WktChannel<FrameTransform>,
@@ -370,9 +358,23 @@ pub struct FlightChannels {
     log: WktChannel<Log>,
     aid_source: AidSource,
     last_frame: Option<u8>,
+    /// Where the last solution was (frame, latitude, height): the CNS
+    /// innovations a status record reports are turned into metres there.
+    last_at: UpdateAt,
     /// Added to every `t_ns` to make a log time (the UTC epoch of sensor time 0, or 0).
     epoch_ns: u64,
+    /// Sensor time of the last solution drawn on the display channels
+    /// (`/solution/fix`, `/solution/pose`, `/solution/nav_frame`).
+    last_display_ns: Option<u64>,
 }
+
+/// The display channels of a solution (`/solution/fix`, `/solution/pose`,
+/// `/solution/nav_frame`) carry one solution per this much sensor time
+/// (20 Hz), and every solution at a frame switch: the Map and 3D panels
+/// need no more, and at the IMU's 200 Hz they would be three quarters of
+/// a file's messages. `/solution` keeps every solution. Decided on the
+/// stamps, so a file is the same whatever the machine's load.
+pub const DISPLAY_PERIOD_NS: u64 = 50_000_000;
 
 /// A daemon output whose channels the live view opens while its publisher
 /// is up ([`FlightChannels::advertise`]).
@@ -423,37 +425,21 @@ fn frame_letter(f: u8) -> String {
         .to_string()
 }
 
+/// The log time of a message stamped `t_ns` in a run whose sensor time 0
+/// is `epoch_ns` (UTC, ns since 1970; or 0).
+fn at(epoch_ns: u64, t_ns: u64) -> u64 {
+    epoch_ns.saturating_add(t_ns)
+}
+
 impl FlightChannels {
     /// Every channel of the mapping, created now in `ctx` (an MCAP file
     /// lists them all), without a rate limit.
     pub fn new(ctx: &Arc<Context>, aid_source: AidSource) -> Self {
         let mut c = Self::new_live(ctx, aid_source, None);
         let ctx = Arc::clone(&c.ctx);
-        for j in [
-            &mut c.imu,
-            &mut c.srs,
-            &mut c.cns,
-            &mut c.baro,
-            &mut c.star,
-            &mut c.init,
-            &mut c.solution,
-            &mut c.status,
-        ] {
-            j.open(&ctx);
+        for ch in c.channels_mut() {
+            ch.open_in(&ctx);
         }
-        for j in &mut c.aid {
-            j.open(&ctx);
-        }
-        for j in [&mut c.switch, &mut c.truth, &mut c.truth_bias] {
-            j.open(&ctx);
-        }
-        c.fix.open(&ctx);
-        c.truth_fix.open(&ctx);
-        c.pose.open(&ctx);
-        c.nav_frame.open(&ctx);
-        c.tf.open(&ctx);
-        c.track.open(&ctx);
-        c.log.open(&ctx);
         c
     }
 
@@ -463,60 +449,25 @@ impl FlightChannels {
     /// or not finite: no limit).
     pub fn new_live(ctx: &Arc<Context>, aid_source: AidSource, max_rate_hz: Option<f64>) -> Self {
         let g = RateGate::new(max_rate_hz);
-        let aid = |topic: &'static str| {
-            JsonChannel::new(topic, "polarnav.AidUpdate", &AidUpdate::default(), g)
-        };
         Self {
             ctx: Arc::clone(ctx),
-            imu: JsonChannel::new("/imu", "polarnav.ImuSample", &msgs::ImuSample::default(), g),
-            srs: JsonChannel::new("/srs", "polarnav.SrsSample", &msgs::SrsSample::default(), g),
-            cns: JsonChannel::new("/cns", "polarnav.CnsFix", &msgs::CnsFix::default(), g),
-            baro: JsonChannel::new(
-                "/baro",
-                "polarnav.BaroSample",
-                &msgs::BaroSample::default(),
-                g,
-            ),
-            star: JsonChannel::new(
-                "/star",
-                "polarnav.StarSample",
-                &msgs::StarSample::default(),
-                g,
-            ),
-            init: JsonChannel::new(
-                "/init",
-                "polarnav.InitState",
-                &msgs::InitState::default(),
-                g,
-            ),
-            solution: JsonChannel::new("/solution", "polarnav.Solution", &Solution::default(), g),
-            status: JsonChannel::new("/status", "polarnav.Status", &Status::default(), g),
+            imu: ProtoChannel::new("/imu", g),
+            srs: ProtoChannel::new("/srs", g),
+            cns: ProtoChannel::new("/cns", g),
+            baro: ProtoChannel::new("/baro", g),
+            star: ProtoChannel::new("/star", g),
+            init: ProtoChannel::new("/init", g),
+            solution: ProtoChannel::new("/solution", g),
+            status: ProtoChannel::new("/status", g),
             aid: [
-                aid("/aid/srs"),
-                aid("/aid/cns"),
-                aid("/aid/baro"),
-                aid("/aid/star"),
+                ProtoChannel::new("/aid/srs", g),
+                ProtoChannel::new("/aid/cns", g),
+                ProtoChannel::new("/aid/baro", g),
+                ProtoChannel::new("/aid/star", g),
             ],
-            switch: JsonChannel::new(
-                "/events/switch",
-                "polarnav.SwitchNote",
-                &SwitchNote {
-                    t_ns: 0,
-                    from: String::new(),
-                    to: String::new(),
-                    switch_count: 0,
-                    lat_deg: 0.0,
-                    label: String::new(),
-                },
-                g,
-            ),
-            truth: JsonChannel::new("/truth", "polarnav.Truth", &TruthOut::default(), g),
-            truth_bias: JsonChannel::new(
-                "/truth/bias",
-                "polarnav.TruthBias",
-                &msgs::navlog::TruthBias::default(),
-                g,
-            ),
+            switch: ProtoChannel::new("/events/switch", g),
+            truth: ProtoChannel::new("/truth", g),
+            truth_bias: ProtoChannel::new("/truth/bias", g),
             fix: Lazy::new("/solution/fix", g),
             truth_fix: Lazy::new("/truth/fix", g),
             pose: Lazy::new("/solution/pose", g),
@@ -527,18 +478,76 @@ impl FlightChannels {
             log: Lazy::new("/events", g),
             aid_source,
             last_frame: None,
+            last_at: UpdateAt {
+                frame: WireFrame::Geographic as u8,
+                lat_rad: 0.0,
+                h_m: 0.0,
+            },
             epoch_ns: 0,
+            last_display_ns: None,
         }
+    }
+
+    /// Every channel, in [`TOPICS`]' order.
+    fn channels(&self) -> [&dyn AnyChannel; 22] {
+        [
+            &self.imu,
+            &self.srs,
+            &self.cns,
+            &self.baro,
+            &self.star,
+            &self.init,
+            &self.solution,
+            &self.fix,
+            &self.pose,
+            &self.nav_frame,
+            &self.tf,
+            &self.track,
+            &self.status,
+            &self.aid[0],
+            &self.aid[1],
+            &self.aid[2],
+            &self.aid[3],
+            &self.switch,
+            &self.log,
+            &self.truth,
+            &self.truth_fix,
+            &self.truth_bias,
+        ]
+    }
+
+    fn channels_mut(&mut self) -> [&mut dyn AnyChannel; 22] {
+        let [a0, a1, a2, a3] = &mut self.aid;
+        [
+            &mut self.imu,
+            &mut self.srs,
+            &mut self.cns,
+            &mut self.baro,
+            &mut self.star,
+            &mut self.init,
+            &mut self.solution,
+            &mut self.fix,
+            &mut self.pose,
+            &mut self.nav_frame,
+            &mut self.tf,
+            &mut self.track,
+            &mut self.status,
+            a0,
+            a1,
+            a2,
+            a3,
+            &mut self.switch,
+            &mut self.log,
+            &mut self.truth,
+            &mut self.truth_fix,
+            &mut self.truth_bias,
+        ]
     }
 
     /// Log times from now on are `epoch_ns + t_ns`: `epoch_ns` is the UTC
     /// time (ns since 1970) of sensor time 0, so a viewer shows dates.
     pub fn set_epoch_ns(&mut self, epoch_ns: u64) {
         self.epoch_ns = epoch_ns;
-    }
-
-    fn log_ns(&self, t_ns: u64) -> u64 {
-        self.epoch_ns.saturating_add(t_ns)
     }
 
     /// Opens (advertises) the channels `feed` carries before its first
@@ -570,6 +579,7 @@ impl FlightChannels {
                 self.switch.lazy.close();
                 self.log.close();
                 self.last_frame = None;
+                self.last_display_ns = None;
             }
             Feed::Status => {
                 self.status.lazy.close();
@@ -583,23 +593,11 @@ impl FlightChannels {
     /// The topics that exist now (have carried a message or were advertised).
     pub fn open_topics(&self) -> Vec<&'static str> {
         let mut v: Vec<&'static str> = self
-            .json_channels()
-            .filter(|c| c.lazy.ch.is_some())
-            .map(|c| c.lazy.topic)
+            .channels()
+            .into_iter()
+            .filter(|c| c.is_open())
+            .map(AnyChannel::lazy_topic)
             .collect();
-        for (topic, open) in [
-            (self.fix.topic, self.fix.ch.is_some()),
-            (self.truth_fix.topic, self.truth_fix.ch.is_some()),
-            (self.pose.topic, self.pose.ch.is_some()),
-            (self.nav_frame.topic, self.nav_frame.ch.is_some()),
-            (self.tf.topic, self.tf.ch.is_some()),
-            (self.track.topic, self.track.ch.is_some()),
-            (self.log.topic, self.log.ch.is_some()),
-        ] {
-            if open {
-                v.push(topic);
-            }
-        }
         v.sort_unstable();
         v
     }
@@ -607,65 +605,42 @@ impl FlightChannels {
     /// Messages dropped by the rate limit, per topic (topics with drops only).
     pub fn dropped(&self) -> Vec<(&'static str, u64)> {
         let mut v: Vec<(&'static str, u64)> = self
-            .json_channels()
-            .map(|c| (c.lazy.topic, c.lazy.gate.dropped))
-            .chain([
-                (self.fix.topic, self.fix.gate.dropped),
-                (self.truth_fix.topic, self.truth_fix.gate.dropped),
-                (self.pose.topic, self.pose.gate.dropped),
-                (self.nav_frame.topic, self.nav_frame.gate.dropped),
-                (self.tf.topic, self.tf.gate.dropped),
-                (self.track.topic, self.track.gate.dropped),
-                (self.log.topic, self.log.gate.dropped),
-            ])
+            .channels()
+            .into_iter()
+            .map(|c| (c.lazy_topic(), c.dropped()))
             .filter(|(_, n)| *n > 0)
             .collect();
         v.sort_unstable();
         v
     }
 
-    fn json_channels(&self) -> impl Iterator<Item = &JsonChannel> {
-        [
-            &self.imu,
-            &self.srs,
-            &self.cns,
-            &self.baro,
-            &self.star,
-            &self.init,
-            &self.solution,
-            &self.status,
-            &self.switch,
-            &self.truth,
-            &self.truth_bias,
-        ]
-        .into_iter()
-        .chain(self.aid.iter())
-    }
-
     /// Logs one navlog record on its channels (the header is not a message:
     /// see [`McapFile::header`]).
     pub fn record(&mut self, r: &Record) {
         let ctx = &self.ctx;
-        let at = |t_ns: u64| self.epoch_ns.saturating_add(t_ns);
+        let e = self.epoch_ns;
         match r {
             Record::Header(_) => {}
-            Record::Init(x) => self.init.log(ctx, at(x.t_ns), x),
-            Record::Imu(x) => self.imu.log(ctx, at(x.t_ns), x),
-            Record::Srs(x) => self.srs.log(ctx, at(x.t_ns), x.as_ref()),
-            Record::Cns(x) => self.cns.log(ctx, at(x.t_ns), x),
-            Record::Baro(x) => self.baro.log(ctx, at(x.t_ns), x),
-            Record::Star(x) => self.star.log(ctx, at(x.t_ns), x),
+            Record::Init(x) => self.init.log(ctx, at(e, x.t_ns), || convert::init(x)),
+            Record::Imu(x) => self.imu.log(ctx, at(e, x.t_ns), || convert::imu(x)),
+            Record::Srs(x) => self.srs.log(ctx, at(e, x.t_ns), || convert::srs(x)),
+            Record::Cns(x) => self.cns.log(ctx, at(e, x.t_ns), || convert::cns(x)),
+            Record::Baro(x) => self.baro.log(ctx, at(e, x.t_ns), || convert::baro(x)),
+            Record::Star(x) => self.star.log(ctx, at(e, x.t_ns), || convert::star(x)),
             Record::Truth(x) => self.truth(x),
             Record::Solution(x) => self.solution(x),
             Record::Status(x) => self.status(x),
-            Record::TruthBias(x) => self.truth_bias.log(ctx, at(x.t_ns), x),
+            Record::TruthBias(x) => {
+                self.truth_bias
+                    .log(ctx, at(e, x.t_ns), || convert::truth_bias(x));
+            }
         }
     }
 
     /// A solution: `/solution`, `/solution/fix`, `/solution/pose`, and a
     /// switch event when its frame differs from the previous solution's.
     pub fn solution(&mut self, s: &Solution) {
-        let at = self.log_ns(s.t_ns);
+        let at = at(self.epoch_ns, s.t_ns);
         let switched = self.last_frame.is_some_and(|prev| prev != s.frame);
         let out = self.scene.solution(s, switched, at);
         self.scene_out(out, at);
@@ -675,26 +650,39 @@ impl FlightChannels {
         {
             let (from, to) = (frame_letter(prev), frame_letter(s.frame));
             let lat_deg = s.lat_rad.to_degrees();
-            let note = SwitchNote {
-                t_ns: s.t_ns,
-                label: format!("{from} -> {to} at {lat_deg:.3} deg"),
-                from,
-                to,
-                switch_count: s.switch_count,
-                lat_deg,
-            };
+            let label = format!("{from} -> {to} at {lat_deg:.3} deg");
             self.log.log(ctx, at, || Log {
                 timestamp: Some(stamp(at)),
                 // INFO
                 level: 2,
-                message: format!("frame switch {}", note.label),
+                message: format!("frame switch {label}"),
                 name: "polarnav".into(),
                 ..Default::default()
             });
-            self.switch.log(ctx, at, &note);
+            self.switch.log(ctx, at, || pb::SwitchNote {
+                t_ns: s.t_ns,
+                from: i32::from(prev),
+                to: i32::from(s.frame),
+                switch_count: s.switch_count,
+                lat_deg,
+                label,
+            });
         }
         self.last_frame = Some(s.frame);
-        self.solution.log(ctx, at, s);
+        self.last_at = UpdateAt {
+            frame: s.frame,
+            lat_rad: s.lat_rad,
+            h_m: s.h_m,
+        };
+        self.solution.log(ctx, at, || convert::solution(s));
+        let display = switched
+            || self
+                .last_display_ns
+                .is_none_or(|last| s.t_ns < last || s.t_ns - last >= DISPLAY_PERIOD_NS);
+        if !display {
+            return;
+        }
+        self.last_display_ns = Some(s.t_ns);
         self.fix.log(ctx, at, || {
             let var = s.sigma_pos_enu_m.map(|x| x * x);
             let v = s.v_enu_mps;
@@ -739,12 +727,20 @@ impl FlightChannels {
     }
 
     /// A status record: `/status`, and with [`AidSource::Status`] the last
-    /// update of each aid that has had one.
+    /// update of each aid that has had one. A CNS innovation in g is turned
+    /// into metres at the last solution's position.
     pub fn status(&mut self, st: &Status) {
         let ctx = &self.ctx;
-        let at = self.log_ns(st.t_ns);
-        self.status.log(ctx, at, st);
+        let at = at(self.epoch_ns, st.t_ns);
+        let (lat_rad, h_m) = (self.last_at.lat_rad, self.last_at.h_m);
+        self.status
+            .log(ctx, at, || convert::status(st, lat_rad, h_m));
         if self.aid_source == AidSource::Status {
+            let where_ = UpdateAt {
+                frame: st.frame,
+                lat_rad,
+                h_m,
+            };
             for (topic, a, c) in [
                 (AidTopic::Srs, &st.srs_aid, &st.srs),
                 (AidTopic::Cns, &st.cns_aid, &st.cns),
@@ -752,40 +748,36 @@ impl FlightChannels {
                 (AidTopic::Star, &st.star_aid, &st.star),
             ] {
                 if c.accepted + c.rejected_gate > 0 {
-                    self.aid[topic as usize].log(ctx, at, &AidUpdate::from_status(st.t_ns, a));
+                    self.aid[topic as usize].log(ctx, at, || {
+                        convert::aid_update(st.t_ns, topic.aid(), a, where_)
+                    });
                 }
             }
         }
     }
 
-    /// One gated update of an aid (with [`AidSource::Updates`]).
-    pub fn aid_update(&mut self, topic: AidTopic, u: &AidUpdate) {
-        let at = self.log_ns(u.t_ns);
-        self.aid[topic as usize].log(&self.ctx, at, u);
+    /// One gated update of an aid (with [`AidSource::Updates`]), made at
+    /// `where_` (the frame and position of the navigator then).
+    pub fn aid_update(&mut self, topic: AidTopic, t_ns: u64, a: &AidStatus, where_: UpdateAt) {
+        let at = at(self.epoch_ns, t_ns);
+        self.aid[topic as usize].log(&self.ctx, at, || {
+            convert::aid_update(t_ns, topic.aid(), a, where_)
+        });
     }
 
     /// A truth record: `/truth` with its geodetic position, `/truth/fix`.
     pub fn truth(&mut self, t: &TruthRecord) {
         let g = polarnav::earth::ecef_to_geodetic(&t.r_e_m.into());
-        let out = TruthOut {
-            t_ns: t.t_ns,
-            lat_deg: g.lat_rad.to_degrees(),
-            lon_deg: g.lon_rad.to_degrees(),
-            h_m: g.h_m,
-            r_e_m: t.r_e_m,
-            v_e_mps: t.v_e_mps,
-            q_b_e: t.q_b_e,
-        };
-        let at = self.log_ns(t.t_ns);
-        self.truth.log(&self.ctx, at, &out);
+        let at = at(self.epoch_ns, t.t_ns);
+        self.truth.log(&self.ctx, at, || convert::truth(t, &g));
         let scene = self.scene.truth(t, g.lat_rad, at);
         self.scene_out(scene, at);
         self.truth_fix.log(&self.ctx, at, || LocationFix {
             timestamp: Some(stamp(at)),
             frame_id: "truth".into(),
-            latitude: out.lat_deg,
-            longitude: out.lon_deg,
-            altitude: out.h_m,
+            latitude: g.lat_rad.to_degrees(),
+            longitude: g.lon_rad.to_degrees(),
+            altitude: g.h_m,
             position_covariance: vec![0.0; 9],
             // UNKNOWN
             position_covariance_type: 0,
@@ -887,14 +879,6 @@ impl McapFile {
             .map(drop)
             .map_err(|source| McapError::Writer { path, source })
     }
-}
-
-/// The JSON object of a payload without its `_pad` fields (what the JSON
-/// channels carry), for tests and tools that compare.
-pub fn json_of<T: Serialize>(v: &T) -> Value {
-    let mut value = serde_json::to_value(v).unwrap_or(Value::Null);
-    schema::strip_padding(&mut value);
-    value
 }
 
 #[cfg(test)]

@@ -190,7 +190,9 @@ struct AidSeries {
 }
 
 /// Where the solution was in time: thinned (t, frame, lat rad, h) for the
-/// conversion of CNS innovations in g (radians) to metres.
+/// conversion of CNS innovations in g (radians) to metres, where they come
+/// in the wire's measurement space (status records, JSON MCAP files of
+/// earlier versions; the protobuf ones are metres already).
 #[derive(Debug, Default)]
 struct Where {
     at: Vec<(f64, char, f64, f64)>,
@@ -240,6 +242,7 @@ fn aid_series(aids: &Aids, at: &Where) -> Vec<AidSeries> {
                 // Scale of each component to the physical unit.
                 let scale: [f64; 3] = match name {
                     "star" => [arcsec; 3],
+                    "CNS" if a.physical => [1.0; 3],
                     "CNS" => match at.get(t) {
                         Some(('g', lat, h)) => {
                             let (rm, rn) = polarnav::earth::radii(lat);
@@ -307,6 +310,7 @@ pub fn aids_from_status(status: &[Status]) -> Option<Aids> {
                 innovation_var: s.innovation_var,
                 test_ratio: s.test_ratio,
                 fused: s.fused,
+                physical: false,
             });
         }
     }

@@ -1,6 +1,8 @@
 //! A solution to evaluate: the solution CSV, or an MCAP file written by
 //! `nav-daemon batch --out F.mcap`, whose `/solution` messages give the
-//! same rows and whose `/aid/*` messages give the innovations.
+//! same rows and whose `/aid/*` messages give the innovations. MCAP
+//! messages are protobuf (`polarnav.proto`); files of earlier versions,
+//! whose `/solution` and `/aid/*` were JSON, still read.
 
 use std::collections::HashMap;
 use std::io::Read;
@@ -11,17 +13,56 @@ use mcap::sans_io::linear_reader::{LinearReadEvent, LinearReader, LinearReaderOp
 
 use msgs::Solution;
 use polarnav::solution_csv::{self, Row};
+use polarnav_proto as pb;
+use prost::Message as _;
 use serde::Deserialize;
 
-/// One gated aid update as `/aid/srs`, `/aid/cns`, `/aid/baro`, `/aid/star` carry it
-/// (`polarnav_foxglove::AidUpdate`; unknown fields ignored).
+/// One gated aid update, as `/aid/srs`, `/aid/cns`, `/aid/baro`, `/aid/star`
+/// carry it or as a status record reports it.
 #[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
 pub struct AidPoint {
     pub t_ns: u64,
+    /// Up to 3 components, unused ones with zero variance.
     pub innovation: [f64; 3],
     pub innovation_var: [f64; 3],
     pub test_ratio: f64,
     pub fused: u8,
+    /// The innovation is in the aid's one physical unit (m/s, m, m, rad)
+    /// whatever the frame, as the protobuf `polarnav.AidUpdate` carries it.
+    /// False for the wire's measurement space (a status record, a JSON
+    /// message of an earlier version), where a CNS innovation in g is
+    /// Δlatitude, Δlongitude in rad.
+    #[serde(default)]
+    pub physical: bool,
+}
+
+impl AidPoint {
+    /// The update a protobuf `polarnav.AidUpdate` carries (the filled pair
+    /// of innovation fields, whichever the aid's unit).
+    pub fn from_proto(u: &pb::AidUpdate) -> Self {
+        let (v, s) = [
+            (&u.innovation_mps, &u.innovation_sigma_mps),
+            (&u.innovation_m, &u.innovation_sigma_m),
+            (&u.innovation_rad, &u.innovation_sigma_rad),
+        ]
+        .into_iter()
+        .find(|(v, _)| !v.is_empty())
+        .unwrap_or((&u.innovation_m, &u.innovation_sigma_m));
+        let mut innovation = [0.0; 3];
+        let mut innovation_var = [0.0; 3];
+        for (k, (x, sd)) in v.iter().zip(s.iter()).take(3).enumerate() {
+            innovation[k] = *x;
+            innovation_var[k] = sd * sd;
+        }
+        Self {
+            t_ns: u.t_ns,
+            innovation,
+            innovation_var,
+            test_ratio: u.test_ratio,
+            fused: u8::from(u.fused),
+            physical: true,
+        }
+    }
 }
 
 impl AidPoint {
@@ -64,7 +105,8 @@ pub const BIAS_SIGMA_COLUMNS: [&str; 6] = [
     "sig_ba_z_mps2",
 ];
 
-/// The `/solution` message fields of the same σ (gyro, then accelerometer).
+/// The JSON `/solution` message fields of the same σ (gyro, then
+/// accelerometer), in files of earlier versions.
 pub const BIAS_SIGMA_FIELDS: [&str; 2] = ["sigma_gyro_bias_rps", "sigma_accel_bias_mps2"];
 
 /// The longest MCAP record (a chunk, compressed or decompressed) eval reads.
@@ -102,11 +144,30 @@ pub fn load(path: &Path) -> Result<Loaded, String> {
     let mut rows = Vec::new();
     let mut bias_sigma = Vec::new();
     let mut aids = Aids::default();
-    for_each_message(path, |topic, data, sequence| {
-        let aid = match topic {
+    for_each_message(path, |m| {
+        let bad = |e: &dyn std::fmt::Display| {
+            format!(
+                "{p}: {} message {} ({}): {e}",
+                m.topic, m.sequence, m.encoding
+            )
+        };
+        let json = m.encoding == "json";
+        let aid = match m.topic {
             "/solution" => {
-                let (s, sig) = solution_of_json(data)
-                    .map_err(|e| format!("{p}: /solution message {sequence}: {e}"))?;
+                let (s, sig) = if json {
+                    solution_of_json(m.data).map_err(|e| bad(&e))?
+                } else {
+                    let s = pb::Solution::decode(m.data).map_err(|e| bad(&e))?;
+                    let sig = [
+                        s.sig_bg_x_rps,
+                        s.sig_bg_y_rps,
+                        s.sig_bg_z_rps,
+                        s.sig_ba_x_mps2,
+                        s.sig_ba_y_mps2,
+                        s.sig_ba_z_mps2,
+                    ];
+                    (s.to_wire(), Some(sig))
+                };
                 rows.push(Row::from_solution(&s));
                 bias_sigma.push(sig);
                 return Ok(());
@@ -117,10 +178,11 @@ pub fn load(path: &Path) -> Result<Loaded, String> {
             "/aid/star" => &mut aids.star,
             _ => return Ok(()),
         };
-        aid.push(
-            serde_json::from_slice(data)
-                .map_err(|e| format!("{p}: {topic} message {sequence}: {e}"))?,
-        );
+        aid.push(if json {
+            serde_json::from_slice(m.data).map_err(|e| bad(&e))?
+        } else {
+            AidPoint::from_proto(&pb::AidUpdate::decode(m.data).map_err(|e| bad(&e))?)
+        });
         Ok(())
     })?;
     if rows.is_empty() {
@@ -142,19 +204,28 @@ pub fn load(path: &Path) -> Result<Loaded, String> {
     })
 }
 
-/// Calls `f` with the topic, payload and sequence number of every message
-/// of the MCAP file `path`, in file order. The file is streamed record by
+/// One message of an MCAP file, with its channel's topic and message encoding.
+#[derive(Debug, Clone, Copy)]
+pub struct McapMessage<'a> {
+    pub topic: &'a str,
+    /// `protobuf`, `json`, ... (empty if the channel was not seen).
+    pub encoding: &'a str,
+    pub data: &'a [u8],
+    pub sequence: u32,
+}
+
+/// Calls `f` with every message of the MCAP file `path`, in file order. The file is streamed record by
 /// record (chunks decompressed one at a time): memory holds one chunk, not
 /// the file. A record or chunk longer than [`MAX_MCAP_RECORD_BYTES`] is
 /// refused as damage, so that a corrupt or hostile length cannot make the
 /// reader allocate it. Errors name the file.
 pub fn for_each_message(
     path: &Path,
-    mut f: impl FnMut(&str, &[u8], u32) -> Result<(), String>,
+    mut f: impl FnMut(McapMessage<'_>) -> Result<(), String>,
 ) -> Result<(), String> {
     let p = path.display();
     let mut file = std::fs::File::open(path).map_err(|e| format!("{p}: {e}"))?;
-    let mut topic_of: HashMap<u16, String> = HashMap::new();
+    let mut channel_of: HashMap<u16, (String, String)> = HashMap::new();
     let mut reader = LinearReader::new_with_options(
         LinearReaderOptions::default().with_record_length_limit(MAX_MCAP_RECORD_BYTES),
     );
@@ -169,11 +240,18 @@ pub fn for_each_message(
             LinearReadEvent::Record { opcode, data } => {
                 match mcap::parse_record(opcode, data).map_err(|e| format!("{p}: MCAP: {e}"))? {
                     Record::Channel(c) => {
-                        topic_of.insert(c.id, c.topic);
+                        channel_of.insert(c.id, (c.topic, c.message_encoding));
                     }
                     Record::Message { header, data } => {
-                        let topic = topic_of.get(&header.channel_id).map_or("", String::as_str);
-                        f(topic, &data, header.sequence)?;
+                        let (topic, encoding) = channel_of
+                            .get(&header.channel_id)
+                            .map_or(("", ""), |(t, e)| (t.as_str(), e.as_str()));
+                        f(McapMessage {
+                            topic,
+                            encoding,
+                            data: &data,
+                            sequence: header.sequence,
+                        })?;
                     }
                     _ => {}
                 }
@@ -183,7 +261,8 @@ pub fn for_each_message(
     Ok(())
 }
 
-/// A `/solution` JSON message (every `Solution` field but the zero padding),
+/// A `/solution` JSON message of an earlier version (every `Solution`
+/// field but the zero padding),
 /// and the bias σ when the message has [`BIAS_SIGMA_FIELDS`].
 fn solution_of_json(data: &[u8]) -> Result<(Solution, Option<[f64; 6]>), serde_json::Error> {
     let mut v: serde_json::Value = serde_json::from_slice(data)?;

@@ -1,0 +1,435 @@
+//! The wire payloads as the protobuf messages of `polarnav.proto`
+//! (`polarnav_proto`): units in every field name, the solution's angles in
+//! degrees as in the solution CSV, and each aid's innovation in one
+//! physical unit whatever the navigation frame.
+
+use msgs::{AidStatus, Solution, Status, StreamCounters, TruthRecord};
+use polarnav::earth::{self, Geodetic};
+use polarnav_proto as pb;
+
+/// An aid, for the unit of its innovation.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Aid {
+    /// Spectral-redshift velocity: m/s, navigation-frame axes.
+    Srs,
+    /// Celestial position: m (north, east in g; grid x, y in G).
+    Cns,
+    /// Barometric height: m.
+    Baro,
+    /// Star tracker attitude: rad, navigation-frame axes.
+    Star,
+}
+
+/// Where an update was made: the navigation frame ([`msgs::WireFrame`] as
+/// u8) and the position, which turn a CNS innovation in g (Δlatitude,
+/// Δlongitude in rad) into metres.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct UpdateAt {
+    /// [`msgs::WireFrame`] as u8.
+    pub frame: u8,
+    /// Latitude (rad).
+    pub lat_rad: f64,
+    /// Height (m).
+    pub h_m: f64,
+}
+
+fn nav_frame(frame: u8) -> i32 {
+    i32::from(frame)
+}
+
+/// Metres per radian of latitude and of longitude at `lat_rad`, `h_m`: the
+/// meridian arc (R_M + h) and the parallel's radius (R_N + h)·cos φ.
+pub fn metres_per_rad(lat_rad: f64, h_m: f64) -> [f64; 2] {
+    let (rm, rn) = earth::radii(lat_rad);
+    [rm + h_m, (rn + h_m) * lat_rad.cos()]
+}
+
+/// An aid's update in its physical unit. The innovation is as the wire
+/// reports it (`AidStatus::innovation`, its variance the diagonal of S);
+/// only a CNS innovation in g is rescaled, from rad to m, with
+/// [`metres_per_rad`] at `at`. Components without a positive finite
+/// variance (absent for this aid) are left out.
+pub fn aid_update(t_ns: u64, aid: Aid, a: &AidStatus, at: UpdateAt) -> pb::AidUpdate {
+    let dim = match aid {
+        Aid::Baro => 1,
+        Aid::Cns => 2,
+        Aid::Srs | Aid::Star => 3,
+    };
+    let scale = match aid {
+        Aid::Cns if at.frame == msgs::WireFrame::Geographic as u8 => {
+            let [n, e] = metres_per_rad(at.lat_rad, at.h_m);
+            [n, e, 1.0]
+        }
+        _ => [1.0; 3],
+    };
+    let v: Vec<f64> = (0..dim).map(|k| a.innovation[k] * scale[k]).collect();
+    let s: Vec<f64> = (0..dim)
+        .map(|k| a.innovation_var[k].sqrt() * scale[k])
+        .collect();
+    let mut u = pb::AidUpdate {
+        t_ns,
+        frame: nav_frame(at.frame),
+        test_ratio: a.test_ratio,
+        gate_ratio: 1.0,
+        fused: a.fused != 0,
+        exclusions: a.exclusions,
+        ..Default::default()
+    };
+    match aid {
+        Aid::Srs => (u.innovation_mps, u.innovation_sigma_mps) = (v, s),
+        Aid::Cns | Aid::Baro => (u.innovation_m, u.innovation_sigma_m) = (v, s),
+        Aid::Star => (u.innovation_rad, u.innovation_sigma_rad) = (v, s),
+    }
+    u
+}
+
+/// The solution with the CSV's columns and units (angles in degrees).
+pub fn solution(s: &Solution) -> pb::Solution {
+    pb::Solution::from_wire(s)
+}
+
+/// An IMU sample.
+pub fn imu(x: &msgs::ImuSample) -> pb::ImuSample {
+    pb::ImuSample {
+        t_ns: x.t_ns,
+        seq: x.seq,
+        dt_s: x.dt_s,
+        dtheta_x_rad: x.d_theta_rad[0],
+        dtheta_y_rad: x.d_theta_rad[1],
+        dtheta_z_rad: x.d_theta_rad[2],
+        dv_x_mps: x.d_v_mps[0],
+        dv_y_mps: x.d_v_mps[1],
+        dv_z_mps: x.d_v_mps[2],
+    }
+}
+
+/// An SRS sample: its `count` lines (at most the wire's capacity).
+pub fn srs(x: &msgs::SrsSample) -> pb::SrsSample {
+    let n = usize::try_from(x.count)
+        .unwrap_or(usize::MAX)
+        .min(x.lines.len());
+    pb::SrsSample {
+        t_ns: x.t_ns,
+        seq: x.seq,
+        lines: x.lines[..n]
+            .iter()
+            .map(|l| pb::SrsLine {
+                los_x: l.los_i[0],
+                los_y: l.los_i[1],
+                los_z: l.los_i[2],
+                body_vx_mps: l.body_vel_i_mps[0],
+                body_vy_mps: l.body_vel_i_mps[1],
+                body_vz_mps: l.body_vel_i_mps[2],
+                rest_wavelength_m: l.rest_wavelength_m,
+                measured_wavelength_m: l.measured_wavelength_m,
+                sigma_mps: l.sigma_mps,
+                body_id: l.body_id,
+            })
+            .collect(),
+    }
+}
+
+/// A CNS fix.
+pub fn cns(x: &msgs::CnsFix) -> pb::CnsFix {
+    pb::CnsFix {
+        t_ns: x.t_ns,
+        seq: x.seq,
+        lat_rad: x.lat_rad,
+        lon_rad: x.lon_rad,
+        sigma_h_m: x.sigma_h_m,
+    }
+}
+
+/// A barometric sample.
+pub fn baro(x: &msgs::BaroSample) -> pb::BaroSample {
+    pb::BaroSample {
+        t_ns: x.t_ns,
+        seq: x.seq,
+        pressure_pa: x.pressure_pa,
+        temperature_k: x.temperature_k,
+        sigma_m: x.sigma_m,
+    }
+}
+
+/// A star tracker sample.
+pub fn star(x: &msgs::StarSample) -> pb::StarSample {
+    let [q_b_i_w, q_b_i_x, q_b_i_y, q_b_i_z] = x.q_b_i;
+    let [boresight_x, boresight_y, boresight_z] = x.boresight_b;
+    pb::StarSample {
+        t_ns: x.t_ns,
+        seq: x.seq,
+        q_b_i_w,
+        q_b_i_x,
+        q_b_i_y,
+        q_b_i_z,
+        boresight_x,
+        boresight_y,
+        boresight_z,
+        sigma_cross_arcsec: x.sigma_cross_arcsec,
+        sigma_boresight_arcsec: x.sigma_boresight_arcsec,
+    }
+}
+
+/// An initial state.
+pub fn init(x: &msgs::InitState) -> pb::InitState {
+    let [x_m, y_m, z_m] = x.r_e_m;
+    let [vx_mps, vy_mps, vz_mps] = x.v_e_mps;
+    let [q_b_e_w, q_b_e_x, q_b_e_y, q_b_e_z] = x.q_b_e;
+    pb::InitState {
+        t_ns: x.t_ns,
+        seq: x.seq,
+        x_m,
+        y_m,
+        z_m,
+        vx_mps,
+        vy_mps,
+        vz_mps,
+        q_b_e_w,
+        q_b_e_x,
+        q_b_e_y,
+        q_b_e_z,
+        sigma_pos_h_m: x.sigma_pos_h_m,
+        sigma_pos_v_m: x.sigma_pos_v_m,
+        sigma_vel_h_mps: x.sigma_vel_h_mps,
+        sigma_vel_v_mps: x.sigma_vel_v_mps,
+        sigma_tilt_rad: x.sigma_tilt_rad,
+        sigma_heading_rad: x.sigma_heading_rad,
+    }
+}
+
+fn counters(c: &StreamCounters) -> pb::StreamCounters {
+    pb::StreamCounters {
+        received: c.received,
+        accepted: c.accepted,
+        rejected_invalid: c.rejected_invalid,
+        rejected_time: c.rejected_time,
+        rejected_gate: c.rejected_gate,
+        not_used: c.not_used,
+        seq_gaps: c.seq_gaps,
+        last_t_ns: c.last_t_ns,
+        refused_publisher: c.refused_publisher,
+    }
+}
+
+/// A status record; each aid's last update in its unit, a CNS one in g
+/// rescaled at `at` (the status's frame and the last solution's position).
+pub fn status(st: &Status, lat_rad: f64, h_m: f64) -> pb::Status {
+    let at = UpdateAt {
+        frame: st.frame,
+        lat_rad,
+        h_m,
+    };
+    let aid = |kind: Aid, a: &AidStatus| pb::AidStatus {
+        last: Some(aid_update(st.t_ns, kind, a, at)),
+        last_fuse_t_ns: a.last_fuse_t_ns,
+        fresh: a.fresh != 0,
+    };
+    pb::Status {
+        t_ns: st.t_ns,
+        seq: st.seq,
+        imu: Some(counters(&st.imu)),
+        srs: Some(counters(&st.srs)),
+        cns: Some(counters(&st.cns)),
+        baro: Some(counters(&st.baro)),
+        star: Some(counters(&st.star)),
+        srs_aid: Some(aid(Aid::Srs, &st.srs_aid)),
+        cns_aid: Some(aid(Aid::Cns, &st.cns_aid)),
+        baro_aid: Some(aid(Aid::Baro, &st.baro_aid)),
+        star_aid: Some(aid(Aid::Star, &st.star_aid)),
+        cycles: st.cycles,
+        overruns: st.overruns,
+        overruns_cpu: st.overruns_cpu,
+        cycle_time_mean_ns: st.cycle_time_mean_ns,
+        cycle_time_max_ns: st.cycle_time_max_ns,
+        last_switch_t_ns: st.last_switch_t_ns,
+        imu_gap_count: st.imu_gap_count,
+        coasted_ns: st.coasted_ns,
+        checkpoints_written: st.checkpoints_written,
+        reinit_count: st.reinit_count,
+        switch_count: st.switch_count,
+        reset_count: st.reset_count,
+        flags: st.flags,
+        frame: nav_frame(st.frame),
+        resumed: st.resumed != 0,
+    }
+}
+
+/// A truth record with its geodetic position `g`.
+pub fn truth(t: &TruthRecord, g: &Geodetic) -> pb::Truth {
+    let [x_m, y_m, z_m] = t.r_e_m;
+    let [vx_mps, vy_mps, vz_mps] = t.v_e_mps;
+    let [qw, qx, qy, qz] = t.q_b_e;
+    pb::Truth {
+        t_ns: t.t_ns,
+        lat_deg: g.lat_rad.to_degrees(),
+        lon_deg: g.lon_rad.to_degrees(),
+        h_m: g.h_m,
+        x_m,
+        y_m,
+        z_m,
+        vx_mps,
+        vy_mps,
+        vz_mps,
+        qw,
+        qx,
+        qy,
+        qz,
+    }
+}
+
+/// The simulated IMU biases.
+pub fn truth_bias(x: &msgs::navlog::TruthBias) -> pb::TruthBias {
+    let [bg_x_rps, bg_y_rps, bg_z_rps] = x.gyro_bias_rps;
+    let [ba_x_mps2, ba_y_mps2, ba_z_mps2] = x.accel_bias_mps2;
+    pb::TruthBias {
+        t_ns: x.t_ns,
+        bg_x_rps,
+        bg_y_rps,
+        bg_z_rps,
+        ba_x_mps2,
+        ba_y_mps2,
+        ba_z_mps2,
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use msgs::solution_flags;
+
+    /// A CNS innovation in g, rescaled to metres, is the distance the two
+    /// positions (prediction and measurement) are apart on the ellipsoid,
+    /// computed independently as the ECEF difference projected on local
+    /// north and east.
+    #[test]
+    fn a_cns_innovation_in_g_in_metres_is_the_ecef_distance_north_and_east() {
+        for (lat_deg, h_m) in [
+            (10.0, 0.0),
+            (70.0, 20_000.0),
+            (-85.0, 15_000.0),
+            (89.9, 1_000.0),
+        ] {
+            let lat = f64::to_radians(lat_deg);
+            let lon = 0.3;
+            let (dlat, dlon) = (2e-7, -3e-7);
+            let a = AidStatus {
+                innovation: [dlat, dlon, 0.0],
+                innovation_var: [1e-14, 4e-14, 0.0],
+                ..Default::default()
+            };
+            let u = aid_update(
+                1,
+                Aid::Cns,
+                &a,
+                UpdateAt {
+                    frame: 0,
+                    lat_rad: lat,
+                    h_m,
+                },
+            );
+            let r0 = earth::geodetic_to_ecef(&Geodetic {
+                lat_rad: lat - dlat / 2.0,
+                lon_rad: lon - dlon / 2.0,
+                h_m,
+            });
+            let r1 = earth::geodetic_to_ecef(&Geodetic {
+                lat_rad: lat + dlat / 2.0,
+                lon_rad: lon + dlon / 2.0,
+                h_m,
+            });
+            let d = r1 - r0;
+            let (sl, cl, so, co) = (lat.sin(), lat.cos(), lon.sin(), lon.cos());
+            let north = -sl * co * d[0] - sl * so * d[1] + cl * d[2];
+            let east = -so * d[0] + co * d[1];
+            assert!(
+                (u.innovation_m[0] - north).abs() < 1e-6,
+                "{lat_deg}: {u:?} vs {north}"
+            );
+            assert!(
+                (u.innovation_m[1] - east).abs() < 1e-6,
+                "{lat_deg}: {u:?} vs {east}"
+            );
+            // σ scales like the innovation: the ratio is the unit-free one.
+            for k in 0..2 {
+                let ratio = u.innovation_m[k] / u.innovation_sigma_m[k];
+                let raw = a.innovation[k] / a.innovation_var[k].sqrt();
+                assert!((ratio - raw).abs() < 1e-12 * raw.abs().max(1.0));
+            }
+            assert!(u.innovation_rad.is_empty() && u.innovation_mps.is_empty());
+        }
+    }
+
+    /// In G a CNS innovation is already metres (grid x, y): unchanged.
+    #[test]
+    fn a_cns_innovation_in_grid_is_left_in_metres() {
+        let a = AidStatus {
+            innovation: [3.0, -4.0, 0.0],
+            innovation_var: [9.0, 16.0, 0.0],
+            ..Default::default()
+        };
+        let u = aid_update(
+            1,
+            Aid::Cns,
+            &a,
+            UpdateAt {
+                frame: 1,
+                lat_rad: 1.5,
+                h_m: 0.0,
+            },
+        );
+        assert_eq!(u.innovation_m, [3.0, -4.0]);
+        assert_eq!(u.innovation_sigma_m, [3.0, 4.0]);
+        assert_eq!(u.frame, 1);
+    }
+
+    /// The solution message and back give the wire solution to rounding
+    /// (angles go through degrees).
+    #[test]
+    fn a_solution_round_trips_through_its_message() {
+        let s = Solution {
+            t_ns: 123_456_789_012,
+            seq: 7,
+            lat_rad: 1.2,
+            lon_rad: -2.9,
+            h_m: 15_000.5,
+            r_e_m: [1.0, 2.0, 3.0],
+            v_e_mps: [4.0, 5.0, 6.0],
+            v_enu_mps: [7.0, 8.0, 9.0],
+            v_nav_mps: [10.0, 11.0, 12.0],
+            grid_angle_rad: 0.4,
+            q_b_e: [0.5, 0.5, -0.5, 0.5],
+            heading_rad: 0.1,
+            grid_heading_rad: 0.2,
+            pitch_rad: 0.03,
+            roll_rad: -0.04,
+            sigma_pos_enu_m: [1.5, 2.5, 3.5],
+            sigma_vel_mps: [0.1, 0.2, 0.3],
+            sigma_att_rad: [1e-4, 2e-4, 3e-4],
+            gyro_bias_rps: [1e-7, 2e-7, 3e-7],
+            accel_bias_mps2: [1e-4, 2e-4, 3e-4],
+            sigma_gyro_bias_rps: [1e-8; 3],
+            sigma_accel_bias_mps2: [1e-5; 3],
+            reset_t_ns: 99,
+            reset_delta_pos_e_m: [0.1, 0.2, 0.3],
+            reset_delta_vel_e_mps: [0.01, 0.02, 0.03],
+            reset_delta_heading_rad: 0.001,
+            flags: solution_flags::SRS_FRESH | solution_flags::COASTING,
+            switch_count: 2,
+            reset_count: 1,
+            frame: 1,
+            ..Default::default()
+        };
+        let m = solution(&s);
+        assert!(m.srs_fresh && m.coasting && !m.cns_fresh);
+        assert!((m.lat_deg - 68.754_935_415_698_8).abs() < 1e-9);
+        let back = m.to_wire();
+        let close = |a: f64, b: f64| (a - b).abs() <= 1e-15 * a.abs().max(1e-300);
+        assert!(close(back.lat_rad, s.lat_rad) && close(back.lon_rad, s.lon_rad));
+        assert!(close(back.sigma_att_rad[2], s.sigma_att_rad[2]));
+        assert_eq!(
+            (back.r_e_m, back.q_b_e, back.flags, back.frame),
+            (s.r_e_m, s.q_b_e, s.flags, s.frame)
+        );
+        assert_eq!(back.sigma_accel_bias_mps2, s.sigma_accel_bias_mps2);
+    }
+}
