@@ -54,7 +54,29 @@ fn batch_mcap_has_one_solution_per_csv_row_with_equal_values_and_every_schema() 
     let summary = check_mcap(&mcap, Some(&csv), &polarnav_foxglove::TOPICS);
     let counts = &summary["counts"];
     assert_eq!(summary["solutions_checked"].as_u64(), Some(a.rows));
-    assert_eq!(counts["/solution/fix"].as_u64(), Some(a.rows));
+    // The display channels: one solution per 50 ms of sensor time and the
+    // first one in a new frame, counted here from the CSV's stamps.
+    let text = std::fs::read_to_string(&csv).expect("csv");
+    let mut last: Option<(u64, String)> = None;
+    let mut shown = 0u64;
+    for line in text.lines().skip(1) {
+        let mut cols = line.split(',');
+        let t_ns = (cols.next().expect("t_s").parse::<f64>().expect("t_s") * 1e9).round() as u64;
+        let frame = cols.next().expect("frame").to_owned();
+        let show = last.as_ref().is_none_or(|(t0, f0)| {
+            *f0 != frame || t_ns < *t0 || t_ns - t0 >= polarnav_foxglove::DISPLAY_PERIOD_NS
+        });
+        if show {
+            shown += 1;
+            last = Some((t_ns, frame));
+        } else if let Some(l) = last.as_mut() {
+            l.1 = frame;
+        }
+    }
+    assert!(shown * 9 < a.rows && shown * 11 > a.rows, "{shown} of {}", a.rows);
+    for t in ["/solution/fix", "/solution/pose", "/solution/nav_frame"] {
+        assert_eq!(counts[t].as_u64(), Some(shown), "{t}");
+    }
     assert_eq!(counts["/events/switch"].as_u64(), Some(1));
     // Every aid sample that reached the gate has its update: fused + gate-rejected.
     let st = &b.status;

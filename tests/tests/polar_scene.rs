@@ -93,8 +93,14 @@ fn shipped_layout_names_written_frames_and_topics_and_the_scene_draws() {
         .expect("paths")
     {
         let p = path["value"].as_str().expect("path");
-        let topic = p.split('.').next().expect("topic");
+        let (topic, field) = p.split_once('.').expect("topic.field");
         assert!(polarnav_foxglove::TOPICS.contains(&topic), "{topic}");
+        // /solution's fields are the solution CSV's columns, same names.
+        assert_eq!(topic, "/solution", "{p}");
+        assert!(
+            polarnav::solution_csv::HEADER.split(',').any(|c| c == field),
+            "{p}: /solution has no field {field}"
+        );
     }
 
     let (dir, mcap, _) = over_the_pole_mcap("polar-layout");
