@@ -44,9 +44,9 @@ def csv_values(m):
     }
     for i, k in enumerate(["x_m", "y_m", "z_m"]):
         v[k] = m["r_e_m"][i]
-    for i, k in enumerate(["vx", "vy", "vz"]):
+    for i, k in enumerate(["vx_mps", "vy_mps", "vz_mps"]):
         v[k] = m["v_e_mps"][i]
-    for i, k in enumerate(["ve", "vn", "vu"]):
+    for i, k in enumerate(["ve_mps", "vn_mps", "vu_mps"]):
         v[k] = m["v_enu_mps"][i]
     for i, k in enumerate(["qw", "qx", "qy", "qz"]):
         v[k] = m["q_b_e"][i]
