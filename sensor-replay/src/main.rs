@@ -107,6 +107,10 @@ enum Cmd {
         /// Stop after this many seconds.
         #[arg(long)]
         duration: Option<f64>,
+        /// With --out F.mcap: UTC time of the daemon's sensor time 0 (RFC
+        /// 3339, e.g. 2026-11-25T09:30:00Z), so the MCAP log times are dates.
+        #[arg(long, value_name = "RFC3339", requires = "out")]
+        utc_start: Option<String>,
     },
     /// Live monitor: solution and status in place, a few times per second.
     Listen {
@@ -468,8 +472,9 @@ fn run(cli: Cli) -> Result<(), Fail> {
             config,
             prefix,
             duration,
+            utc_start,
         } => {
-            use sensor_replay::pieces::{self, Output, Rotation};
+            use sensor_replay::pieces::{self, McapProvenance, Output, Rotation};
             if let Some(d) = duration
                 && !(d.is_finite() && d > 0.0 && d <= 1e9)
             {
@@ -535,6 +540,26 @@ fn run(cli: Cli) -> Result<(), Fail> {
                 }
                 (None, None) => return Err(bad("--out FILE or --out-dir DIR is required".into())),
             };
+            let utc_start = utc_start
+                .as_deref()
+                .map(polarnav_config::provenance::UtcStart::parse)
+                .transpose()
+                .map_err(|m| bad(format!("--utc-start: {m}")))?;
+            if utc_start.is_some() && !matches!(&target, Output::File(f) if pieces::is_mcap(f)) {
+                return Err(bad(format!(
+                    "--utc-start: only an MCAP output has log times (a navlog keeps sensor time); --out {shown} is not .mcap"
+                )));
+            }
+            // An MCAP file says what produced it, as `export` and `batch` do.
+            let args: Vec<String> = std::env::args().collect();
+            let mcap = McapProvenance {
+                provenance: polarnav_config::provenance::provenance(
+                    "sensor-replay record",
+                    &args,
+                    utc_start.as_ref(),
+                ),
+                epoch_ns: utc_start.as_ref().map(|u| u.ns),
+            };
             let stop = stop_flag()?;
             let cfg = polarnav_ipc::TransportConfig::new(&prefix);
             eprintln!("record: {prefix}/... -> {shown} (stop with Ctrl-C)");
@@ -542,6 +567,7 @@ fn run(cli: Cli) -> Result<(), Fail> {
                 &cfg,
                 target,
                 pieces::create_file(),
+                mcap,
                 &stop,
                 duration.map(std::time::Duration::from_secs_f64),
             )
