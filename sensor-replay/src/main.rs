@@ -417,10 +417,13 @@ fn run(cli: Cli) -> Result<(), Fail> {
             for f in &files {
                 let r = sensor_replay::campaign::run_scenario(f)
                     .map_err(|e| Fail(2, format!("{}: {e}", f.display())))?;
-                print!("{}", sensor_replay::campaign::report(&r, "batch"));
+                print_stdout(&sensor_replay::campaign::report(&r, "batch"))?;
                 failed += usize::from(!r.ok());
             }
-            println!("campaign: {} scenarios, {failed} failed", files.len());
+            print_stdout(&format!(
+                "campaign: {} scenarios, {failed} failed\n",
+                files.len()
+            ))?;
             if failed > 0 {
                 return Err(Fail(1, format!("{failed} fault scenarios failed")));
             }
@@ -460,7 +463,7 @@ fn run(cli: Cli) -> Result<(), Fail> {
             );
             let p = sensor_replay::live::play(&c, &cfg, speed, loops, &stall_imu, &stop)
                 .map_err(|e| Fail(1, e.to_string()))?;
-            println!("{}", p.summary());
+            print_stdout(&format!("{}\n", p.summary()))?;
             Ok(())
         }
         Cmd::Record {
@@ -572,10 +575,10 @@ fn run(cli: Cli) -> Result<(), Fail> {
                 duration.map(std::time::Duration::from_secs_f64),
             )
             .map_err(|e| Fail(1, e.to_string()))?;
-            println!(
-                "record: {} records ({} solutions) written to {shown} in {} piece(s), {} removed by --keep-bytes; {} records lost to a full disk or a failed write",
+            print_stdout(&format!(
+                "record: {} records ({} solutions) written to {shown} in {} piece(s), {} removed by --keep-bytes; {} records lost to a full disk or a failed write\n",
                 n.records, n.solutions, n.pieces, n.removed, n.lost
-            );
+            ))?;
             Ok(())
         }
         Cmd::Listen { prefix, duration } => {
@@ -618,8 +621,8 @@ fn run(cli: Cli) -> Result<(), Fail> {
             )
             .map_err(|e| Fail(1, e.to_string()))?;
             let dropped: Vec<String> = n.dropped.iter().map(|(t, k)| format!("{t} {k}")).collect();
-            println!(
-                "view: {} solutions and {} status forwarded, {} solutions missed; dropped by --max-rate: {}; {} client(s) refused",
+            print_stdout(&format!(
+                "view: {} solutions and {} status forwarded, {} solutions missed; dropped by --max-rate: {}; {} client(s) refused\n",
                 n.solutions,
                 n.status,
                 n.solution_gaps,
@@ -629,7 +632,7 @@ fn run(cli: Cli) -> Result<(), Fail> {
                     dropped.join(", ")
                 },
                 n.refused_clients
-            );
+            ))?;
             Ok(())
         }
         Cmd::ImportKfgins {
@@ -831,7 +834,9 @@ fn run(cli: Cli) -> Result<(), Fail> {
             )
             .map_err(bad)?;
             md.push_str(&r.markdown);
-            println!("{md}");
+            // `eval ... | head`: the reader may stop early; the summary
+            // file below is written all the same.
+            print_stdout(&format!("{md}\n"))?;
             if let Some(dir) = out {
                 std::fs::create_dir_all(&dir)
                     .map_err(|e| Fail(1, format!("{}: {e}", dir.display())))?;
@@ -883,6 +888,21 @@ fn export_mcap(
     }
     m.close().map_err(|e| Fail(1, e.to_string()))?;
     Ok(n)
+}
+
+/// Writes `text` to standard output. A reader that stopped reading
+/// (`sensor-replay eval ... | head`: a broken pipe) is not an error: the
+/// rest of the text is dropped quietly and the command goes on (its files
+/// are still written) and exits as it would have. Rust ignores SIGPIPE, so
+/// without this `println!` panics there.
+fn print_stdout(text: &str) -> Result<(), Fail> {
+    let mut out = std::io::stdout().lock();
+    match out.write_all(text.as_bytes()).and_then(|()| out.flush()) {
+        Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => {
+            Err(Fail(1, format!("standard output: {e}")))
+        }
+        _ => Ok(()),
+    }
 }
 
 /// SIGINT/SIGTERM set the returned flag (the loops finish their cycle and exit cleanly).
