@@ -11,7 +11,7 @@ use msgs::{
 };
 use polarnav_ipc::{TopicPublisher, TopicSubscriber, TransportConfig, TransportError};
 
-use crate::pieces::{Opener, Output, Pieces};
+use crate::pieces::{McapProvenance, Opener, Output, Pieces};
 use polarnav_eval::logfile::{LogContents, SensorRef};
 
 /// Pacing statistics of a replay (lateness of each publication behind its deadline).
@@ -391,10 +391,12 @@ pub const SETTINGS_WAIT: Duration = Duration::from_millis(100);
 /// `max_duration` passes). The subscriptions are drained every cycle
 /// whatever the disk does: a write that fails costs the records it could
 /// not write (counted), never a wait of the publishers.
+/// An MCAP output carries `mcap`'s provenance record and epoch.
 pub fn record(
     cfg: &TransportConfig,
     out: Output,
     open: Opener,
+    mcap: McapProvenance,
     stop: &AtomicBool,
     max_duration: Option<Duration>,
 ) -> Result<Recorded, RecordError> {
@@ -421,7 +423,8 @@ pub fn record(
             polarnav_config::build_info::LONG_VERSION
         ),
         &cfg.prefix,
-    );
+    )
+    .with_mcap_provenance(mcap);
     let mut started = false;
     let waitset = WaitSetBuilder::new()
         .signal_handling_mode(SignalHandlingMode::Disabled)

@@ -107,6 +107,10 @@ enum Cmd {
         /// Stop after this many seconds.
         #[arg(long)]
         duration: Option<f64>,
+        /// With --out F.mcap: UTC time of the daemon's sensor time 0 (RFC
+        /// 3339, e.g. 2026-11-25T09:30:00Z), so the MCAP log times are dates.
+        #[arg(long, value_name = "RFC3339", requires = "out")]
+        utc_start: Option<String>,
     },
     /// Live monitor: solution and status in place, a few times per second.
     Listen {
@@ -413,10 +417,13 @@ fn run(cli: Cli) -> Result<(), Fail> {
             for f in &files {
                 let r = sensor_replay::campaign::run_scenario(f)
                     .map_err(|e| Fail(2, format!("{}: {e}", f.display())))?;
-                print!("{}", sensor_replay::campaign::report(&r, "batch"));
+                print_stdout(&sensor_replay::campaign::report(&r, "batch"))?;
                 failed += usize::from(!r.ok());
             }
-            println!("campaign: {} scenarios, {failed} failed", files.len());
+            print_stdout(&format!(
+                "campaign: {} scenarios, {failed} failed\n",
+                files.len()
+            ))?;
             if failed > 0 {
                 return Err(Fail(1, format!("{failed} fault scenarios failed")));
             }
@@ -456,7 +463,7 @@ fn run(cli: Cli) -> Result<(), Fail> {
             );
             let p = sensor_replay::live::play(&c, &cfg, speed, loops, &stall_imu, &stop)
                 .map_err(|e| Fail(1, e.to_string()))?;
-            println!("{}", p.summary());
+            print_stdout(&format!("{}\n", p.summary()))?;
             Ok(())
         }
         Cmd::Record {
@@ -468,8 +475,9 @@ fn run(cli: Cli) -> Result<(), Fail> {
             config,
             prefix,
             duration,
+            utc_start,
         } => {
-            use sensor_replay::pieces::{self, Output, Rotation};
+            use sensor_replay::pieces::{self, McapProvenance, Output, Rotation};
             if let Some(d) = duration
                 && !(d.is_finite() && d > 0.0 && d <= 1e9)
             {
@@ -535,6 +543,26 @@ fn run(cli: Cli) -> Result<(), Fail> {
                 }
                 (None, None) => return Err(bad("--out FILE or --out-dir DIR is required".into())),
             };
+            let utc_start = utc_start
+                .as_deref()
+                .map(polarnav_config::provenance::UtcStart::parse)
+                .transpose()
+                .map_err(|m| bad(format!("--utc-start: {m}")))?;
+            if utc_start.is_some() && !matches!(&target, Output::File(f) if pieces::is_mcap(f)) {
+                return Err(bad(format!(
+                    "--utc-start: only an MCAP output has log times (a navlog keeps sensor time); --out {shown} is not .mcap"
+                )));
+            }
+            // An MCAP file says what produced it, as `export` and `batch` do.
+            let args: Vec<String> = std::env::args().collect();
+            let mcap = McapProvenance {
+                provenance: polarnav_config::provenance::provenance(
+                    "sensor-replay record",
+                    &args,
+                    utc_start.as_ref(),
+                ),
+                epoch_ns: utc_start.as_ref().map(|u| u.ns),
+            };
             let stop = stop_flag()?;
             let cfg = polarnav_ipc::TransportConfig::new(&prefix);
             eprintln!("record: {prefix}/... -> {shown} (stop with Ctrl-C)");
@@ -542,14 +570,15 @@ fn run(cli: Cli) -> Result<(), Fail> {
                 &cfg,
                 target,
                 pieces::create_file(),
+                mcap,
                 &stop,
                 duration.map(std::time::Duration::from_secs_f64),
             )
             .map_err(|e| Fail(1, e.to_string()))?;
-            println!(
-                "record: {} records ({} solutions) written to {shown} in {} piece(s), {} removed by --keep-bytes; {} records lost to a full disk or a failed write",
+            print_stdout(&format!(
+                "record: {} records ({} solutions) written to {shown} in {} piece(s), {} removed by --keep-bytes; {} records lost to a full disk or a failed write\n",
                 n.records, n.solutions, n.pieces, n.removed, n.lost
-            );
+            ))?;
             Ok(())
         }
         Cmd::Listen { prefix, duration } => {
@@ -592,8 +621,8 @@ fn run(cli: Cli) -> Result<(), Fail> {
             )
             .map_err(|e| Fail(1, e.to_string()))?;
             let dropped: Vec<String> = n.dropped.iter().map(|(t, k)| format!("{t} {k}")).collect();
-            println!(
-                "view: {} solutions and {} status forwarded, {} solutions missed; dropped by --max-rate: {}; {} client(s) refused",
+            print_stdout(&format!(
+                "view: {} solutions and {} status forwarded, {} solutions missed; dropped by --max-rate: {}; {} client(s) refused\n",
                 n.solutions,
                 n.status,
                 n.solution_gaps,
@@ -603,7 +632,7 @@ fn run(cli: Cli) -> Result<(), Fail> {
                     dropped.join(", ")
                 },
                 n.refused_clients
-            );
+            ))?;
             Ok(())
         }
         Cmd::ImportKfgins {
@@ -805,7 +834,9 @@ fn run(cli: Cli) -> Result<(), Fail> {
             )
             .map_err(bad)?;
             md.push_str(&r.markdown);
-            println!("{md}");
+            // `eval ... | head`: the reader may stop early; the summary
+            // file below is written all the same.
+            print_stdout(&format!("{md}\n"))?;
             if let Some(dir) = out {
                 std::fs::create_dir_all(&dir)
                     .map_err(|e| Fail(1, format!("{}: {e}", dir.display())))?;
@@ -857,6 +888,21 @@ fn export_mcap(
     }
     m.close().map_err(|e| Fail(1, e.to_string()))?;
     Ok(n)
+}
+
+/// Writes `text` to standard output. A reader that stopped reading
+/// (`sensor-replay eval ... | head`: a broken pipe) is not an error: the
+/// rest of the text is dropped quietly and the command goes on (its files
+/// are still written) and exits as it would have. Rust ignores SIGPIPE, so
+/// without this `println!` panics there.
+fn print_stdout(text: &str) -> Result<(), Fail> {
+    let mut out = std::io::stdout().lock();
+    match out.write_all(text.as_bytes()).and_then(|()| out.flush()) {
+        Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => {
+            Err(Fail(1, format!("standard output: {e}")))
+        }
+        _ => Ok(()),
+    }
 }
 
 /// SIGINT/SIGTERM set the returned flag (the loops finish their cycle and exit cleanly).

@@ -16,7 +16,7 @@
 //! keeps draining its subscriptions meanwhile and retries in a new piece
 //! every [`RETRY_PERIOD`].
 
-use std::collections::VecDeque;
+use std::collections::{BTreeMap, VecDeque};
 use std::io::{self, BufWriter, Write};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -50,6 +50,20 @@ pub struct Rotation {
     /// Remove the oldest pieces (never the open one) while the directory's
     /// pieces hold more than this.
     pub keep_bytes: Option<u64>,
+}
+
+/// What an MCAP file of the recorder carries besides the records, as
+/// `sensor-replay export` and `nav-daemon batch` write them: the
+/// `polarnav.provenance` metadata record (program, version, commit, command
+/// line, UTC start) and the UTC epoch that makes the log times dates.
+/// Every MCAP piece has them (a piece resumed after a full disk too).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct McapProvenance {
+    /// The `polarnav.provenance` record
+    /// ([`polarnav_config::provenance::provenance`]).
+    pub provenance: BTreeMap<String, String>,
+    /// UTC of sensor time 0 (ns since 1970-01-01), from `--utc-start`.
+    pub epoch_ns: Option<u64>,
 }
 
 /// Where the recorder writes.
@@ -175,6 +189,7 @@ pub struct Pieces {
     producer: String,
     scenario: String,
     settings: Option<String>,
+    mcap: Option<McapProvenance>,
     piece: Option<Piece>,
     /// Set while writing fails: when it started and when to try again.
     failed: Option<(Instant, Instant)>,
@@ -205,6 +220,7 @@ impl Pieces {
             producer: producer.to_owned(),
             scenario: scenario.to_owned(),
             settings: None,
+            mcap: None,
             piece: None,
             failed: None,
             next_seq,
@@ -214,6 +230,13 @@ impl Pieces {
             last_solution: None,
             tail: VecDeque::new(),
         }
+    }
+
+    /// The provenance record and epoch of an MCAP output (a navlog output
+    /// has its own header and ignores them).
+    pub fn with_mcap_provenance(mut self, p: McapProvenance) -> Self {
+        self.mcap = Some(p);
+        self
     }
 
     pub fn counts(&self) -> PieceCounts {
@@ -456,7 +479,15 @@ impl Pieces {
         let bytes = Arc::new(AtomicU64::new(0));
         let result = (|| -> Result<Piece, String> {
             let sink = if mcap {
-                let m = McapFile::create(&path, AidSource::Status).map_err(|e| e.to_string())?;
+                let mut m =
+                    McapFile::create(&path, AidSource::Status).map_err(|e| e.to_string())?;
+                if let Some(p) = &self.mcap {
+                    if let Some(e) = p.epoch_ns {
+                        m.channels().set_epoch_ns(e);
+                    }
+                    m.metadata("polarnav.provenance", p.provenance.clone())
+                        .map_err(|e| e.to_string())?;
+                }
                 m.header(&header).map_err(|e| e.to_string())?;
                 Sink::Mcap(Box::new(m))
             } else {

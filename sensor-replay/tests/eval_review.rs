@@ -375,3 +375,55 @@ fn absurd_solution_files_are_refused_naming_file_and_line() {
     );
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// `sensor-replay eval ... | head`: a reader that closes the pipe before
+/// the summary is printed costs no panic (`println!` panics on a broken
+/// pipe, as Rust ignores SIGPIPE); eval exits 0, quietly, and still
+/// writes its summary file.
+#[test]
+fn eval_into_a_closed_pipe_exits_0_quietly_and_writes_its_summary() {
+    use std::io::Read;
+    use std::process::Stdio;
+    let dir = tmp("pipe");
+    let log = paper_sim(&dir, 20, 1);
+    let csv = dir.join("run.csv");
+    batch_to(&log, &csv);
+    let run = |out: &Path, read_first: usize| {
+        let mut child = Command::new(env!("CARGO_BIN_EXE_sensor-replay"))
+            .arg("eval")
+            .arg("--log")
+            .arg(&log)
+            .arg("--solution")
+            .arg(&csv)
+            .arg("--out")
+            .arg(out)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .expect("run sensor-replay eval");
+        let mut stdout = child.stdout.take().expect("stdout");
+        let mut head = vec![0u8; read_first];
+        stdout.read_exact(&mut head).expect("the first bytes");
+        // The only read end: from here on every write to stdout fails
+        // with EPIPE.
+        drop(stdout);
+        let o = child.wait_with_output().expect("wait");
+        (head, o)
+    };
+    // Closed before eval writes anything (it writes the summary at the
+    // end, in one piece, after seconds of work): its write meets EPIPE.
+    // And closed after `head -c 2` of it (a summary larger than the pipe's
+    // buffer meets EPIPE there too; a smaller one is already written).
+    for (name, read_first) in [("closed", 0), ("head", 2)] {
+        let out = dir.join(name);
+        let (head, o) = run(&out, read_first);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(!err.contains("panicked"), "{name}: {err}");
+        assert!(!err.to_lowercase().contains("broken pipe"), "{name}: {err}");
+        assert_eq!(o.status.code(), Some(0), "{name}: {err}");
+        let summary = std::fs::read_to_string(out.join("summary.md")).expect("summary.md");
+        assert!(summary.starts_with("## Accuracy"), "{summary}");
+        assert!(summary.as_bytes().starts_with(&head));
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}

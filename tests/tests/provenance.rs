@@ -3,6 +3,7 @@
 //! setting with its source (read back with the reference reader, PyPI
 //! `mcap`), so two runs with different options differ in their metadata;
 //! `--utc-start` makes the log times dates; `--version` names the commit.
+//! A `sensor-replay record` MCAP records its provenance too.
 
 use std::process::Command;
 
@@ -184,4 +185,78 @@ fn utc_start_that_is_not_a_date_is_refused_as_usage() {
         err.contains("--utc-start") && err.contains("day 30"),
         "{err}"
     );
+}
+
+/// `sensor-replay record --out F.mcap` says what produced it, as `export`
+/// and `batch` do: program, version, commit and the command line; with
+/// `--utc-start` the epoch too. No daemon is needed for the record: the
+/// recorder stops after its `--duration` with nothing received (a file of
+/// metadata, header and no messages).
+#[test]
+fn record_mcap_metadata_records_program_commit_and_command_line() {
+    let dir = std::env::temp_dir().join(format!("polarnav-rec-prov-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("dir");
+    let prefix = format!("rec-prov-{}", std::process::id());
+    let utc = "2026-11-25T09:30:00Z";
+    let record = |out: &std::path::Path, extra: &[&str]| {
+        Command::new(bin("sensor-replay"))
+            .args(["record", "--prefix", &prefix, "--duration", "0.3", "--out"])
+            .arg(out)
+            .args(extra)
+            .output()
+            .expect("sensor-replay record")
+    };
+    let (a, b) = (dir.join("plain.mcap"), dir.join("dated.mcap"));
+    for (out, extra) in [(&a, &[][..]), (&b, &["--utc-start", utc][..])] {
+        let o = record(out, extra);
+        assert!(
+            o.status.success(),
+            "record {extra:?}: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+    }
+    let (ma, mb) = (read_metadata(&a), read_metadata(&b));
+    for (m, out) in [(&ma, &a), (&mb, &b)] {
+        let p = &m["metadata"]["polarnav.provenance"];
+        assert_eq!(p["program"], "sensor-replay record", "{m}");
+        assert_eq!(p["version"], env!("CARGO_PKG_VERSION"), "{p}");
+        let commit = p["commit"].as_str().expect("commit");
+        assert!(is_commit(commit), "commit {commit:?} is not 12 hex digits");
+        let cl = p["command_line"].as_str().expect("command line");
+        let want = format!(
+            " record --prefix {prefix} --duration 0.3 --out {}",
+            out.display()
+        );
+        assert!(cl.contains(&want), "{cl} lacks {want}");
+        // The navlog header's record (producer, settings) is still there.
+        assert!(m["metadata"]["polarnav"]["producer"].is_string(), "{m}");
+    }
+    let (pa, pb) = (
+        &ma["metadata"]["polarnav.provenance"],
+        &mb["metadata"]["polarnav.provenance"],
+    );
+    assert!(pa.get("utc_start").is_none(), "{pa}");
+    assert!(
+        pb["command_line"]
+            .as_str()
+            .is_some_and(|c| c.ends_with(&format!("--utc-start {utc}"))),
+        "{pb}"
+    );
+    assert_eq!(pb["utc_start"], utc);
+    // `date -u -d 2026-11-25T09:30:00Z +%s`
+    assert_eq!(
+        pb["utc_start_ns"],
+        (1_795_599_000u64 * 1_000_000_000).to_string()
+    );
+
+    // A navlog output has no log times: --utc-start is refused as usage.
+    let o = record(&dir.join("x.navlog"), &["--utc-start", utc]);
+    assert_eq!(o.status.code(), Some(2));
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("--utc-start") && err.contains("not .mcap"),
+        "{err}"
+    );
+    assert!(!dir.join("x.navlog").exists());
+    std::fs::remove_dir_all(&dir).ok();
 }

@@ -7,17 +7,42 @@
 //! may be reordered and unknown columns are ignored. The bias σ group
 //! ([`HEADER_BIAS_SIGMA`], after `reset_count`, with `Solution_v3`) is
 //! optional on reading: files written before it read with `None` there.
+//!
+//! The velocity columns carry their unit (`vx_mps`... ECEF, `ve_mps`...
+//! ENU, m/s); files written before that name them `vx,vy,vz,ve,vn,vu`
+//! ([`RENAMED`]), and [`parse`] still reads those for one version. A header
+//! with both names of a column reads the new one (the old one is then an
+//! unknown column, as it will be once the old names are no longer read).
 
 use std::io::Write;
 
 use msgs::{Solution, WireFrame, solution_flags};
 
 /// The original 24 columns.
-pub const HEADER_BASE: &str = "t_s,frame,lat_deg,lon_deg,h_m,x_m,y_m,z_m,vx,vy,vz,ve,vn,vu,qw,qx,qy,qz,heading_deg,pitch_deg,roll_deg,sig_e_m,sig_n_m,sig_u_m";
+pub const HEADER_BASE: &str = "t_s,frame,lat_deg,lon_deg,h_m,x_m,y_m,z_m,vx_mps,vy_mps,vz_mps,ve_mps,vn_mps,vu_mps,qw,qx,qy,qz,heading_deg,pitch_deg,roll_deg,sig_e_m,sig_n_m,sig_u_m";
+
+/// Columns renamed to carry their unit: (name written, former name still
+/// read). The former names are read for one version after the rename.
+pub const RENAMED: [(&str, &str); 6] = [
+    ("vx_mps", "vx"),
+    ("vy_mps", "vy"),
+    ("vz_mps", "vz"),
+    ("ve_mps", "ve"),
+    ("vn_mps", "vn"),
+    ("vu_mps", "vu"),
+];
+
+/// The former name of a renamed column ([`RENAMED`]).
+pub fn former_name(column: &str) -> Option<&'static str> {
+    RENAMED
+        .iter()
+        .find(|(new, _)| *new == column)
+        .map(|&(_, old)| old)
+}
 
 /// The 45 columns every reader requires: [`HEADER_BASE`] and the ones
 /// added after it up to `reset_count`.
-pub const HEADER_REQUIRED: &str = "t_s,frame,lat_deg,lon_deg,h_m,x_m,y_m,z_m,vx,vy,vz,ve,vn,vu,qw,qx,qy,qz,heading_deg,pitch_deg,roll_deg,sig_e_m,sig_n_m,sig_u_m,sig_vnav_x_mps,sig_vnav_y_mps,sig_vnav_z_mps,sig_att_x_deg,sig_att_y_deg,sig_att_z_deg,bg_x_rps,bg_y_rps,bg_z_rps,ba_x_mps2,ba_y_mps2,ba_z_mps2,grid_heading_deg,flags,srs_fresh,cns_fresh,baro_fresh,imu_lost,coasting,switch_count,reset_count";
+pub const HEADER_REQUIRED: &str = "t_s,frame,lat_deg,lon_deg,h_m,x_m,y_m,z_m,vx_mps,vy_mps,vz_mps,ve_mps,vn_mps,vu_mps,qw,qx,qy,qz,heading_deg,pitch_deg,roll_deg,sig_e_m,sig_n_m,sig_u_m,sig_vnav_x_mps,sig_vnav_y_mps,sig_vnav_z_mps,sig_att_x_deg,sig_att_y_deg,sig_att_z_deg,bg_x_rps,bg_y_rps,bg_z_rps,ba_x_mps2,ba_y_mps2,ba_z_mps2,grid_heading_deg,flags,srs_fresh,cns_fresh,baro_fresh,imu_lost,coasting,switch_count,reset_count";
 
 /// The bias σ group (`Solution_v3`): 1-σ of the gyro bias (rad/s) and of
 /// the accelerometer bias (m/s²), body axes. Optional on reading.
@@ -25,7 +50,7 @@ pub const HEADER_BIAS_SIGMA: &str =
     "sig_bg_x_rps,sig_bg_y_rps,sig_bg_z_rps,sig_ba_x_mps2,sig_ba_y_mps2,sig_ba_z_mps2";
 
 /// The header line: [`HEADER_REQUIRED`], then [`HEADER_BIAS_SIGMA`].
-pub const HEADER: &str = "t_s,frame,lat_deg,lon_deg,h_m,x_m,y_m,z_m,vx,vy,vz,ve,vn,vu,qw,qx,qy,qz,heading_deg,pitch_deg,roll_deg,sig_e_m,sig_n_m,sig_u_m,sig_vnav_x_mps,sig_vnav_y_mps,sig_vnav_z_mps,sig_att_x_deg,sig_att_y_deg,sig_att_z_deg,bg_x_rps,bg_y_rps,bg_z_rps,ba_x_mps2,ba_y_mps2,ba_z_mps2,grid_heading_deg,flags,srs_fresh,cns_fresh,baro_fresh,imu_lost,coasting,switch_count,reset_count,sig_bg_x_rps,sig_bg_y_rps,sig_bg_z_rps,sig_ba_x_mps2,sig_ba_y_mps2,sig_ba_z_mps2";
+pub const HEADER: &str = "t_s,frame,lat_deg,lon_deg,h_m,x_m,y_m,z_m,vx_mps,vy_mps,vz_mps,ve_mps,vn_mps,vu_mps,qw,qx,qy,qz,heading_deg,pitch_deg,roll_deg,sig_e_m,sig_n_m,sig_u_m,sig_vnav_x_mps,sig_vnav_y_mps,sig_vnav_z_mps,sig_att_x_deg,sig_att_y_deg,sig_att_z_deg,bg_x_rps,bg_y_rps,bg_z_rps,ba_x_mps2,ba_y_mps2,ba_z_mps2,grid_heading_deg,flags,srs_fresh,cns_fresh,baro_fresh,imu_lost,coasting,switch_count,reset_count,sig_bg_x_rps,sig_bg_y_rps,sig_bg_z_rps,sig_ba_x_mps2,sig_ba_y_mps2,sig_ba_z_mps2";
 
 /// Number of columns of [`HEADER_REQUIRED`].
 pub const COLUMNS_REQUIRED: usize = 45;
@@ -384,8 +409,16 @@ pub enum ReadCsvError {
     NotText { path: String, at: usize },
     #[error("{path}: empty file, expected the solution CSV header")]
     Header { path: String },
-    #[error("{path}: header has no column {column:?}")]
-    MissingColumn { path: String, column: &'static str },
+    /// No column of this name (nor its former name, for a renamed column).
+    #[error(
+        "{path}: header has no column {column:?}{}",
+        former.map_or(String::new(), |f| format!(" (nor its former name {f:?})"))
+    )]
+    MissingColumn {
+        path: String,
+        column: &'static str,
+        former: Option<&'static str>,
+    },
     /// Some but not all columns of an optional group: a damaged or
     /// hand-edited header.
     #[error(
@@ -428,8 +461,10 @@ pub fn read(path: &std::path::Path) -> Result<Vec<Row>, ReadCsvError> {
 
 /// Parses solution CSV text; `p` names its origin in errors. Columns are found
 /// by header name: any order, unknown columns ignored; a missing column is an
-/// error naming it. A leading UTF-8 byte-order mark (spreadsheets' "CSV
-/// UTF-8" writes one) is not part of the first column's name.
+/// error naming it. A renamed column is also found by its former name
+/// ([`RENAMED`]; the new name first). A leading UTF-8 byte-order mark
+/// (spreadsheets' "CSV UTF-8" writes one) is not part of the first column's
+/// name.
 pub fn parse(text: &str, p: &str) -> Result<Vec<Row>, ReadCsvError> {
     let p = p.to_owned();
     let text = text.strip_prefix('\u{feff}').unwrap_or(text);
@@ -441,12 +476,15 @@ pub fn parse(text: &str, p: &str) -> Result<Vec<Row>, ReadCsvError> {
     // idx[k] = position in the file of column k of HEADER.
     let mut idx = [0usize; COLUMNS];
     for (k, want) in HEADER_REQUIRED.split(',').enumerate() {
+        let former = former_name(want);
         idx[k] = names
             .iter()
             .position(|n| *n == want)
+            .or_else(|| former.and_then(|f| names.iter().position(|n| *n == f)))
             .ok_or(ReadCsvError::MissingColumn {
                 path: p.clone(),
                 column: want,
+                former,
             })?;
     }
     let bias_sigma: Vec<(&'static str, Option<usize>)> = HEADER_BIAS_SIGMA
@@ -490,11 +528,7 @@ pub fn parse(text: &str, p: &str) -> Result<Vec<Row>, ReadCsvError> {
             col(k).parse().map_err(|_| ReadCsvError::Row {
                 path: p.clone(),
                 line: line_no,
-                what: format!(
-                    "column {} is not a number: {:?}",
-                    HEADER.split(',').nth(k).unwrap_or("?"),
-                    col(k)
-                ),
+                what: format!("column {} is not a number: {:?}", names[idx[k]], col(k)),
             })
         };
         let int = |k: usize| -> Result<u32, ReadCsvError> {
@@ -503,7 +537,7 @@ pub fn parse(text: &str, p: &str) -> Result<Vec<Row>, ReadCsvError> {
                 line: line_no,
                 what: format!(
                     "column {} is not an unsigned integer: {:?}",
-                    HEADER.split(',').nth(k).unwrap_or("?"),
+                    names[idx[k]],
                     col(k)
                 ),
             })
@@ -905,6 +939,227 @@ mod tests {
                 err.to_string(),
                 format!("flight.csv: header has no column \"{drop}\"")
             );
+        }
+    }
+
+    /// `sample()` with velocities of its own in every column.
+    fn moving() -> Solution {
+        let mut s = sample();
+        s.v_e_mps = [-123.456_789_012_345_6, 250.000_000_000_1, -0.0];
+        s.v_enu_mps = [1e-17, -271.828_182_845_904_5, 3.5];
+        s
+    }
+
+    /// `text` with each header name `from` replaced by `to` (the rows kept).
+    fn rename_columns(text: &str, pairs: &[(&str, &str)]) -> String {
+        let (head, rows) = text.split_once('\n').expect("header line");
+        let head: Vec<&str> = head
+            .split(',')
+            .map(|n| pairs.iter().find(|(a, _)| *a == n).map_or(n, |&(_, b)| b))
+            .collect();
+        format!("{}\n{rows}", head.join(","))
+    }
+
+    #[test]
+    fn velocity_columns_are_written_with_their_unit() {
+        let names: Vec<&str> = HEADER.split(',').collect();
+        assert_eq!(
+            &names[8..14],
+            ["vx_mps", "vy_mps", "vz_mps", "ve_mps", "vn_mps", "vu_mps"]
+        );
+        for (new, old) in RENAMED {
+            assert!(names.contains(&new), "{new}");
+            assert!(!names.contains(&old), "{old} is still written");
+            assert_eq!(former_name(new), Some(old));
+        }
+        assert_eq!(former_name("h_m"), None);
+        // What the writer's users put first in a file is this header.
+        assert!(csv_of(&moving()).starts_with(&format!("{HEADER}\n")));
+        // The values under the new names are the velocities, as written.
+        let text = csv_of(&moving());
+        let f: Vec<&str> = text.lines().nth(1).expect("row").split(',').collect();
+        let s = moving();
+        for (k, want) in s.v_e_mps.iter().chain(&s.v_enu_mps).enumerate() {
+            let got: f64 = f[8 + k].parse().expect("number");
+            assert_eq!(got.to_bits(), want.to_bits(), "{}", names[8 + k]);
+        }
+    }
+
+    /// A file written before the rename (`vx,vy,vz,ve,vn,vu`) reads to the
+    /// same rows as today's, in any column order.
+    #[test]
+    fn a_csv_with_the_former_velocity_names_reads_the_same_values() {
+        let s = moving();
+        let text = csv_of(&s);
+        let old = rename_columns(&text, &RENAMED);
+        assert!(old.starts_with("t_s,frame,lat_deg,lon_deg,h_m,x_m,y_m,z_m,vx,vy,vz,ve,vn,vu,qw"));
+        let want = parse(&text, "new.csv").expect("new names");
+        let got = parse(&old, "old.csv").expect("the former names read");
+        // Debug prints each f64 in its shortest round-trip form: equal text
+        // is equal bits (and -0.0 differs from 0.0).
+        assert_eq!(format!("{got:?}"), format!("{want:?}"));
+        assert_eq!(
+            format!("{:?}", got[0]),
+            format!("{:?}", Row::from_solution(&s))
+        );
+        let reversed: Vec<usize> = (0..COLUMNS).rev().collect();
+        let got = parse(&permute(&old, &reversed, None), "old-reversed.csv").expect("reordered");
+        assert_eq!(format!("{got:?}"), format!("{want:?}"));
+        // One file may mix the names (a hand-edited header).
+        let mixed = rename_columns(&text, &RENAMED[..3]);
+        let got = parse(&mixed, "mixed.csv").expect("mixed names");
+        assert_eq!(format!("{got:?}"), format!("{want:?}"));
+    }
+
+    /// A header with both names of a column reads the new one: the former
+    /// name is then an unknown column, as it will be once it is no longer
+    /// read at all.
+    #[test]
+    fn with_both_names_the_new_column_is_read() {
+        let s = moving();
+        let text = csv_of(&s);
+        let (head, row) = text.trim_end().split_once('\n').expect("two lines");
+        let olds: Vec<&str> = RENAMED.iter().map(|&(_, old)| old).collect();
+        let both = format!("{head},{}\n{row},1,2,3,4,5,6\n", olds.join(","));
+        let r = parse(&both, "both.csv").expect("both names")[0];
+        assert_eq!(r.v_e_mps.map(f64::to_bits), s.v_e_mps.map(f64::to_bits));
+        assert_eq!(r.v_enu_mps.map(f64::to_bits), s.v_enu_mps.map(f64::to_bits));
+        // And in the other order of the file's columns.
+        let first = format!("{},{head}\n1,2,3,4,5,6,{row}\n", olds.join(","));
+        let r = parse(&first, "first.csv").expect("both names")[0];
+        assert_eq!(r.v_e_mps.map(f64::to_bits), s.v_e_mps.map(f64::to_bits));
+        assert_eq!(r.v_enu_mps.map(f64::to_bits), s.v_enu_mps.map(f64::to_bits));
+    }
+
+    #[test]
+    fn a_missing_velocity_column_is_named_with_its_former_name() {
+        let text = csv_of(&sample());
+        let k = HEADER
+            .split(',')
+            .position(|n| n == "vn_mps")
+            .expect("known");
+        let order: Vec<usize> = (0..COLUMNS).filter(|&i| i != k).collect();
+        let err = parse(&permute(&text, &order, None), "flight.csv").expect_err("missing");
+        assert_eq!(
+            err.to_string(),
+            "flight.csv: header has no column \"vn_mps\" (nor its former name \"vn\")"
+        );
+        // A value that is not a number is named as the file names its column.
+        let old = rename_columns(&text, &RENAMED);
+        let bad: String = old
+            .lines()
+            .enumerate()
+            .map(|(i, l)| {
+                let mut f: Vec<&str> = l.split(',').collect();
+                if i == 1 {
+                    f[9] = "fast";
+                }
+                format!("{}\n", f.join(","))
+            })
+            .collect();
+        let m = parse(&bad, "old.csv")
+            .expect_err("not a number")
+            .to_string();
+        assert_eq!(m, "old.csv:2: column vy is not a number: \"fast\"");
+    }
+
+    mod round_trip {
+        use super::*;
+        use proptest::prelude::*;
+
+        /// Any f64 bit pattern: subnormals, ±0, ±∞ and NaN included.
+        fn any_f64() -> impl Strategy<Value = f64> {
+            prop_oneof![
+                8 => any::<u64>().prop_map(f64::from_bits),
+                1 => prop::sample::select(vec![
+                    0.0,
+                    -0.0,
+                    f64::INFINITY,
+                    f64::NEG_INFINITY,
+                    f64::NAN,
+                    f64::MIN_POSITIVE,
+                    5e-324,
+                    f64::MAX,
+                ]),
+            ]
+        }
+
+        fn arr<const N: usize>() -> impl Strategy<Value = [f64; N]> {
+            prop::array::uniform(any_f64())
+        }
+
+        prop_compose! {
+            fn any_solution()(
+                t_ns in any::<u64>(),
+                frame in 0u8..3,
+                g in arr::<7>(),
+                r in arr::<3>(),
+                v in arr::<3>(),
+                venu in arr::<3>(),
+                q in arr::<4>(),
+                sp in arr::<3>(),
+                sv in arr::<3>(),
+                sa in arr::<3>(),
+                bg in arr::<3>(),
+                ba in arr::<3>(),
+                sbg in arr::<3>(),
+                sba in arr::<3>(),
+                flags in any::<u32>(),
+                counts in any::<(u32, u32)>(),
+            ) -> Solution {
+                Solution {
+                    t_ns,
+                    frame,
+                    lat_rad: g[0],
+                    lon_rad: g[1],
+                    h_m: g[2],
+                    heading_rad: g[3],
+                    grid_heading_rad: g[4],
+                    pitch_rad: g[5],
+                    roll_rad: g[6],
+                    r_e_m: r,
+                    v_e_mps: v,
+                    v_enu_mps: venu,
+                    q_b_e: q,
+                    sigma_pos_enu_m: sp,
+                    sigma_vel_mps: sv,
+                    sigma_att_rad: sa,
+                    gyro_bias_rps: bg,
+                    accel_bias_mps2: ba,
+                    sigma_gyro_bias_rps: sbg,
+                    sigma_accel_bias_mps2: sba,
+                    flags,
+                    switch_count: counts.0,
+                    reset_count: counts.1,
+                    ..Default::default()
+                }
+            }
+        }
+
+        proptest! {
+            #![proptest_config(ProptestConfig::with_cases(512))]
+
+            /// Write then parse gives every column's f64 bit for bit (NaN
+            /// as NaN: the text has no payload), under the new names and
+            /// the former ones alike, through one writer for many rows
+            /// (its per-column cache) as through a fresh one.
+            #[test]
+            fn write_then_parse_is_bit_identical(ss in prop::collection::vec(any_solution(), 1..6)) {
+                let mut w = RowWriter::new();
+                let mut text = format!("{HEADER}\n");
+                for s in &ss {
+                    text.push_str(w.row(s));
+                }
+                let want: Vec<Row> = ss.iter().map(Row::from_solution).collect();
+                // Debug prints an f64 in its shortest round-trip form: equal
+                // text is equal bits, except that every NaN prints "NaN".
+                let want = format!("{want:?}");
+                let rows = parse(&text, "p.csv").expect("parse");
+                prop_assert_eq!(format!("{rows:?}"), want.clone());
+                let old = rename_columns(&text, &RENAMED);
+                let rows = parse(&old, "p-old.csv").expect("parse former names");
+                prop_assert_eq!(format!("{rows:?}"), want);
+            }
         }
     }
 }
