@@ -4,10 +4,11 @@ solutions in the same file.
 
 usage: check_polar.py FILE.mcap
 
-For every `/solution` message: the `/solution/pose` transform of the same
-time (parent `polar_north` or `polar_south`, child `body`) composed with
-the `/tf/polar` transform `ecef` -> that frame gives the solution's ECEF
-position (to 1 mm) and attitude (to 1e-6 rad). `/track` has solution
+For every `/solution/pose` transform (parent `polar_north` or
+`polar_south`, child `body`; one per 50 ms of sensor time): composed with
+the `/tf/polar` transform `ecef` -> that frame it gives the ECEF position
+(to 1 mm) and attitude (to 1e-6 rad) of the `/solution` message of the
+same time (protobuf `polarnav.Solution`); there is one every 50 ms. `/track` has solution
 segments in the polar frames whose points lie on the solutions' positions
 (each within 1 mm of a solution at a whole second). Prints one JSON line:
 counts, the largest position and attitude differences, the frames used.
@@ -58,8 +59,10 @@ def main():
     entities = set()
     with open(path, "rb") as f:
         reader = make_reader(f, decoder_factories=[DecoderFactory()])
-        for _, _, message in reader.iter_messages(topics=["/solution"]):
-            solutions.append(json.loads(message.data))
+        for _, _, _, m in reader.iter_decoded_messages(topics=["/solution"]):
+            solutions.append(
+                {"t_ns": m.t_ns, "r_e_m": (m.x_m, m.y_m, m.z_m), "q_b_e": (m.qw, m.qx, m.qy, m.qz)}
+            )
     with open(path, "rb") as f:
         reader = make_reader(f, decoder_factories=[DecoderFactory()])
         for schema, channel, message, decoded in reader.iter_decoded_messages(
@@ -91,10 +94,14 @@ def main():
     worst_pos = worst_att = 0.0
     frames = set()
     by_second = {}
-    for s in solutions:
-        pose = poses.get(s["t_ns"])
-        if pose is None:
-            fail(f"no /solution/pose at {s['t_ns']}")
+    by_t = {s["t_ns"]: s for s in solutions}
+    span_s = (solutions[-1]["t_ns"] - solutions[0]["t_ns"]) * 1e-9
+    if len(poses) < 20 * span_s:
+        fail(f"{len(poses)} /solution/pose messages over {span_s} s: fewer than 20 a second")
+    for t_ns, pose in sorted(poses.items()):
+        s = by_t.get(t_ns)
+        if s is None:
+            fail(f"/solution/pose at {t_ns}: no /solution at that time")
         parent = pose.parent_frame_id
         frames.add(parent)
         if parent not in tf:
@@ -125,6 +132,7 @@ def main():
         json.dumps(
             {
                 "solutions": len(solutions),
+                "poses_checked": len(poses),
                 "worst_position_m": worst_pos,
                 "worst_attitude_rad": worst_att,
                 "pose_frames": sorted(frames),

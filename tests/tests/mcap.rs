@@ -73,7 +73,11 @@ fn batch_mcap_has_one_solution_per_csv_row_with_equal_values_and_every_schema() 
             l.1 = frame;
         }
     }
-    assert!(shown * 9 < a.rows && shown * 11 > a.rows, "{shown} of {}", a.rows);
+    assert!(
+        shown * 9 < a.rows && shown * 11 > a.rows,
+        "{shown} of {}",
+        a.rows
+    );
     for t in ["/solution/fix", "/solution/pose", "/solution/nav_frame"] {
         assert_eq!(counts[t].as_u64(), Some(shown), "{t}");
     }

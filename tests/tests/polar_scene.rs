@@ -98,7 +98,9 @@ fn shipped_layout_names_written_frames_and_topics_and_the_scene_draws() {
         // /solution's fields are the solution CSV's columns, same names.
         assert_eq!(topic, "/solution", "{p}");
         assert!(
-            polarnav::solution_csv::HEADER.split(',').any(|c| c == field),
+            polarnav::solution_csv::HEADER
+                .split(',')
+                .any(|c| c == field),
             "{p}: /solution has no field {field}"
         );
     }
