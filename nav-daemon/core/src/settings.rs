@@ -115,6 +115,13 @@ impl std::fmt::Display for AidSet {
     }
 }
 
+/// The largest 1-σ an init may state: position 100 km, velocity 1 km/s,
+/// tilt 1 rad, heading 2π (beyond these the state carries no information
+/// and P₀ would span more magnitudes than a double resolves). The
+/// navigator refuses an init beyond them (`navigator::check_init`); the
+/// settings refuse a configured one before any navigator exists.
+pub const INIT_SIGMA_MAX: [f64; 6] = [1e5, 1e5, 1e3, 1e3, 1.0, std::f64::consts::TAU];
+
 /// `[init]`: the initial state from configuration (used when a log or the
 /// transport provides no init record), with its 1-σ.
 #[derive(Debug, Clone, Deserialize, Serialize, PartialEq)]
@@ -205,7 +212,7 @@ impl InitSettings {
             "init.roll_deg",
             self.roll_deg,
         )?;
-        let max = crate::navigator::INIT_SIGMA_MAX;
+        let max = INIT_SIGMA_MAX;
         let arcmin = 180.0 / std::f64::consts::PI * 60.0;
         for (k, v, hi, unit) in [
             ("init.sigma_pos_h_m", self.sigma_pos_h_m, max[0], "m"),

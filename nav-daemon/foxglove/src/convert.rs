@@ -430,6 +430,9 @@ mod tests {
             (back.r_e_m, back.q_b_e, back.flags, back.frame),
             (s.r_e_m, s.q_b_e, s.flags, s.frame)
         );
-        assert_eq!(back.sigma_accel_bias_mps2, s.sigma_accel_bias_mps2);
+        assert_eq!(
+            back.sigma_accel_bias_mps2.map(f64::to_bits),
+            s.sigma_accel_bias_mps2.map(f64::to_bits)
+        );
     }
 }

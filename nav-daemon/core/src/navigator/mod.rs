@@ -168,10 +168,9 @@ fn secs_to_ns(s: f64) -> u64 {
     (s * 1e9).round() as u64
 }
 
-/// The largest 1-σ an init may state: position 100 km, velocity 1 km/s,
-/// tilt 1 rad, heading 2π (beyond these the state carries no information
-/// and P₀ would span more magnitudes than a double resolves).
-pub const INIT_SIGMA_MAX: [f64; 6] = [1e5, 1e5, 1e3, 1e3, 1.0, std::f64::consts::TAU];
+/// The largest 1-σ an init may state (defined with the settings, which
+/// check a configured init against it before any navigator exists).
+pub use crate::settings::INIT_SIGMA_MAX;
 /// The smallest 1-σ P₀ is built from (smaller ones, an "exact" init
 /// included, are raised to these): position 1 cm, velocity 1 mm/s, attitude
 /// 1 µrad.
