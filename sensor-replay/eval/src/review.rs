@@ -335,6 +335,18 @@ const LANES: [(&str, u32, bool); 8] = [
     ("second publisher", solution_flags::SECOND_PUBLISHER, false),
 ];
 
+/// The label of lane `k` of [`LANES`]: a fresh flag that was clear in
+/// every row says the aid never fused in this flight (absent from the log,
+/// disabled, or always rejected), not that it went stale.
+fn lane_label(pass: &Pass, k: usize) -> String {
+    let (name, _, clear) = LANES[k];
+    if clear && pass.rows > 0 && pass.health_set[k + 1] == pass.rows {
+        name.replace("stale", "never fused")
+    } else {
+        name.to_owned()
+    }
+}
+
 /// Everything gathered in the one pass over the solution.
 #[derive(Debug)]
 struct Pass {
@@ -1026,8 +1038,16 @@ pub fn review(log: &LogContents, opts: &Options<'_>) -> Result<Review, String> {
         pass.switches.len(),
         pass.resets.len()
     );
-    for (k, (name, _, _)) in LANES.iter().enumerate() {
-        let _ = writeln!(md, "- {name}: {:.2} % of rows", pct(k + 1));
+    for k in 0..LANES.len() {
+        let name = lane_label(&pass, k);
+        if name.contains("never fused") {
+            let _ = writeln!(
+                md,
+                "- {name}: its fresh flag is clear in every row (the aid is absent from the log, disabled, or always rejected)"
+            );
+        } else {
+            let _ = writeln!(md, "- {name}: {:.2} % of rows", pct(k + 1));
+        }
     }
     md.push('\n');
 
@@ -1200,7 +1220,7 @@ fn health_figure<DB: DrawingBackend>(
         "frame switch".into(),
         "reset".into(),
     ];
-    names.extend(LANES.iter().map(|l| l.0.to_owned()));
+    names.extend((0..LANES.len()).map(|k| lane_label(pass, k)));
     let n = names.len() as f64;
     let mut chart = ChartBuilder::on(&main)
         .margin_left(10)
@@ -1616,6 +1636,33 @@ mod tests {
                 (s * scale, true)
             })
             .collect()
+    }
+
+    /// An aid whose fresh flag is clear in every row is labelled as never
+    /// fused, not as stale; one that was fresh at times keeps "stale".
+    #[test]
+    fn an_aid_never_fresh_is_labelled_never_fused_not_stale() {
+        let mut pass = Pass::new();
+        let mut prev: Option<Row> = None;
+        for k in 0..100u64 {
+            let flags = if k < 50 { solution_flags::CNS_FRESH } else { 0 };
+            let row = Row::from_solution(&msgs::Solution {
+                t_ns: k * 10_000_000,
+                q_b_e: [1.0, 0.0, 0.0, 0.0],
+                flags,
+                ..Default::default()
+            });
+            pass.push(&row, None, prev.as_ref());
+            prev = Some(row);
+        }
+        let label = |name: &str| {
+            let k = LANES.iter().position(|l| l.0 == name).expect("lane");
+            lane_label(&pass, k)
+        };
+        assert_eq!(label("SRS stale"), "SRS never fused");
+        assert_eq!(label("baro stale"), "baro never fused");
+        assert_eq!(label("CNS stale"), "CNS stale");
+        assert_eq!(label("COASTING"), "COASTING");
     }
 
     #[test]
