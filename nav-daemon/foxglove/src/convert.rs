@@ -435,4 +435,89 @@ mod tests {
             s.sigma_accel_bias_mps2.map(f64::to_bits)
         );
     }
+
+    mod extremes {
+        use super::*;
+        use proptest::prelude::*;
+
+        /// A value from the whole range: log-uniform magnitudes from 1e-300
+        /// to 1e300 of either sign, zero, NaN and ±∞.
+        fn any_value() -> impl Strategy<Value = f64> {
+            prop_oneof![
+                8 => (-300.0f64..300.0, any::<bool>())
+                    .prop_map(|(e, neg)| if neg { -(10f64.powf(e)) } else { 10f64.powf(e) }),
+                1 => Just(0.0),
+                1 => Just(f64::NAN),
+                1 => Just(f64::INFINITY),
+                1 => Just(f64::NEG_INFINITY),
+            ]
+        }
+
+        fn aid() -> impl Strategy<Value = Aid> {
+            prop_oneof![
+                Just(Aid::Srs),
+                Just(Aid::Cns),
+                Just(Aid::Baro),
+                Just(Aid::Star)
+            ]
+        }
+
+        proptest! {
+            #![proptest_config(ProptestConfig::with_cases(2000))]
+
+            /// Whatever the wire reports (absurd innovations, variances,
+            /// positions, frames), the update has exactly the aid's
+            /// components in the aid's one unit field pair and nothing in
+            /// the others; from a finite innovation with a positive finite
+            /// variance at a real position it is finite with a positive σ,
+            /// and its normalized value is the wire's.
+            #[test]
+            fn an_update_from_any_status_keeps_its_shape_and_sound_values(
+                kind in aid(),
+                v in proptest::array::uniform3(any_value()),
+                var in proptest::array::uniform3(any_value()),
+                lat in prop_oneof![4 => -std::f64::consts::FRAC_PI_2..=std::f64::consts::FRAC_PI_2, 1 => any_value()],
+                h in prop_oneof![4 => -1e4f64..1e5, 1 => any_value()],
+                frame in any::<u8>(),
+                ratio in any_value(),
+                fused in any::<u8>(),
+            ) {
+                let a = AidStatus {
+                    innovation: v,
+                    innovation_var: var,
+                    test_ratio: ratio,
+                    fused,
+                    ..Default::default()
+                };
+                let u = aid_update(7, kind, &a, UpdateAt { frame, lat_rad: lat, h_m: h });
+                let dim = match kind { Aid::Baro => 1, Aid::Cns => 2, _ => 3 };
+                let (val, sig, others) = match kind {
+                    Aid::Srs => (&u.innovation_mps, &u.innovation_sigma_mps,
+                        [&u.innovation_m, &u.innovation_sigma_m, &u.innovation_rad, &u.innovation_sigma_rad]),
+                    Aid::Cns | Aid::Baro => (&u.innovation_m, &u.innovation_sigma_m,
+                        [&u.innovation_mps, &u.innovation_sigma_mps, &u.innovation_rad, &u.innovation_sigma_rad]),
+                    Aid::Star => (&u.innovation_rad, &u.innovation_sigma_rad,
+                        [&u.innovation_m, &u.innovation_sigma_m, &u.innovation_mps, &u.innovation_sigma_mps]),
+                };
+                prop_assert_eq!(val.len(), dim);
+                prop_assert_eq!(sig.len(), dim);
+                prop_assert!(others.iter().all(|o| o.is_empty()));
+                prop_assert_eq!(u.fused, fused != 0);
+                prop_assert_eq!(u.test_ratio.to_bits(), ratio.to_bits());
+                prop_assert_eq!(u.t_ns, 7);
+                let real_place = lat.abs() < 1.5 && (-1e4..1e5).contains(&h);
+                for k in 0..dim {
+                    let sound = v[k].is_finite() && v[k].abs() < 1e150
+                        && var[k].is_finite() && var[k] > 1e-290 && var[k] < 1e290;
+                    if sound && real_place {
+                        prop_assert!(val[k].is_finite(), "{:?}", u);
+                        prop_assert!(sig[k].is_finite() && sig[k] > 0.0, "{:?}", u);
+                        let raw = v[k] / var[k].sqrt();
+                        let got = val[k] / sig[k];
+                        prop_assert!((got - raw).abs() <= 1e-12 * raw.abs().max(1e-300), "{} vs {}", got, raw);
+                    }
+                }
+            }
+        }
+    }
 }

@@ -576,4 +576,78 @@ mod tests {
         assert!(load(&p).is_err());
         let _ = std::fs::remove_file(&p);
     }
+
+    /// A small MCAP file with one `/solution` channel of `encoding` and the
+    /// given messages.
+    fn mcap_with(name: &str, encoding: &str, messages: &[Vec<u8>]) -> std::path::PathBuf {
+        let p =
+            std::env::temp_dir().join(format!("polarnav-sf-{}-{name}.mcap", std::process::id()));
+        let mut w = mcap::WriteOptions::new()
+            .compression(None)
+            .create(std::io::BufWriter::new(
+                std::fs::File::create(&p).expect("create"),
+            ))
+            .expect("writer");
+        let schema = w
+            .add_schema("polarnav.Solution", encoding, pb::FILE_DESCRIPTOR_SET)
+            .expect("schema");
+        let ch = w
+            .add_channel(
+                schema,
+                "/solution",
+                encoding,
+                &std::collections::BTreeMap::new(),
+            )
+            .expect("channel");
+        for (k, m) in messages.iter().enumerate() {
+            let header = mcap::records::MessageHeader {
+                channel_id: ch,
+                sequence: k as u32 + 1,
+                log_time: k as u64,
+                publish_time: k as u64,
+            };
+            w.write_to_known_channel(&header, m).expect("message");
+        }
+        w.finish().expect("finish");
+        p
+    }
+
+    /// Protobuf `/solution` messages read back to the wire solution (angles
+    /// through degrees, to rounding) with their bias σ; a message that does
+    /// not decode is refused with the file, topic, sequence and encoding.
+    #[test]
+    fn protobuf_solutions_read_back_and_a_damaged_one_is_named() {
+        let s = Solution {
+            t_ns: 2_000_000_000,
+            lat_rad: 1.2,
+            lon_rad: -0.4,
+            h_m: 12_000.0,
+            q_b_e: [1.0, 0.0, 0.0, 0.0],
+            sigma_gyro_bias_rps: [1e-7, 2e-7, 3e-7],
+            sigma_accel_bias_mps2: [1e-4, 2e-4, 3e-4],
+            frame: 1,
+            ..Default::default()
+        };
+        let good = prost::Message::encode_to_vec(&pb::Solution::from_wire(&s));
+        let p = mcap_with("pb", "protobuf", std::slice::from_ref(&good));
+        let l = load(&p).expect("load");
+        assert_eq!(l.rows.len(), 1);
+        assert!((l.rows[0].lat_deg - 1.2f64.to_degrees()).abs() < 1e-12);
+        assert_eq!(l.rows[0].frame, 'G');
+        let sig = l.bias_sigma[0].expect("bias σ");
+        assert!((sig[2] - 3e-7).abs() < 1e-20 && (sig[5] - 3e-4).abs() < 1e-17);
+        let _ = std::fs::remove_file(&p);
+
+        // A truncated message and a run of 0xff bytes do not decode.
+        for (k, bad) in [good[..good.len() / 2].to_vec(), vec![0xff; 16]]
+            .into_iter()
+            .enumerate()
+        {
+            let p = mcap_with(&format!("bad{k}"), "protobuf", &[good.clone(), bad]);
+            let e = load(&p).expect_err("damaged message");
+            assert!(e.contains(&p.display().to_string()), "{e}");
+            assert!(e.contains("/solution message 2 (protobuf)"), "{e}");
+            let _ = std::fs::remove_file(&p);
+        }
+    }
 }
