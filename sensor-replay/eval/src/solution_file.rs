@@ -613,8 +613,9 @@ mod tests {
     }
 
     /// Protobuf `/solution` messages read back to the wire solution (angles
-    /// through degrees, to rounding) with their bias σ; a message that does
-    /// not decode is refused with the file, topic, sequence and encoding.
+    /// through degrees, to rounding) with their bias σ, as do the JSON ones
+    /// of earlier versions; a message that does not decode is refused with
+    /// the file, topic, sequence and encoding.
     #[test]
     fn protobuf_solutions_read_back_and_a_damaged_one_is_named() {
         let s = Solution {
@@ -636,6 +637,13 @@ mod tests {
         assert_eq!(l.rows[0].frame, 'G');
         let sig = l.bias_sigma[0].expect("bias σ");
         assert!((sig[2] - 3e-7).abs() < 1e-20 && (sig[5] - 3e-4).abs() < 1e-17);
+        let _ = std::fs::remove_file(&p);
+
+        // An MCAP file of an earlier version, its /solution JSON, reads the same.
+        let p = mcap_with("json", "json", &[serde_json::to_vec(&s).expect("json")]);
+        let l = load(&p).expect("load JSON");
+        assert_eq!(l.rows.len(), 1);
+        assert!((l.rows[0].lat_deg - 1.2f64.to_degrees()).abs() < 1e-12);
         let _ = std::fs::remove_file(&p);
 
         // A truncated message and a run of 0xff bytes do not decode.
