@@ -173,7 +173,7 @@ impl<W: Write> CsvSink<'_, W> {
         if self.progress_ns > 0 && s.t_ns >= self.next_progress_ns {
             self.next_progress_ns = s.t_ns.saturating_add(self.progress_ns);
             let frame = msgs::WireFrame::from_u8(s.frame).map_or('?', msgs::WireFrame::letter);
-            eprintln!(
+            crate::note!(
                 "batch: t = {:7.1} s  frame {frame}  lat {:9.5}°  lon {:10.5}°  h {:8.1} m  heading {:6.2}°",
                 s.t_ns as f64 * 1e-9,
                 s.lat_rad.to_degrees(),
@@ -448,7 +448,7 @@ pub fn run_to<R: BufRead + Send, W: Write>(
     let smoothed = match sink.smoother.take() {
         Some(sm) => {
             if progress_ns > 0 {
-                eprintln!("batch: forward pass done; smoothing (backward pass)");
+                crate::note!("batch: forward pass done; smoothing (backward pass)");
             }
             let report = sm.finish(|s| {
                 sink.write(s);

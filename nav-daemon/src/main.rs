@@ -159,7 +159,7 @@ fn main() -> ExitCode {
             return match man(&mut std::io::stdout()) {
                 Ok(()) => ExitCode::SUCCESS,
                 Err(e) => {
-                    eprintln!("error: man: {e}");
+                    nav_daemon::note!("error: man: {e}");
                     ExitCode::from(1)
                 }
             };
@@ -179,7 +179,7 @@ fn main() -> ExitCode {
                 ExitCode::SUCCESS
             }
             Err(e) => {
-                eprintln!("error: {e}");
+                nav_daemon::note!("error: {e}");
                 ExitCode::from(2)
             }
         };
@@ -187,7 +187,7 @@ fn main() -> ExitCode {
     let config = match find_config(cli.config.as_ref()) {
         Ok(c) => c,
         Err((msg, code)) => {
-            eprintln!("error: {msg}");
+            nav_daemon::note!("error: {msg}");
             return ExitCode::from(code as u8);
         }
     };
@@ -207,7 +207,7 @@ fn main() -> ExitCode {
             utc_start,
         }) => {
             let usage = |m: String| {
-                eprintln!("error: {m}");
+                nav_daemon::note!("error: {m}");
                 ExitCode::from(2)
             };
             let fuse = match aids.as_deref().map(AidSet::parse).transpose() {
@@ -301,7 +301,7 @@ fn main() -> ExitCode {
                 match created {
                     Ok(m) => batch::Output::Mcap(Box::new(m)),
                     Err(e) => {
-                        eprintln!("error: {e}");
+                        nav_daemon::note!("error: {e}");
                         return ExitCode::from(1);
                     }
                 }
@@ -309,7 +309,7 @@ fn main() -> ExitCode {
                 match File::create(&out) {
                     Ok(f) => batch::Output::Csv(BufWriter::with_capacity(1 << 20, f)),
                     Err(e) => {
-                        eprintln!("error: {}: cannot create: {e}", out.display());
+                        nav_daemon::note!("error: {}: cannot create: {e}", out.display());
                         return ExitCode::from(1);
                     }
                 }
@@ -323,7 +323,7 @@ fn main() -> ExitCode {
                     let (fused, rejected) = r.aid_totals();
                     let not_used =
                         s.srs.not_used + s.cns.not_used + s.baro.not_used + s.star.not_used;
-                    eprintln!(
+                    nav_daemon::note!(
                         "batch: {} rows, {:.1} s of flight in {:.2} s ({:.0}x real time), {} frame switch(es), {} IMU rejected, {} IMU not used, {} time resync(s), {} covariance repair(s); aids: {} fused, {} rejected, {} not used, {} SRS line exclusions; inits: {} used, {} rejected, {} not used; log: {}",
                         r.rows,
                         span,
@@ -346,7 +346,7 @@ fn main() -> ExitCode {
                     ExitCode::SUCCESS
                 }
                 Err(e) => {
-                    eprintln!("error: {e}");
+                    nav_daemon::note!("error: {e}");
                     ExitCode::from(e.exit_code() as u8)
                 }
             }
@@ -358,7 +358,7 @@ fn main() -> ExitCode {
             if let Err(e) =
                 ctrlc::set_handler(move || flag.store(true, std::sync::atomic::Ordering::Relaxed))
             {
-                eprintln!("error: cannot install the SIGINT/SIGTERM handler: {e}");
+                nav_daemon::note!("error: cannot install the SIGINT/SIGTERM handler: {e}");
                 return ExitCode::from(1);
             }
             let cli_overrides = CliOverrides {
@@ -368,7 +368,7 @@ fn main() -> ExitCode {
             let settings = match effective(&config, None, &cli_overrides) {
                 Ok(s) => s,
                 Err(e) => {
-                    eprintln!("error: {e}");
+                    nav_daemon::note!("error: {e}");
                     return ExitCode::from(2);
                 }
             };
@@ -403,7 +403,7 @@ fn main() -> ExitCode {
                     ExitCode::SUCCESS
                 }
                 Err(e) => {
-                    eprintln!("error: {e}");
+                    nav_daemon::note!("error: {e}");
                     ExitCode::from(e.exit_code())
                 }
             }

@@ -458,3 +458,31 @@ fn batch_out_into_a_missing_directory_is_bad_usage_naming_the_path() {
     }
     std::fs::remove_dir_all(&dir).ok();
 }
+
+/// A closed standard error (`nav-daemon batch ... 2>&1 | head -1`) loses
+/// the progress and summary lines, not the run: batch exits 0 and writes
+/// every row (it used to panic on the first progress line and leave a
+/// truncated file).
+#[test]
+fn batch_with_standard_error_closed_finishes_and_writes_every_row() {
+    use std::process::Stdio;
+    let dir = temp_dir("closed-stderr");
+    let log_path = dir.join("in.navlog");
+    let out = dir.join("out.csv");
+    std::fs::write(&log_path, stationary_log(2000, true)).expect("write log");
+    let mut child = bin()
+        .args(["batch", "--progress", "0.001", "--log"])
+        .arg(&log_path)
+        .arg("--out")
+        .arg(&out)
+        .stderr(Stdio::piped())
+        .stdout(Stdio::null())
+        .spawn()
+        .expect("run nav-daemon");
+    // The reader goes before the first line is written.
+    drop(child.stderr.take());
+    let status = child.wait().expect("wait");
+    assert_eq!(status.code(), Some(0), "batch with stderr closed");
+    let rows = std::fs::read_to_string(&out).expect("csv").lines().count();
+    assert_eq!(rows, 2001, "header and one row per IMU sample");
+}

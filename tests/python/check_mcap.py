@@ -9,6 +9,7 @@ Checks, failing with a message that names the topic, message or row:
   every channel decodes with it; `/solution/fix` and `/truth/fix` (when
   present) are `foxglove.LocationFix`;
 - every message that has a `t_ns` field is logged at that time;
+- every `--require`d topic has a channel that carries messages;
 - with a CSV: one `/solution` message per CSV row, in order, and every CSV
   column equal (bit for bit) to the message's field of the same name
   (`t_s` from `t_ns`, `frame` as the letter; the velocity columns under
@@ -84,6 +85,13 @@ def main():
         for t in required:
             if t not in topics:
                 fail(f"{path}: no channel {t} (channels: {sorted(topics)})")
+        per_channel = summary.statistics.channel_message_counts if summary.statistics else {}
+        by_topic = {}
+        for cid, ch in summary.channels.items():
+            by_topic[ch.topic] = by_topic.get(ch.topic, 0) + per_channel.get(cid, 0)
+        for t in required:
+            if by_topic.get(t, 0) == 0:
+                fail(f"{path}: channel {t} carries no message")
         rows = None
         if csv_path:
             with open(csv_path, newline="", encoding="utf-8-sig") as c:

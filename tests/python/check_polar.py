@@ -96,7 +96,7 @@ def main():
     by_second = {}
     by_t = {s["t_ns"]: s for s in solutions}
     span_s = (solutions[-1]["t_ns"] - solutions[0]["t_ns"]) * 1e-9
-    if len(poses) < 20 * span_s:
+    if not poses or len(poses) < 20 * span_s:
         fail(f"{len(poses)} /solution/pose messages over {span_s} s: fewer than 20 a second")
     for t_ns, pose in sorted(poses.items()):
         s = by_t.get(t_ns)

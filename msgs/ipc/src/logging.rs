@@ -75,6 +75,10 @@ pub fn init(identifier: &str) -> LogOutput {
         .with_env_filter(filter())
         .with_ansi(terminal)
         .with_writer(std::io::stderr)
+        // A closed stderr (`... 2>&1 | head`): the subscriber would report
+        // the failed write with `eprintln!`, which panics on that same
+        // closed stderr and ends the run. The line is lost, not the run.
+        .log_internal_errors(false)
         .init();
     if terminal {
         LogOutput::Terminal

@@ -47,8 +47,9 @@ pub fn metres_per_rad(lat_rad: f64, h_m: f64) -> [f64; 2] {
 /// An aid's update in its physical unit. The innovation is as the wire
 /// reports it (`AidStatus::innovation`, its variance the diagonal of S);
 /// only a CNS innovation in g is rescaled, from rad to m, with
-/// [`metres_per_rad`] at `at`. Components without a positive finite
-/// variance (absent for this aid) are left out.
+/// [`metres_per_rad`] at `at`. The update has the aid's dimension (baro 1,
+/// CNS 2, SRS and star 3); a component without a positive finite variance
+/// gets a zero or NaN σ.
 pub fn aid_update(t_ns: u64, aid: Aid, a: &AidStatus, at: UpdateAt) -> pb::AidUpdate {
     let dim = match aid {
         Aid::Baro => 1,
@@ -212,15 +213,11 @@ fn counters(c: &StreamCounters) -> pb::StreamCounters {
 }
 
 /// A status record; each aid's last update in its unit, a CNS one in g
-/// rescaled at `at` (the status's frame and the last solution's position).
-pub fn status(st: &Status, lat_rad: f64, h_m: f64) -> pb::Status {
-    let at = UpdateAt {
-        frame: st.frame,
-        lat_rad,
-        h_m,
-    };
+/// rescaled where that update was made (`made`: SRS, CNS, baro, star; see
+/// `FlightChannels::status`).
+pub fn status(st: &Status, made: [UpdateAt; 4]) -> pb::Status {
     let aid = |kind: Aid, a: &AidStatus| pb::AidStatus {
-        last: Some(aid_update(st.t_ns, kind, a, at)),
+        last: Some(aid_update(st.t_ns, kind, a, made[kind as usize])),
         last_fuse_t_ns: a.last_fuse_t_ns,
         fresh: a.fresh != 0,
     };

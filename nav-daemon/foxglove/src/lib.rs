@@ -358,9 +358,14 @@ pub struct FlightChannels {
     log: WktChannel<Log>,
     aid_source: AidSource,
     last_frame: Option<u8>,
-    /// Where the last solution was (frame, latitude, height): the CNS
-    /// innovations a status record reports are turned into metres there.
+    /// Where the last solution was (frame, latitude, height).
     last_at: UpdateAt,
+    /// Per aid (SRS, CNS, baro, star): where its last innovation was made,
+    /// and its gated count (accepted + rejected at the gate) then. A
+    /// status record repeats the last innovation, which a frame switch
+    /// does not clear, so it is turned into metres in the frame and at the
+    /// position of the update, not of the status.
+    aid_made: [(u64, Option<UpdateAt>); 4],
     /// Added to every `t_ns` to make a log time (the UTC epoch of sensor time 0, or 0).
     epoch_ns: u64,
     /// Sensor time of the last solution drawn on the display channels
@@ -485,6 +490,7 @@ impl FlightChannels {
             },
             epoch_ns: 0,
             last_display_ns: None,
+            aid_made: [(0, None); 4],
         }
     }
 
@@ -727,20 +733,21 @@ impl FlightChannels {
     }
 
     /// A status record: `/status`, and with [`AidSource::Status`] the last
-    /// update of each aid that has had one. A CNS innovation in g is turned
-    /// into metres at the last solution's position.
+    /// update of each aid that has had one.
+    ///
+    /// Each aid's innovation is turned into its unit where it was made:
+    /// with [`AidSource::Updates`], as [`Self::aid_update`] recorded it;
+    /// from status records alone, in the status's frame at the last
+    /// solution's position when the aid's gated count changed since the
+    /// previous status, else where the previous one put it (a switch or a
+    /// long outage since then does not move it). An update in the same
+    /// status period as a switch but before it is taken as after it.
     pub fn status(&mut self, st: &Status) {
-        let ctx = &self.ctx;
         let at = at(self.epoch_ns, st.t_ns);
-        let (lat_rad, h_m) = (self.last_at.lat_rad, self.last_at.h_m);
-        self.status
-            .log(ctx, at, || convert::status(st, lat_rad, h_m));
+        let made = self.aids_made(st);
+        let ctx = &self.ctx;
+        self.status.log(ctx, at, || convert::status(st, made));
         if self.aid_source == AidSource::Status {
-            let where_ = UpdateAt {
-                frame: st.frame,
-                lat_rad,
-                h_m,
-            };
             for (topic, a, c) in [
                 (AidTopic::Srs, &st.srs_aid, &st.srs),
                 (AidTopic::Cns, &st.cns_aid, &st.cns),
@@ -748,6 +755,7 @@ impl FlightChannels {
                 (AidTopic::Star, &st.star_aid, &st.star),
             ] {
                 if c.accepted + c.rejected_gate > 0 {
+                    let where_ = made[topic as usize];
                     self.aid[topic as usize].log(ctx, at, || {
                         convert::aid_update(st.t_ns, topic.aid(), a, where_)
                     });
@@ -756,10 +764,31 @@ impl FlightChannels {
         }
     }
 
+    /// Where each aid's innovation in `st` was made (see [`Self::status`]).
+    fn aids_made(&mut self, st: &Status) -> [UpdateAt; 4] {
+        let counters = [&st.srs, &st.cns, &st.baro, &st.star];
+        let here = UpdateAt {
+            frame: st.frame,
+            ..self.last_at
+        };
+        let mut made = [here; 4];
+        for (k, c) in counters.iter().enumerate() {
+            let n = c.accepted + c.rejected_gate;
+            let slot = &mut self.aid_made[k];
+            let exact = self.aid_source == AidSource::Updates && slot.1.is_some();
+            if !exact && (slot.1.is_none() || slot.0 != n) {
+                *slot = (n, Some(here));
+            }
+            made[k] = slot.1.unwrap_or(here);
+        }
+        made
+    }
+
     /// One gated update of an aid (with [`AidSource::Updates`]), made at
     /// `where_` (the frame and position of the navigator then).
     pub fn aid_update(&mut self, topic: AidTopic, t_ns: u64, a: &AidStatus, where_: UpdateAt) {
         let at = at(self.epoch_ns, t_ns);
+        self.aid_made[topic as usize].1 = Some(where_);
         self.aid[topic as usize].log(&self.ctx, at, || {
             convert::aid_update(t_ns, topic.aid(), a, where_)
         });
@@ -936,6 +965,51 @@ mod tests {
         assert!(ctx.get_channel_by_topic("/events").is_none());
         live.withdraw(Feed::Status);
         assert!(live.open_topics().is_empty());
+    }
+
+    /// A status repeats an aid's last innovation until the next update; a
+    /// switch in between does not move where it was made: the CNS
+    /// innovation of g stays converted in g at the update's latitude. With
+    /// every update given (batch), each one's own place is used.
+    #[test]
+    fn a_repeated_innovation_is_converted_where_it_was_made() {
+        let ctx = Context::new();
+        let mut c = FlightChannels::new_live(&ctx, AidSource::Status, None);
+        let sol = |frame: u8, lat_rad: f64| Solution {
+            frame,
+            lat_rad,
+            h_m: 1000.0,
+            ..solution(1)
+        };
+        let status = |frame: u8, cns: u64| {
+            let mut st = Status {
+                frame,
+                ..Default::default()
+            };
+            st.cns.accepted = cns;
+            st
+        };
+        c.solution(&sol(0, 1.2));
+        let m = c.aids_made(&status(0, 5))[1];
+        assert_eq!((m.frame, m.lat_rad), (0, 1.2));
+        // Switched to G at 1.25 rad; no CNS update since: still g at 1.2.
+        c.solution(&sol(1, 1.25));
+        let m = c.aids_made(&status(1, 5))[1];
+        assert_eq!((m.frame, m.lat_rad), (0, 1.2));
+        // A new CNS update: made in G, here.
+        let m = c.aids_made(&status(1, 6))[1];
+        assert_eq!((m.frame, m.lat_rad), (1, 1.25));
+
+        let ctx = Context::new();
+        let mut b = FlightChannels::new_live(&ctx, AidSource::Updates, None);
+        b.solution(&sol(1, 1.3));
+        let at = UpdateAt {
+            frame: 0,
+            lat_rad: 1.1,
+            h_m: 5.0,
+        };
+        b.aid_update(AidTopic::Cns, 1, &AidStatus::default(), at);
+        assert_eq!(b.aids_made(&status(1, 9))[1], at);
     }
 
     /// A 100 Hz limit passes at most one message per 10 ms and counts the

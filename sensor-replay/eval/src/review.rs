@@ -946,7 +946,7 @@ pub fn review(log: &LogContents, opts: &Options<'_>) -> Result<Review, String> {
     }
     if pass.rows_with_bias_sigma == 0 {
         missing.push(format!(
-            "`biases` without σ bands: the solution has no bias σ (CSV columns {} or `/solution` fields {}; written by solution version 3 and later)",
+            "`biases` without σ bands: the solution has no bias σ (CSV columns and protobuf `/solution` fields {}, JSON `/solution` fields {} of earlier MCAP files; written by solution version 3 and later)",
             solution_file::BIAS_SIGMA_COLUMNS.join(", "),
             solution_file::BIAS_SIGMA_FIELDS.join(", ")
         ));

@@ -152,6 +152,15 @@ pub fn load(path: &Path) -> Result<Loaded, String> {
             )
         };
         let json = m.encoding == "json";
+        let wanted = matches!(
+            m.topic,
+            "/solution" | "/aid/srs" | "/aid/cns" | "/aid/baro" | "/aid/star"
+        );
+        if wanted && !json && m.encoding != "protobuf" {
+            return Err(bad(
+                &"not protobuf (polarnav.proto) nor JSON: cannot read it",
+            ));
+        }
         let aid = match m.topic {
             "/solution" => {
                 let (s, sig) = if json {
@@ -644,6 +653,12 @@ mod tests {
         let l = load(&p).expect("load JSON");
         assert_eq!(l.rows.len(), 1);
         assert!((l.rows[0].lat_deg - 1.2f64.to_degrees()).abs() < 1e-12);
+        let _ = std::fs::remove_file(&p);
+
+        // A channel in another encoding is refused, not decoded as protobuf.
+        let p = mcap_with("cbor", "cbor", std::slice::from_ref(&good));
+        let e = load(&p).expect_err("cbor");
+        assert!(e.contains("(cbor)") && e.contains("not protobuf"), "{e}");
         let _ = std::fs::remove_file(&p);
 
         // A truncated message and a run of 0xff bytes do not decode.
