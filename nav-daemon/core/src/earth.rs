@@ -53,6 +53,15 @@ pub fn radii(lat_rad: f64) -> (f64, f64) {
     radii_from_sin(lat_rad.sin())
 }
 
+/// Metres per radian of latitude and of longitude at `lat_rad`, `h_m`: the
+/// meridian arc (R_M + h) and the parallel's radius (R_N + h)·cos φ. A small
+/// Δlatitude, Δlongitude (a CNS innovation in g) times these is north and
+/// east in metres.
+pub fn metres_per_radian(lat_rad: f64, h_m: f64) -> [f64; 2] {
+    let (rm, rn) = radii(lat_rad);
+    [rm + h_m, (rn + h_m) * lat_rad.cos()]
+}
+
 /// [`radii`] from sin L.
 pub fn radii_from_sin(sin_lat: f64) -> (f64, f64) {
     let s2 = sin_lat * sin_lat;

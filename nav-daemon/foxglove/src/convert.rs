@@ -37,17 +37,10 @@ fn nav_frame(frame: u8) -> i32 {
     i32::from(frame)
 }
 
-/// Metres per radian of latitude and of longitude at `lat_rad`, `h_m`: the
-/// meridian arc (R_M + h) and the parallel's radius (R_N + h)·cos φ.
-pub fn metres_per_rad(lat_rad: f64, h_m: f64) -> [f64; 2] {
-    let (rm, rn) = earth::radii(lat_rad);
-    [rm + h_m, (rn + h_m) * lat_rad.cos()]
-}
-
 /// An aid's update in its physical unit. The innovation is as the wire
 /// reports it (`AidStatus::innovation`, its variance the diagonal of S);
 /// only a CNS innovation in g is rescaled, from rad to m, with
-/// [`metres_per_rad`] at `at`. The update has the aid's dimension (baro 1,
+/// [`earth::metres_per_radian`] at `at`. The update has the aid's dimension (baro 1,
 /// CNS 2, SRS and star 3); a component without a positive finite variance
 /// gets a zero or NaN σ.
 pub fn aid_update(t_ns: u64, aid: Aid, a: &AidStatus, at: UpdateAt) -> pb::AidUpdate {
@@ -58,7 +51,7 @@ pub fn aid_update(t_ns: u64, aid: Aid, a: &AidStatus, at: UpdateAt) -> pb::AidUp
     };
     let scale = match aid {
         Aid::Cns if at.frame == msgs::WireFrame::Geographic as u8 => {
-            let [n, e] = metres_per_rad(at.lat_rad, at.h_m);
+            let [n, e] = earth::metres_per_radian(at.lat_rad, at.h_m);
             [n, e, 1.0]
         }
         _ => [1.0; 3],

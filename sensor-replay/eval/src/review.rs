@@ -245,8 +245,8 @@ fn aid_series(aids: &Aids, at: &Where) -> Vec<AidSeries> {
                     "CNS" if a.physical => [1.0; 3],
                     "CNS" => match at.get(t) {
                         Some(('g', lat, h)) => {
-                            let (rm, rn) = polarnav::earth::radii(lat);
-                            [rm + h, (rn + h) * lat.cos(), 1.0]
+                            let [n, e] = polarnav::earth::metres_per_radian(lat, h);
+                            [n, e, 1.0]
                         }
                         _ => [1.0; 3],
                     },
