@@ -241,7 +241,7 @@ fn main() {
     );
     // What cannot be compressed away: the full-rate /solution messages and
     // the /imu increments, each compressed alone as the file's chunks are
-    // (zstd level 3, 1 MB), per flight hour. Their sum is a floor under the
+    // (zstd at the file's level, 1 MB), per flight hour. Their sum is a floor under the
     // size of a full-rate file with its inputs.
     let per_hour = |bytes: usize| bytes as f64 / 1e6 / hours;
     let solution_mb =
@@ -286,12 +286,13 @@ fn main() {
 }
 
 /// Bytes of `messages` laid end to end and compressed in 1 MB chunks at
-/// zstd level 3, as the MCAP writer compresses its chunks.
+/// the zstd level of the MCAP writer's chunks.
 fn compressed_alone(messages: impl Iterator<Item = Vec<u8>>) -> usize {
     let mut chunk = Vec::with_capacity(1 << 21);
     let mut total = 0;
     let mut flush = |chunk: &mut Vec<u8>| {
-        total += zstd::bulk::compress(chunk, 3).expect("zstd").len();
+        let level = i32::try_from(polarnav_foxglove::file::ZSTD_LEVEL).expect("level");
+        total += zstd::bulk::compress(chunk, level).expect("zstd").len();
         chunk.clear();
     };
     for m in messages {

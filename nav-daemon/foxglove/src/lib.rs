@@ -1,7 +1,9 @@
 //! polarnav flight data as Foxglove channels.
 //!
 //! One mapping from polarnav's records (the navlog's and the wire's) to
-//! channels of a Foxglove [`Context`], so that an MCAP file written by
+//! channels, of an MCAP file written on its own thread ([`file`]) or of a
+//! Foxglove [`Context`] (the live view's WebSocket server), so that an MCAP
+//! file written by
 //! `nav-daemon batch --out F.mcap`, `sensor-replay record --out F.mcap` or
 //! `sensor-replay export LOG --mcap F`, and the live view
 //! (`sensor-replay view`, over the Foxglove WebSocket protocol) carry the
@@ -45,20 +47,19 @@
 #![warn(missing_docs)]
 
 use std::collections::BTreeMap;
-use std::fs::File;
-use std::io::BufWriter;
 use std::marker::PhantomData;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 use foxglove::messages::{FrameTransform, LocationFix, Log, SceneUpdate, Timestamp, Vector3};
-use foxglove::{Channel, Context, Encode, McapWriterHandle, PartialMetadata, RawChannel, Schema};
+use foxglove::{Context, Encode, PartialMetadata, RawChannel, Schema};
 use msgs::navlog::{Header, Record};
 use msgs::{AidStatus, Solution, Status, TruthRecord, WireFrame};
 use polarnav_proto::{self as pb, FILE_DESCRIPTOR_SET, ProtoName};
 
 pub mod convert;
+pub mod file;
 pub mod polar;
 
 pub use convert::UpdateAt;
@@ -98,25 +99,7 @@ impl AidTopic {
 }
 
 /// Why writing an MCAP file failed.
-#[derive(Debug, thiserror::Error)]
-pub enum McapError {
-    /// The file could not be created.
-    #[error("{path}: {source}")]
-    Create {
-        /// The file.
-        path: PathBuf,
-        /// The cause.
-        source: std::io::Error,
-    },
-    /// The MCAP writer failed (while writing or closing).
-    #[error("{path}: MCAP writer: {source}")]
-    Writer {
-        /// The file.
-        path: PathBuf,
-        /// The cause.
-        source: foxglove::FoxgloveError,
-    },
-}
+pub type McapError = file::FileError;
 
 /// A per-channel rate limit on wall-clock time: a message passes when its
 /// slot has come, else it is dropped and counted. Slots are one period apart
@@ -166,79 +149,88 @@ impl RateGate {
     }
 }
 
-/// A channel that exists from its first message (or [`Lazy::open`]) until
-/// [`Lazy::close`], behind its rate gate.
+/// Where the channels go: a Foxglove SDK context (the live view's
+/// WebSocket server), or an MCAP file written on its own thread.
 #[derive(Debug)]
-struct Lazy<C> {
+enum Out {
+    /// Channels of the context, and the buffer messages are encoded into.
+    Sdk { ctx: Arc<Context>, buf: Vec<u8> },
+    /// The file's channels; messages are encoded into its batches.
+    File(file::FileWriter),
+}
+
+/// A message type of the mapping: its schema and how it encodes.
+trait Msg {
+    fn schema() -> Option<Schema>;
+    fn encoding() -> String;
+    /// Appends the message to `buf`; false when it could not.
+    fn encode_into(&self, buf: &mut Vec<u8>) -> bool;
+}
+
+/// The messages of `polarnav.proto`.
+macro_rules! proto_msg {
+    ($($t:ty),*) => {$(
+        impl Msg for $t {
+            fn schema() -> Option<Schema> {
+                Some(proto_schema::<$t>())
+            }
+            fn encoding() -> String {
+                "protobuf".into()
+            }
+            fn encode_into(&self, buf: &mut Vec<u8>) -> bool {
+                // Encoding into a Vec cannot run out of room.
+                prost::Message::encode(self, buf).is_ok()
+            }
+        }
+    )*};
+}
+proto_msg!(
+    pb::ImuSample,
+    pb::SrsSample,
+    pb::CnsFix,
+    pb::BaroSample,
+    pb::StarSample,
+    pb::InitState,
+    pb::Solution,
+    pb::Status,
+    pb::AidUpdate,
+    pb::SwitchNote,
+    pb::Truth,
+    pb::TruthBias
+);
+
+/// Foxglove's well-known messages.
+macro_rules! wkt_msg {
+    ($($t:ty),*) => {$(
+        impl Msg for $t {
+            fn schema() -> Option<Schema> {
+                <$t as Encode>::get_schema()
+            }
+            fn encoding() -> String {
+                <$t as Encode>::get_message_encoding()
+            }
+            fn encode_into(&self, buf: &mut Vec<u8>) -> bool {
+                Encode::encode(self, buf).is_ok()
+            }
+        }
+    )*};
+}
+wkt_msg!(LocationFix, FrameTransform, SceneUpdate, Log);
+
+/// A channel as its destination knows it.
+#[derive(Debug)]
+enum Handle {
+    Sdk(Arc<RawChannel>),
+    File(u16),
+}
+
+/// A channel of one message type that exists from its first message (or
+/// [`Chan::open`]) until [`Chan::close`], behind its rate gate.
+#[derive(Debug)]
+struct Chan<M> {
     topic: &'static str,
-    ch: Option<C>,
     gate: RateGate,
-}
-
-impl<C> Lazy<C> {
-    fn new(topic: &'static str, gate: RateGate) -> Self {
-        Self {
-            topic,
-            ch: None,
-            gate,
-        }
-    }
-}
-
-/// Closing a channel removes it from its context (sinks unadvertise it).
-trait Closable {
-    fn close_channel(&self);
-}
-
-impl Closable for Arc<RawChannel> {
-    fn close_channel(&self) {
-        self.close();
-    }
-}
-
-impl<T: Encode> Closable for Channel<T> {
-    fn close_channel(&self) {
-        self.close();
-    }
-}
-
-impl<C: Closable> Lazy<C> {
-    fn close(&mut self) {
-        if let Some(ch) = self.ch.take() {
-            ch.close_channel();
-        }
-    }
-}
-
-/// A well-known (protobuf) channel.
-type WktChannel<T> = Lazy<Channel<T>>;
-
-impl<T: Encode> WktChannel<T> {
-    fn open(&mut self, ctx: &Arc<Context>) -> &Channel<T> {
-        let topic = self.topic;
-        self.ch
-            .get_or_insert_with(|| ctx.channel_builder(topic).build())
-    }
-
-    /// Logs the message `make` builds (only when the gate passes it and a
-    /// sink wants it) at log time `log_ns`.
-    fn log(&mut self, ctx: &Arc<Context>, log_ns: u64, make: impl FnOnce() -> T) {
-        if !self.gate.pass() {
-            return;
-        }
-        let ch = self.open(ctx);
-        if ch.has_sinks() {
-            ch.log_with_time(&make(), log_ns);
-        }
-    }
-}
-
-/// A channel of one `polarnav.proto` message type, with its schema and a
-/// reused encoding buffer.
-#[derive(Debug)]
-struct ProtoChannel<M> {
-    lazy: Lazy<Arc<RawChannel>>,
-    buf: Vec<u8>,
+    handle: Option<Handle>,
     _m: PhantomData<fn(M)>,
 }
 
@@ -248,47 +240,75 @@ fn proto_schema<M: ProtoName>() -> Schema {
     Schema::new(M::NAME, "protobuf", FILE_DESCRIPTOR_SET)
 }
 
-impl<M: prost::Message + ProtoName> ProtoChannel<M> {
+impl<M: Msg> Chan<M> {
     fn new(topic: &'static str, gate: RateGate) -> Self {
         Self {
-            lazy: Lazy::new(topic, gate),
-            buf: Vec::with_capacity(1024),
+            topic,
+            gate,
+            handle: None,
             _m: PhantomData,
         }
     }
 
-    fn open(&mut self, ctx: &Arc<Context>) {
-        if self.lazy.ch.is_none() {
-            // The builder refuses only a channel without a message encoding.
-            self.lazy.ch = ctx
-                .channel_builder(self.lazy.topic)
-                .message_encoding("protobuf")
-                .schema(proto_schema::<M>())
-                .build_raw()
-                .ok();
+    fn open(&mut self, out: &mut Out) {
+        if self.handle.is_some() {
+            return;
+        }
+        self.handle = match out {
+            Out::Sdk { ctx, .. } => {
+                let b = ctx
+                    .channel_builder(self.topic)
+                    .message_encoding(M::encoding());
+                let b = match M::schema() {
+                    Some(schema) => b.schema(schema),
+                    None => b,
+                };
+                // The builder refuses only a channel without a message encoding.
+                b.build_raw().ok().map(Handle::Sdk)
+            }
+            Out::File(f) => Some(Handle::File(f.add_channel(
+                self.topic,
+                &M::encoding(),
+                M::schema(),
+            ))),
+        };
+    }
+
+    /// Closing a channel of the live view removes it from its context
+    /// (sinks unadvertise it); a file keeps every channel it listed.
+    fn close(&mut self) {
+        if let Some(Handle::Sdk(ch)) = &self.handle {
+            ch.close();
+            self.handle = None;
         }
     }
 
-    /// Logs the message `make` builds (only when the gate passes it and a
-    /// sink wants it) at log time `log_ns`.
-    fn log(&mut self, ctx: &Arc<Context>, log_ns: u64, make: impl FnOnce() -> M) {
-        if !self.lazy.gate.pass() {
+    /// Logs the message `make` builds (only when the gate passes it and,
+    /// live, a sink wants it) at log time `log_ns`.
+    fn log(&mut self, out: &mut Out, log_ns: u64, make: impl FnOnce() -> M) {
+        if !self.gate.pass() {
             return;
         }
-        self.open(ctx);
-        let Some(ch) = &self.lazy.ch else { return };
-        if !ch.has_sinks() {
-            return;
-        }
-        self.buf.clear();
-        // Encoding into a Vec cannot run out of room.
-        if make().encode(&mut self.buf).is_ok() {
-            ch.log_with_meta(
-                &self.buf,
-                PartialMetadata {
-                    log_time: Some(log_ns),
-                },
-            );
+        self.open(out);
+        match (&self.handle, out) {
+            (Some(Handle::Sdk(ch)), Out::Sdk { buf, .. }) => {
+                if !ch.has_sinks() {
+                    return;
+                }
+                buf.clear();
+                if make().encode_into(buf) {
+                    ch.log_with_meta(
+                        buf,
+                        PartialMetadata {
+                            log_time: Some(log_ns),
+                        },
+                    );
+                }
+            }
+            (Some(Handle::File(id)), Out::File(f)) => {
+                f.log(*id, log_ns, |buf| make().encode_into(buf));
+            }
+            _ => {}
         }
     }
 }
@@ -298,36 +318,21 @@ trait AnyChannel {
     fn lazy_topic(&self) -> &'static str;
     fn is_open(&self) -> bool;
     fn dropped(&self) -> u64;
-    fn open_in(&mut self, ctx: &Arc<Context>);
+    fn open_in(&mut self, out: &mut Out);
 }
 
-impl<M: prost::Message + ProtoName> AnyChannel for ProtoChannel<M> {
-    fn lazy_topic(&self) -> &'static str {
-        self.lazy.topic
-    }
-    fn is_open(&self) -> bool {
-        self.lazy.ch.is_some()
-    }
-    fn dropped(&self) -> u64 {
-        self.lazy.gate.dropped
-    }
-    fn open_in(&mut self, ctx: &Arc<Context>) {
-        self.open(ctx);
-    }
-}
-
-impl<T: Encode> AnyChannel for WktChannel<T> {
+impl<M: Msg> AnyChannel for Chan<M> {
     fn lazy_topic(&self) -> &'static str {
         self.topic
     }
     fn is_open(&self) -> bool {
-        self.ch.is_some()
+        self.handle.is_some()
     }
     fn dropped(&self) -> u64 {
         self.gate.dropped
     }
-    fn open_in(&mut self, ctx: &Arc<Context>) {
-        self.open(ctx);
+    fn open_in(&mut self, out: &mut Out) {
+        self.open(out);
     }
 }
 
@@ -335,27 +340,27 @@ impl<T: Encode> AnyChannel for WktChannel<T> {
 /// (the last frame, for switch events).
 #[derive(Debug)]
 pub struct FlightChannels {
-    ctx: Arc<Context>,
-    imu: ProtoChannel<pb::ImuSample>,
-    srs: ProtoChannel<pb::SrsSample>,
-    cns: ProtoChannel<pb::CnsFix>,
-    baro: ProtoChannel<pb::BaroSample>,
-    star: ProtoChannel<pb::StarSample>,
-    init: ProtoChannel<pb::InitState>,
-    solution: ProtoChannel<pb::Solution>,
-    status: ProtoChannel<pb::Status>,
-    aid: [ProtoChannel<pb::AidUpdate>; 4],
-    switch: ProtoChannel<pb::SwitchNote>,
-    truth: ProtoChannel<pb::Truth>,
-    truth_bias: ProtoChannel<pb::TruthBias>,
-    fix: WktChannel<LocationFix>,
-    truth_fix: WktChannel<LocationFix>,
-    pose: WktChannel<FrameTransform>,
-    nav_frame: WktChannel<FrameTransform>,
-    tf: WktChannel<FrameTransform>,
-    track: WktChannel<SceneUpdate>,
+    out: Out,
+    imu: Chan<pb::ImuSample>,
+    srs: Chan<pb::SrsSample>,
+    cns: Chan<pb::CnsFix>,
+    baro: Chan<pb::BaroSample>,
+    star: Chan<pb::StarSample>,
+    init: Chan<pb::InitState>,
+    solution: Chan<pb::Solution>,
+    status: Chan<pb::Status>,
+    aid: [Chan<pb::AidUpdate>; 4],
+    switch: Chan<pb::SwitchNote>,
+    truth: Chan<pb::Truth>,
+    truth_bias: Chan<pb::TruthBias>,
+    fix: Chan<LocationFix>,
+    truth_fix: Chan<LocationFix>,
+    pose: Chan<FrameTransform>,
+    nav_frame: Chan<FrameTransform>,
+    tf: Chan<FrameTransform>,
+    track: Chan<SceneUpdate>,
     scene: polar::PolarScene,
-    log: WktChannel<Log>,
+    log: Chan<Log>,
     aid_source: AidSource,
     last_frame: Option<u8>,
     /// Where the last solution was (frame, latitude, height).
@@ -440,11 +445,29 @@ impl FlightChannels {
     /// Every channel of the mapping, created now in `ctx` (an MCAP file
     /// lists them all), without a rate limit.
     pub fn new(ctx: &Arc<Context>, aid_source: AidSource) -> Self {
-        let mut c = Self::new_live(ctx, aid_source, None);
-        let ctx = Arc::clone(&c.ctx);
+        Self::with_every_channel(
+            Out::Sdk {
+                ctx: Arc::clone(ctx),
+                buf: Vec::with_capacity(1024),
+            },
+            aid_source,
+        )
+    }
+
+    /// Every channel of the mapping, listed now in `out`.
+    fn with_every_channel(out: Out, aid_source: AidSource) -> Self {
+        let mut c = Self::with_out(out, aid_source, None);
+        let mut out = std::mem::replace(
+            &mut c.out,
+            Out::Sdk {
+                ctx: Context::new(),
+                buf: Vec::new(),
+            },
+        );
         for ch in c.channels_mut() {
-            ch.open_in(&ctx);
+            ch.open_in(&mut out);
         }
+        c.out = out;
         c
     }
 
@@ -453,34 +476,42 @@ impl FlightChannels {
     /// `max_rate_hz` messages per second of wall-clock time (`None`, zero
     /// or not finite: no limit).
     pub fn new_live(ctx: &Arc<Context>, aid_source: AidSource, max_rate_hz: Option<f64>) -> Self {
+        let out = Out::Sdk {
+            ctx: Arc::clone(ctx),
+            buf: Vec::with_capacity(1024),
+        };
+        Self::with_out(out, aid_source, max_rate_hz)
+    }
+
+    fn with_out(out: Out, aid_source: AidSource, max_rate_hz: Option<f64>) -> Self {
         let g = RateGate::new(max_rate_hz);
         Self {
-            ctx: Arc::clone(ctx),
-            imu: ProtoChannel::new("/imu", g),
-            srs: ProtoChannel::new("/srs", g),
-            cns: ProtoChannel::new("/cns", g),
-            baro: ProtoChannel::new("/baro", g),
-            star: ProtoChannel::new("/star", g),
-            init: ProtoChannel::new("/init", g),
-            solution: ProtoChannel::new("/solution", g),
-            status: ProtoChannel::new("/status", g),
+            out,
+            imu: Chan::new("/imu", g),
+            srs: Chan::new("/srs", g),
+            cns: Chan::new("/cns", g),
+            baro: Chan::new("/baro", g),
+            star: Chan::new("/star", g),
+            init: Chan::new("/init", g),
+            solution: Chan::new("/solution", g),
+            status: Chan::new("/status", g),
             aid: [
-                ProtoChannel::new("/aid/srs", g),
-                ProtoChannel::new("/aid/cns", g),
-                ProtoChannel::new("/aid/baro", g),
-                ProtoChannel::new("/aid/star", g),
+                Chan::new("/aid/srs", g),
+                Chan::new("/aid/cns", g),
+                Chan::new("/aid/baro", g),
+                Chan::new("/aid/star", g),
             ],
-            switch: ProtoChannel::new("/events/switch", g),
-            truth: ProtoChannel::new("/truth", g),
-            truth_bias: ProtoChannel::new("/truth/bias", g),
-            fix: Lazy::new("/solution/fix", g),
-            truth_fix: Lazy::new("/truth/fix", g),
-            pose: Lazy::new("/solution/pose", g),
-            nav_frame: Lazy::new("/solution/nav_frame", g),
-            tf: Lazy::new("/tf/polar", g),
-            track: Lazy::new("/track", g),
+            switch: Chan::new("/events/switch", g),
+            truth: Chan::new("/truth", g),
+            truth_bias: Chan::new("/truth/bias", g),
+            fix: Chan::new("/solution/fix", g),
+            truth_fix: Chan::new("/truth/fix", g),
+            pose: Chan::new("/solution/pose", g),
+            nav_frame: Chan::new("/solution/nav_frame", g),
+            tf: Chan::new("/tf/polar", g),
+            track: Chan::new("/track", g),
             scene: polar::PolarScene::new(),
-            log: Lazy::new("/events", g),
+            log: Chan::new("/events", g),
             aid_source,
             last_frame: None,
             last_at: UpdateAt {
@@ -559,15 +590,15 @@ impl FlightChannels {
     /// Opens (advertises) the channels `feed` carries before its first
     /// message: the live view does so while the daemon's publisher is up.
     pub fn advertise(&mut self, feed: Feed) {
-        let ctx = Arc::clone(&self.ctx);
+        let out = &mut self.out;
         match feed {
             Feed::Solution => {
-                self.solution.open(&ctx);
-                self.fix.open(&ctx);
-                self.pose.open(&ctx);
-                self.nav_frame.open(&ctx);
+                self.solution.open(out);
+                self.fix.open(out);
+                self.pose.open(out);
+                self.nav_frame.open(out);
             }
-            Feed::Status => self.status.open(&ctx),
+            Feed::Status => self.status.open(out),
         }
     }
 
@@ -575,22 +606,22 @@ impl FlightChannels {
     pub fn withdraw(&mut self, feed: Feed) {
         match feed {
             Feed::Solution => {
-                self.solution.lazy.close();
+                self.solution.close();
                 self.fix.close();
                 self.pose.close();
                 self.nav_frame.close();
                 self.tf.close();
                 self.track.close();
                 self.scene = polar::PolarScene::new();
-                self.switch.lazy.close();
+                self.switch.close();
                 self.log.close();
                 self.last_frame = None;
                 self.last_display_ns = None;
             }
             Feed::Status => {
-                self.status.lazy.close();
+                self.status.close();
                 for a in &mut self.aid {
-                    a.lazy.close();
+                    a.close();
                 }
             }
         }
@@ -623,7 +654,7 @@ impl FlightChannels {
     /// Logs one navlog record on its channels (the header is not a message:
     /// see [`McapFile::header`]).
     pub fn record(&mut self, r: &Record) {
-        let ctx = &self.ctx;
+        let ctx = &mut self.out;
         let e = self.epoch_ns;
         match r {
             Record::Header(_) => {}
@@ -650,7 +681,7 @@ impl FlightChannels {
         let switched = self.last_frame.is_some_and(|prev| prev != s.frame);
         let out = self.scene.solution(s, switched, at);
         self.scene_out(out, at);
-        let ctx = &self.ctx;
+        let ctx = &mut self.out;
         if let Some(prev) = self.last_frame
             && prev != s.frame
         {
@@ -717,7 +748,7 @@ impl FlightChannels {
 
     /// Logs what the polar scene returned, at log time `at`.
     fn scene_out(&mut self, out: polar::SceneOut, at: u64) {
-        let ctx = &self.ctx;
+        let ctx = &mut self.out;
         for t in out.statics {
             self.tf.log(ctx, at, || t);
         }
@@ -745,7 +776,7 @@ impl FlightChannels {
     pub fn status(&mut self, st: &Status) {
         let at = at(self.epoch_ns, st.t_ns);
         let made = self.aids_made(st);
-        let ctx = &self.ctx;
+        let ctx = &mut self.out;
         self.status.log(ctx, at, || convert::status(st, made));
         if self.aid_source == AidSource::Status {
             for (topic, a, c) in [
@@ -789,7 +820,7 @@ impl FlightChannels {
     pub fn aid_update(&mut self, topic: AidTopic, t_ns: u64, a: &AidStatus, where_: UpdateAt) {
         let at = at(self.epoch_ns, t_ns);
         self.aid_made[topic as usize].1 = Some(where_);
-        self.aid[topic as usize].log(&self.ctx, at, || {
+        self.aid[topic as usize].log(&mut self.out, at, || {
             convert::aid_update(t_ns, topic.aid(), a, where_)
         });
     }
@@ -798,10 +829,10 @@ impl FlightChannels {
     pub fn truth(&mut self, t: &TruthRecord) {
         let g = polarnav::earth::ecef_to_geodetic(&t.r_e_m.into());
         let at = at(self.epoch_ns, t.t_ns);
-        self.truth.log(&self.ctx, at, || convert::truth(t, &g));
+        self.truth.log(&mut self.out, at, || convert::truth(t, &g));
         let scene = self.scene.truth(t, g.lat_rad, at);
         self.scene_out(scene, at);
-        self.truth_fix.log(&self.ctx, at, || LocationFix {
+        self.truth_fix.log(&mut self.out, at, || LocationFix {
             timestamp: Some(stamp(at)),
             frame_id: "truth".into(),
             latitude: g.lat_rad.to_degrees(),
@@ -816,42 +847,19 @@ impl FlightChannels {
 }
 
 /// An MCAP file (zstd chunks) with the flight channels, for Foxglove,
-/// PlotJuggler and the `mcap` readers.
+/// PlotJuggler and the `mcap` readers. Written on its own thread
+/// ([`file`]): logging a message encodes it into memory and returns.
 #[derive(Debug)]
 pub struct McapFile {
-    path: PathBuf,
-    // The channels and the writer hold the context; it goes last.
     channels: FlightChannels,
-    writer: McapWriterHandle<BufWriter<File>>,
-    _ctx: Arc<Context>,
 }
 
 impl McapFile {
     /// Creates (or truncates) `path`.
     pub fn create(path: &Path, aid_source: AidSource) -> Result<Self, McapError> {
-        let ctx = Context::new();
-        let file = File::create(path).map_err(|source| McapError::Create {
-            path: path.to_owned(),
-            source,
-        })?;
-        let options = foxglove::McapWriteOptions::default()
-            .compression(Some(foxglove::McapCompression::Zstd))
-            .chunk_size(Some(1 << 20))
-            .profile("");
-        let writer = ctx
-            .mcap_writer_with_options(options)
-            .create(BufWriter::with_capacity(1 << 20, file))
-            .map_err(|source| McapError::Writer {
-                path: path.to_owned(),
-                source,
-            })?;
-        // Channels after the writer: it subscribes to every channel as it is advertised.
-        let channels = FlightChannels::new(&ctx, aid_source);
+        let writer = file::FileWriter::create(path)?;
         Ok(Self {
-            path: path.to_owned(),
-            channels,
-            writer,
-            _ctx: ctx,
+            channels: FlightChannels::with_every_channel(Out::File(writer), aid_source),
         })
     }
 
@@ -860,9 +868,16 @@ impl McapFile {
         &mut self.channels
     }
 
+    fn writer(&mut self) -> &mut file::FileWriter {
+        match &mut self.channels.out {
+            Out::File(w) => w,
+            Out::Sdk { .. } => unreachable!("an McapFile's channels go to its file"),
+        }
+    }
+
     /// The navlog header as MCAP metadata `polarnav` (producer, scenario,
     /// seed, format version, and the settings text).
-    pub fn header(&self, h: &Header) -> Result<(), McapError> {
+    pub fn header(&mut self, h: &Header) -> Result<(), McapError> {
         let meta = [
             ("producer", h.producer.clone()),
             ("scenario", h.scenario.clone()),
@@ -877,36 +892,26 @@ impl McapFile {
     }
 
     /// A metadata record `name` with the entries of `map` (provenance,
-    /// settings).
-    pub fn metadata(&self, name: &str, map: BTreeMap<String, String>) -> Result<(), McapError> {
-        self.writer
-            .write_metadata(name, map)
-            .map_err(|source| McapError::Writer {
-                path: self.path.clone(),
-                source,
-            })
+    /// settings), after every message logged so far.
+    pub fn metadata(&mut self, name: &str, map: BTreeMap<String, String>) -> Result<(), McapError> {
+        self.writer().metadata(name, map)
     }
 
     /// Ends the current chunk and writes everything so far to the file (a
     /// recorder killed after this loses nothing before it; a reader without
     /// the summary section still reads every complete chunk).
-    pub fn flush(&self) -> Result<(), McapError> {
-        self.writer.flush().map_err(|source| McapError::Writer {
-            path: self.path.clone(),
-            source,
-        })
+    pub fn flush(&mut self) -> Result<(), McapError> {
+        self.writer().flush()
     }
 
-    /// Writes the summary and closes the file.
+    /// Writes the rest, the summary and the footer, and closes the file.
     pub fn close(self) -> Result<(), McapError> {
-        let path = self.path;
         let mut channels = self.channels;
         channels.finish();
-        drop(channels);
-        self.writer
-            .close()
-            .map(drop)
-            .map_err(|source| McapError::Writer { path, source })
+        match channels.out {
+            Out::File(w) => w.close(),
+            Out::Sdk { .. } => Ok(()),
+        }
     }
 }
 
