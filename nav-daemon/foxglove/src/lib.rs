@@ -1,7 +1,7 @@
 //! polarnav flight data as Foxglove channels.
 //!
 //! One mapping from polarnav's records (the navlog's and the wire's) to
-//! channels, of an MCAP file written on its own thread ([`file`]) or of a
+//! channels, of an MCAP file written on its own thread ([`mod@file`]) or of a
 //! Foxglove [`Context`] (the live view's WebSocket server), so that an MCAP
 //! file written by
 //! `nav-daemon batch --out F.mcap`, `sensor-replay record --out F.mcap` or
@@ -848,7 +848,7 @@ impl FlightChannels {
 
 /// An MCAP file (zstd chunks) with the flight channels, for Foxglove,
 /// PlotJuggler and the `mcap` readers. Written on its own thread
-/// ([`file`]): logging a message encodes it into memory and returns.
+/// ([`mod@file`]): logging a message encodes it into memory and returns.
 #[derive(Debug)]
 pub struct McapFile {
     channels: FlightChannels,
