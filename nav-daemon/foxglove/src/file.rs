@@ -239,6 +239,12 @@ impl FileWriter {
         if self.batch.is_empty() {
             return;
         }
+        if self.tx.is_none() {
+            // The thread is gone: the messages are lost ([`Self::close`] says why); the batch is reused.
+            self.batch.bytes.clear();
+            self.batch.entries.clear();
+            return;
+        }
         let next = match self.free.try_recv() {
             Ok(b) => b,
             Err(_) if self.made < BATCHES => {
