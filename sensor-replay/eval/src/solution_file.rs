@@ -37,31 +37,56 @@ pub struct AidPoint {
 }
 
 impl AidPoint {
-    /// The update a protobuf `polarnav.AidUpdate` carries (the filled pair
-    /// of innovation fields, whichever the aid's unit).
-    pub fn from_proto(u: &pb::AidUpdate) -> Self {
-        let (v, s) = [
-            (&u.innovation_mps, &u.innovation_sigma_mps),
-            (&u.innovation_m, &u.innovation_sigma_m),
-            (&u.innovation_rad, &u.innovation_sigma_rad),
-        ]
-        .into_iter()
-        .find(|(v, _)| !v.is_empty())
-        .unwrap_or((&u.innovation_m, &u.innovation_sigma_m));
+    /// The update a protobuf `polarnav.AidUpdate` of channel `topic`
+    /// carries. Its innovation must be in the pair of fields of that aid's
+    /// unit (`/aid/srs` in m/s, `/aid/cns` and `/aid/baro` in m, `/aid/star`
+    /// in rad), at most 3 components, each with its σ; anything else is
+    /// refused, saying what the message holds.
+    pub fn from_proto(u: &pb::AidUpdate, topic: &str) -> Result<Self, String> {
+        let pairs = [
+            ("mps", &u.innovation_mps, &u.innovation_sigma_mps),
+            ("m", &u.innovation_m, &u.innovation_sigma_m),
+            ("rad", &u.innovation_rad, &u.innovation_sigma_rad),
+        ];
+        let unit = match topic {
+            "/aid/srs" => "mps",
+            "/aid/cns" | "/aid/baro" => "m",
+            "/aid/star" => "rad",
+            _ => return Err(format!("{topic} is not an aid channel")),
+        };
+        for (name, v, s) in pairs {
+            let filled = !v.is_empty() || !s.is_empty();
+            if filled && name != unit {
+                return Err(format!(
+                    "innovation in _{name}, but {topic} carries it in _{unit}"
+                ));
+            }
+            if name == unit && (v.len() != s.len() || v.len() > 3) {
+                return Err(format!(
+                    "{} innovation components with {} σ (at most 3, one σ each)",
+                    v.len(),
+                    s.len()
+                ));
+            }
+        }
+        let (_, v, s) = pairs
+            .into_iter()
+            .find(|(name, _, _)| *name == unit)
+            .unwrap_or(pairs[1]);
         let mut innovation = [0.0; 3];
         let mut innovation_var = [0.0; 3];
-        for (k, (x, sd)) in v.iter().zip(s.iter()).take(3).enumerate() {
+        for (k, (x, sd)) in v.iter().zip(s.iter()).enumerate() {
             innovation[k] = *x;
             innovation_var[k] = sd * sd;
         }
-        Self {
+        Ok(Self {
             t_ns: u.t_ns,
             innovation,
             innovation_var,
             test_ratio: u.test_ratio,
             fused: u8::from(u.fused),
             physical: true,
-        }
+        })
     }
 }
 
@@ -190,7 +215,11 @@ pub fn load(path: &Path) -> Result<Loaded, String> {
         aid.push(if json {
             serde_json::from_slice(m.data).map_err(|e| bad(&e))?
         } else {
-            AidPoint::from_proto(&pb::AidUpdate::decode(m.data).map_err(|e| bad(&e))?)
+            AidPoint::from_proto(
+                &pb::AidUpdate::decode(m.data).map_err(|e| bad(&e))?,
+                m.topic,
+            )
+            .map_err(|e| bad(&e))?
         });
         Ok(())
     })?;
@@ -672,5 +701,64 @@ mod tests {
             assert!(e.contains("/solution message 2 (protobuf)"), "{e}");
             let _ = std::fs::remove_file(&p);
         }
+    }
+
+    /// An aid update is read from the pair of fields of its channel's
+    /// unit; a pair of another unit, a σ missing or extra, more than 3
+    /// components, or a channel that is no aid are refused with what the
+    /// message holds.
+    #[test]
+    #[allow(
+        clippy::float_cmp,
+        reason = "values are copied (σ squared exactly), so equal bit for bit"
+    )]
+    fn an_aid_update_is_read_only_in_its_channels_unit() {
+        let cns = pb::AidUpdate {
+            t_ns: 7,
+            innovation_m: vec![3.0, -4.0],
+            innovation_sigma_m: vec![2.0, 0.5],
+            test_ratio: 0.25,
+            fused: true,
+            ..Default::default()
+        };
+        let p = AidPoint::from_proto(&cns, "/aid/cns").unwrap();
+        assert_eq!(p.innovation, [3.0, -4.0, 0.0]);
+        assert_eq!(p.innovation_var, [4.0, 0.25, 0.0]);
+        assert_eq!(
+            (p.t_ns, p.test_ratio, p.fused, p.physical),
+            (7, 0.25, 1, true)
+        );
+        assert_eq!(AidPoint::from_proto(&cns, "/aid/baro").unwrap(), p);
+        let e = AidPoint::from_proto(&cns, "/aid/srs").unwrap_err();
+        assert!(
+            e.contains("_m") && e.contains("/aid/srs") && e.contains("_mps"),
+            "{e}"
+        );
+        let e = AidPoint::from_proto(&cns, "/solution").unwrap_err();
+        assert!(e.contains("not an aid"), "{e}");
+        let short = pb::AidUpdate {
+            innovation_sigma_m: vec![2.0],
+            ..cns.clone()
+        };
+        let e = AidPoint::from_proto(&short, "/aid/cns").unwrap_err();
+        assert!(e.contains("2 innovation components with 1"), "{e}");
+        let four = pb::AidUpdate {
+            innovation_m: vec![1.0; 4],
+            innovation_sigma_m: vec![1.0; 4],
+            ..cns.clone()
+        };
+        assert!(AidPoint::from_proto(&four, "/aid/cns").is_err());
+        let star = pb::AidUpdate {
+            innovation_rad: vec![1e-5; 3],
+            innovation_sigma_rad: vec![2e-5; 3],
+            ..Default::default()
+        };
+        assert_eq!(
+            AidPoint::from_proto(&star, "/aid/star").unwrap().innovation,
+            [1e-5; 3]
+        );
+        // No innovation at all (no component): read as zeros without σ.
+        let none = AidPoint::from_proto(&pb::AidUpdate::default(), "/aid/srs").unwrap();
+        assert!(none.normalized(0).is_none());
     }
 }
