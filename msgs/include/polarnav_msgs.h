@@ -435,9 +435,18 @@ typedef struct {
    */
   uint8_t fresh;
   /**
+   * The navigation frame the last innovation was made in, as 1 +
+   * [`WireFrame`] (1 geographic, 2 grid), so that a reader converts a
+   * CNS innovation (Δlatitude, Δlongitude in g; metres in G) in the
+   * right frame even when a switch came between the update and this
+   * status. 0: not known (no update yet, or a sender before this field:
+   * the byte was padding, always zero). See [`AidStatus::made_in`].
+   */
+  uint8_t made_in_frame;
+  /**
    * Always zero.
    */
-  uint8_t _pad[6];
+  uint8_t _pad[5];
 } AidStatus;
 
 /**

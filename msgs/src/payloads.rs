@@ -327,8 +327,29 @@ pub struct AidStatus {
     pub fused: u8,
     /// 1 if the aid is fresh (within its timeout).
     pub fresh: u8,
+    /// The navigation frame the last innovation was made in, as 1 +
+    /// [`WireFrame`] (1 geographic, 2 grid), so that a reader converts a
+    /// CNS innovation (Δlatitude, Δlongitude in g; metres in G) in the
+    /// right frame even when a switch came between the update and this
+    /// status. 0: not known (no update yet, or a sender before this field:
+    /// the byte was padding, always zero). See [`AidStatus::made_in`].
+    pub made_in_frame: u8,
     /// Always zero.
-    pub _pad: [u8; 6],
+    pub _pad: [u8; 5],
+}
+
+impl AidStatus {
+    /// The frame the last innovation was made in, when the sender says.
+    pub fn made_in(&self) -> Option<WireFrame> {
+        self.made_in_frame
+            .checked_sub(1)
+            .and_then(WireFrame::from_u8)
+    }
+
+    /// The value of [`AidStatus::made_in_frame`] for an innovation made in `frame`.
+    pub fn made_in_frame_of(frame: WireFrame) -> u8 {
+        frame as u8 + 1
+    }
 }
 
 /// Health of the daemon, published at 1 Hz.

@@ -910,7 +910,7 @@ fn python_ctypes_mirror_has_the_rust_layout() {
     );
     rust.extend(
         offsets!(AidStatus: innovation, innovation_var, test_ratio, last_fuse_t_ns,
-        exclusions, fused, fresh, _pad),
+        exclusions, fused, fresh, made_in_frame, _pad),
     );
     rust.extend(
         offsets!(Status: t_ns, seq, imu, srs, cns, baro, star, srs_aid, cns_aid, baro_aid,

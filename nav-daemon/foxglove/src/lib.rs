@@ -771,8 +771,11 @@ impl FlightChannels {
     /// from status records alone, in the status's frame at the last
     /// solution's position when the aid's gated count changed since the
     /// previous status, else where the previous one put it (a switch or a
-    /// long outage since then does not move it). An update in the same
-    /// status period as a switch but before it is taken as after it.
+    /// long outage since then does not move it). The frame is the one the
+    /// status says the update was made in (`AidStatus::made_in_frame`), so
+    /// an update in the same status period as a switch but before it is
+    /// converted in the frame before the switch; from a sender that does
+    /// not say (the byte zero), the status's frame is taken.
     pub fn status(&mut self, st: &Status) {
         let at = at(self.epoch_ns, st.t_ns);
         let made = self.aids_made(st);
@@ -797,18 +800,25 @@ impl FlightChannels {
 
     /// Where each aid's innovation in `st` was made (see [`Self::status`]).
     fn aids_made(&mut self, st: &Status) -> [UpdateAt; 4] {
-        let counters = [&st.srs, &st.cns, &st.baro, &st.star];
+        let aids = [
+            (&st.srs, &st.srs_aid),
+            (&st.cns, &st.cns_aid),
+            (&st.baro, &st.baro_aid),
+            (&st.star, &st.star_aid),
+        ];
         let here = UpdateAt {
             frame: st.frame,
             ..self.last_at
         };
         let mut made = [here; 4];
-        for (k, c) in counters.iter().enumerate() {
+        for (k, (c, a)) in aids.iter().enumerate() {
             let n = c.accepted + c.rejected_gate;
             let slot = &mut self.aid_made[k];
             let exact = self.aid_source == AidSource::Updates && slot.1.is_some();
             if !exact && (slot.1.is_none() || slot.0 != n) {
-                *slot = (n, Some(here));
+                // The frame the daemon says the update was made in, else the status's.
+                let frame = a.made_in().map_or(st.frame, |f| f as u8);
+                *slot = (n, Some(UpdateAt { frame, ..here }));
             }
             made[k] = slot.1.unwrap_or(here);
         }
@@ -1004,6 +1014,15 @@ mod tests {
         // A new CNS update: made in G, here.
         let m = c.aids_made(&status(1, 6))[1];
         assert_eq!((m.frame, m.lat_rad), (1, 1.25));
+        // An update the daemon says it made in g, reported by a status in
+        // G (the switch came between them): converted in g.
+        let mut said = status(1, 7);
+        said.cns_aid.made_in_frame = AidStatus::made_in_frame_of(WireFrame::Geographic);
+        let m = c.aids_made(&said)[1];
+        assert_eq!((m.frame, m.lat_rad), (0, 1.25));
+        said.cns.accepted = 8;
+        said.cns_aid.made_in_frame = AidStatus::made_in_frame_of(WireFrame::Grid);
+        assert_eq!(c.aids_made(&said)[1].frame, 1);
 
         let ctx = Context::new();
         let mut b = FlightChannels::new_live(&ctx, AidSource::Updates, None);

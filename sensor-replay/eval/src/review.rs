@@ -243,7 +243,15 @@ fn aid_series(aids: &Aids, at: &Where) -> Vec<AidSeries> {
                 let scale: [f64; 3] = match name {
                     "star" => [arcsec; 3],
                     "CNS" if a.physical => [1.0; 3],
-                    "CNS" => match at.get(t) {
+                    "CNS" => match at.get(t).map(|(frame, lat, h)| {
+                        // The frame the daemon says it was made in, else the solution's then.
+                        let made = match a.made_in_frame {
+                            1 => 'g',
+                            2 => 'G',
+                            _ => frame,
+                        };
+                        (made, lat, h)
+                    }) {
                         Some(('g', lat, h)) => {
                             let [n, e] = polarnav::earth::metres_per_radian(lat, h);
                             [n, e, 1.0]
@@ -311,6 +319,7 @@ pub fn aids_from_status(status: &[Status]) -> Option<Aids> {
                 test_ratio: s.test_ratio,
                 fused: s.fused,
                 physical: false,
+                made_in_frame: s.made_in_frame,
             });
         }
     }
@@ -1723,6 +1732,47 @@ mod tests {
         assert_eq!(s[0].dim, 1);
         // NIS = ν²/S: 4/4 and 1600/4.
         assert!((s[0].points[0].4 - 1.0).abs() < 1e-12 && (s[0].points[1].4 - 400.0).abs() < 1e-9);
+    }
+
+    /// A recording's CNS innovation (Δlatitude, Δlongitude in rad when
+    /// made in g, metres in G) is put in metres in the frame the daemon
+    /// says it was made in: an update made in g just before a switch and
+    /// reported by a status after it (solution in G) is scaled by the
+    /// metres per radian there; one made in G is not scaled; one from a
+    /// sender that does not say takes the solution's frame then.
+    #[test]
+    fn a_recorded_cns_innovation_is_scaled_in_the_frame_it_was_made_in() {
+        let lat = 88.0f64.to_radians();
+        let h = 12_000.0;
+        let at = Where {
+            at: vec![(0.0, 'g', lat, h), (5.0, 'G', lat, h)],
+        };
+        let mut st = Status {
+            t_ns: 6_000_000_000,
+            frame: 1,
+            ..Status::default()
+        };
+        st.cns.accepted = 1;
+        st.cns_aid.innovation = [1e-6, -2e-6, 0.0];
+        st.cns_aid.innovation_var = [1e-12, 1e-12, 0.0];
+        st.cns_aid.fused = 1;
+        let [n, e] = polarnav::earth::metres_per_radian(lat, h);
+        for (made_in_frame, scale) in [(1u8, [n, e]), (2, [1.0, 1.0]), (0, [1.0, 1.0])] {
+            st.cns_aid.made_in_frame = made_in_frame;
+            let a = aids_from_status(&[st]).expect("aids");
+            assert_eq!(a.cns[0].made_in_frame, made_in_frame);
+            let v = aid_series(&a, &at)[0].points[0].1;
+            assert!(
+                (v[0] - 1e-6 * scale[0]).abs() <= 1e-12 * scale[0]
+                    && (v[1] + 2e-6 * scale[1]).abs() <= 1e-12 * scale[1],
+                "made in {made_in_frame}: {v:?}"
+            );
+        }
+        // Metres per radian at 88° N, 12 km: about 6.4e6 north and 2.2e5 east.
+        assert!(
+            (6.3e6..6.5e6).contains(&n) && (2.1e5..2.3e5).contains(&e),
+            "{n} {e}"
+        );
     }
 
     /// Gaps are the intervals over 1.5× the median, listed with their

@@ -34,6 +34,11 @@ pub struct AidPoint {
     /// Δlatitude, Δlongitude in rad.
     #[serde(default)]
     pub physical: bool,
+    /// Where a measurement-space innovation was made, as the wire's
+    /// `AidStatus::made_in_frame` says (1 + frame: 1 geographic, 2 grid;
+    /// 0 not known, then the frame of the solution at `t_ns` is taken).
+    #[serde(default)]
+    pub made_in_frame: u8,
 }
 
 impl AidPoint {
@@ -86,6 +91,7 @@ impl AidPoint {
             test_ratio: u.test_ratio,
             fused: u8::from(u.fused),
             physical: true,
+            made_in_frame: 0,
         })
     }
 }

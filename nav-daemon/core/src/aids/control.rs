@@ -1,7 +1,7 @@
 //! The decision to fuse, apart from the measurement models: χ² gate
 //! thresholds, timeouts, counters and the status record every aid reports.
 
-use msgs::{AidStatus, StreamCounters};
+use msgs::{AidStatus, StreamCounters, WireFrame};
 
 use crate::filter::UpdateOutcome;
 
@@ -43,8 +43,9 @@ impl AidControl {
         self.status.fused = 0;
     }
 
-    /// Records the outcome of a gated update at `t_ns`.
-    pub fn record<const M: usize>(&mut self, t_ns: u64, out: &UpdateOutcome<M>) {
+    /// Records the outcome of a gated update at `t_ns`, made in the
+    /// navigation frame `frame`.
+    pub fn record<const M: usize>(&mut self, t_ns: u64, out: &UpdateOutcome<M>, frame: WireFrame) {
         let mut innovation = [0.0; 3];
         let mut var = [0.0; 3];
         for i in 0..M.min(3) {
@@ -54,6 +55,7 @@ impl AidControl {
         self.status.innovation = innovation;
         self.status.innovation_var = var;
         self.status.test_ratio = out.test_ratio;
+        self.status.made_in_frame = AidStatus::made_in_frame_of(frame);
         if out.fused {
             self.counters.accepted += 1;
             self.counters.last_t_ns = t_ns;
@@ -96,8 +98,10 @@ mod tests {
             dx: SVector::zeros(),
             fused: true,
         };
+        assert_eq!(c.status_at(0).made_in(), None, "no update yet");
         c.received();
-        c.record(10_000_000_000, &ok);
+        c.record(10_000_000_000, &ok, WireFrame::Geographic);
+        assert_eq!(c.status_at(0).made_in(), Some(WireFrame::Geographic));
         assert!(c.fresh(12_000_000_000) && !c.fresh(13_000_000_001));
         c.received();
         c.record(
@@ -107,6 +111,7 @@ mod tests {
                 test_ratio: 4.0,
                 ..ok
             },
+            WireFrame::Grid,
         );
         c.received();
         c.rejected_invalid();
@@ -121,6 +126,8 @@ mod tests {
         );
         let s = c.status_at(12_000_000_000);
         assert_eq!((s.fused, s.fresh, s.last_fuse_t_ns), (0, 1, 10_000_000_000));
+        // The invalid measurement made no innovation: the last one's frame stands.
+        assert_eq!(s.made_in(), Some(WireFrame::Grid));
         assert!((s.innovation[1] - 2.0).abs() < 1e-15 && s.innovation[2].abs() < 1e-15);
     }
 }

@@ -156,7 +156,8 @@ impl Navigator {
                 excluded_body: None,
             };
         };
-        self.control_mut(which).record(t_ns, &out);
+        let frame = self.nominal.nav().kind().to_wire();
+        self.control_mut(which).record(t_ns, &out, frame);
         self.aids.last_rejected = !out.fused;
         let k = which.index();
         if out.fused {
