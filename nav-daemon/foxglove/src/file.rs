@@ -13,10 +13,13 @@
 //! grown). When the writer falls behind, the caller waits for a batch to
 //! come back: nothing is dropped.
 //!
-//! The file is what the SDK wrote: every channel with its schema in the
-//! data section before its first message, zstd chunks of 1 MiB, message
-//! indexes, the summary with statistics, CRCs; sequence numbers count from
-//! 1 per channel, and the publish time is the log time.
+//! The file is laid out as the SDK's sink laid it out: a channel and its
+//! schema are written just before the channel's first message (a channel
+//! that carries nothing is not in the file, and no chunk holds only
+//! definitions, which would start the file's time range at 0), zstd
+//! chunks of 1 MiB, message indexes, the summary with statistics, CRCs;
+//! sequence numbers count from 1 per channel, the publish time is the log
+//! time, and a metadata record without entries is not written.
 
 use std::collections::BTreeMap;
 use std::fs::File;
@@ -72,6 +75,17 @@ pub enum FileError {
     },
 }
 
+impl FileError {
+    /// What failed, without the path.
+    fn cause(&self) -> String {
+        match self {
+            FileError::Io { source, .. } => chain(source),
+            FileError::Mcap { source, .. } => chain(source),
+            FileError::Stopped { why, .. } => why.clone(),
+        }
+    }
+}
+
 /// An error and its causes, "error: cause: cause" (the `mcap` crate's I/O
 /// error says only "I/O error from writing"; its cause says which).
 fn chain(e: &dyn std::error::Error) -> String {
@@ -117,7 +131,8 @@ impl Batch {
 
 /// What the writer thread is asked to do, in order.
 enum Cmd {
-    /// Add a channel (the next index) with its schema.
+    /// Define a channel (the next index) with its schema; it is written
+    /// with its first message.
     Channel {
         topic: String,
         encoding: String,
@@ -125,8 +140,8 @@ enum Cmd {
     },
     /// Write these messages.
     Batch(Batch),
-    /// A metadata record.
-    Metadata(Metadata),
+    /// A metadata record, then answer.
+    Metadata(Metadata, SyncSender<Result<(), String>>),
     /// End the chunk and write everything to the file, then answer.
     Flush(SyncSender<Result<(), String>>),
 }
@@ -143,6 +158,8 @@ pub struct FileWriter {
     /// Per channel (by index): the last sequence number given.
     sequence: Vec<u32>,
     thread: Option<JoinHandle<Result<(), FileError>>>,
+    /// Why the thread stopped, once it has been joined.
+    stopped: Option<String>,
 }
 
 impl FileWriter {
@@ -188,6 +205,7 @@ impl FileWriter {
             made: 1,
             sequence: Vec::new(),
             thread: Some(thread),
+            stopped: None,
         })
     }
 
@@ -272,56 +290,89 @@ impl FileWriter {
     }
 
     /// A metadata record `name` with the entries of `map`, after every
-    /// message logged so far.
+    /// message logged so far (none when `map` is empty); waits until the
+    /// thread has taken it.
     pub fn metadata(&mut self, name: &str, map: BTreeMap<String, String>) -> Result<(), FileError> {
-        self.send_batch();
-        self.send(Cmd::Metadata(Metadata {
+        if map.is_empty() {
+            return self.ask(None);
+        }
+        self.ask(Some(Metadata {
             name: name.to_owned(),
             metadata: map,
-        }));
-        self.alive()
+        }))
     }
 
     /// Ends the current chunk and writes everything logged so far to the
     /// file, and waits until it is written.
     pub fn flush(&mut self) -> Result<(), FileError> {
+        self.ask(None)
+    }
+
+    /// Sends the batch being filled, then a metadata record (or a flush),
+    /// and waits for the thread's answer: Ok, or why it failed or stopped.
+    fn ask(&mut self, metadata: Option<Metadata>) -> Result<(), FileError> {
         self.send_batch();
         let (reply_tx, reply) = sync_channel(1);
-        self.send(Cmd::Flush(reply_tx));
+        self.send(match metadata {
+            Some(m) => Cmd::Metadata(m, reply_tx),
+            None => Cmd::Flush(reply_tx),
+        });
         match reply.recv() {
             Ok(Ok(())) => Ok(()),
             Ok(Err(why)) => Err(FileError::Stopped {
                 path: self.path.clone(),
                 why,
             }),
-            Err(_) => self.alive(),
+            // The thread is gone without answering (it panicked).
+            Err(_) => Err(self.stop()),
         }
     }
 
-    /// Ok while the writer thread runs; else why it stopped.
-    fn alive(&mut self) -> Result<(), FileError> {
-        if self.tx.is_some() {
-            return Ok(());
+    /// Joins the thread (once) and says why it stopped.
+    fn stop(&mut self) -> FileError {
+        if self.stopped.is_none() {
+            let why = self
+                .join()
+                .err()
+                .map_or_else(|| "closed".into(), |e| e.cause());
+            self.stopped = Some(why);
         }
-        Err(self.join().err().unwrap_or_else(|| FileError::Stopped {
+        FileError::Stopped {
             path: self.path.clone(),
-            why: "no reason given".into(),
-        }))
+            why: self.stopped.clone().unwrap_or_default(),
+        }
     }
 
+    /// Joins the thread: what it returned, or the message it panicked with.
     fn join(&mut self) -> Result<(), FileError> {
         self.tx = None;
-        match self.thread.take().map(JoinHandle::join) {
-            None => Err(FileError::Stopped {
-                path: self.path.clone(),
-                why: "closed already".into(),
-            }),
-            Some(Ok(r)) => r,
-            Some(Err(_)) => Err(FileError::Stopped {
-                path: self.path.clone(),
-                why: "its thread panicked".into(),
-            }),
+        let Some(thread) = self.thread.take() else {
+            return match &self.stopped {
+                Some(why) => Err(FileError::Stopped {
+                    path: self.path.clone(),
+                    why: why.clone(),
+                }),
+                None => Ok(()),
+            };
+        };
+        let r = match thread.join() {
+            Ok(r) => r,
+            Err(panic) => {
+                let what = panic
+                    .downcast_ref::<&str>()
+                    .map(|s| (*s).to_owned())
+                    .or_else(|| panic.downcast_ref::<String>().cloned())
+                    .unwrap_or_default();
+                Err(FileError::Stopped {
+                    path: self.path.clone(),
+                    why: format!("its thread panicked: {what}"),
+                })
+            }
+        };
+        if let Err(e) = &r {
+            self.stopped = Some(e.cause());
         }
+        r
     }
 
     /// Writes the rest, the summary and the footer, and closes the file.
@@ -355,13 +406,13 @@ fn write_all(
         path: path.to_owned(),
         source,
     };
-    let mut ids: Vec<u16> = Vec::new();
+    let mut channels: Vec<Channel> = Vec::new();
     let mut failed: Option<mcap::McapError> = None;
     for cmd in rx {
         let r = match cmd {
             Cmd::Batch(mut b) => {
                 let r = if failed.is_none() {
-                    write_batch(&mut w, &ids, &b)
+                    write_batch(&mut w, &mut channels, &b)
                 } else {
                     Ok(())
                 };
@@ -371,24 +422,28 @@ fn write_all(
                 let _ = free.try_send(b);
                 r
             }
-            Cmd::Flush(reply) if failed.is_some() => {
-                let _ = reply.send(Err(failed.as_ref().map_or_else(String::new, |e| chain(e))));
-                Ok(())
-            }
-            _ if failed.is_some() => Ok(()),
             Cmd::Channel {
                 topic,
                 encoding,
                 schema,
-            } => (|| {
-                let schema_id = match &schema {
-                    Some(s) => w.add_schema(&s.name, &s.encoding, &s.data)?,
-                    None => 0,
-                };
-                ids.push(w.add_channel(schema_id, &topic, &encoding, &BTreeMap::new())?);
+            } => {
+                channels.push(Channel {
+                    topic,
+                    encoding,
+                    schema,
+                    id: None,
+                });
                 Ok(())
-            })(),
-            Cmd::Metadata(m) => w.write_metadata(&m),
+            }
+            Cmd::Flush(reply) | Cmd::Metadata(_, reply) if failed.is_some() => {
+                let _ = reply.send(Err(failed.as_ref().map_or_else(String::new, |e| chain(e))));
+                Ok(())
+            }
+            Cmd::Metadata(m, reply) => {
+                let r = w.write_metadata(&m);
+                let _ = reply.send(r.as_ref().map(drop).map_err(|e| chain(e)));
+                r
+            }
             Cmd::Flush(reply) => {
                 let r = w.flush();
                 let _ = reply.send(r.as_ref().map(drop).map_err(|e| chain(e)));
@@ -412,15 +467,46 @@ fn write_all(
     Ok(())
 }
 
+/// A channel as the writer thread knows it: its definition, and its id in
+/// the file once its first message has been written.
+struct Channel {
+    topic: String,
+    encoding: String,
+    schema: Option<Schema>,
+    id: Option<u16>,
+}
+
+/// The id of `channel` in the file, writing its schema and channel records
+/// first if it has none yet.
+fn channel_id(
+    w: &mut mcap::Writer<BufWriter<File>>,
+    channels: &mut [Channel],
+    channel: u16,
+) -> Result<u16, mcap::McapError> {
+    let Some(c) = channels.get_mut(usize::from(channel)) else {
+        return Err(mcap::McapError::UnknownChannel(0, channel));
+    };
+    if let Some(id) = c.id {
+        return Ok(id);
+    }
+    let schema_id = match &c.schema {
+        Some(s) => w.add_schema(&s.name, &s.encoding, &s.data)?,
+        None => 0,
+    };
+    let id = w.add_channel(schema_id, &c.topic, &c.encoding, &BTreeMap::new())?;
+    c.id = Some(id);
+    Ok(id)
+}
+
 /// The messages of one batch, in order.
 fn write_batch(
     w: &mut mcap::Writer<BufWriter<File>>,
-    ids: &[u16],
+    channels: &mut [Channel],
     b: &Batch,
 ) -> Result<(), mcap::McapError> {
     let mut start = 0;
     for e in &b.entries {
-        let channel_id = ids.get(usize::from(e.channel)).copied().unwrap_or(u16::MAX);
+        let channel_id = channel_id(w, channels, e.channel)?;
         w.write_to_known_channel(
             &MessageHeader {
                 channel_id,
@@ -428,7 +514,14 @@ fn write_batch(
                 log_time: e.log_ns,
                 publish_time: e.log_ns,
             },
-            &b.bytes[start..e.end],
+            // An encoder that took bytes back broke the batch: an error, not a panic.
+            b.bytes.get(start..e.end).ok_or_else(|| {
+                mcap::McapError::Io(std::io::Error::other(format!(
+                    "a message's bytes ({start}..{}) are not in its batch ({} bytes): an encoder removed bytes it had not written",
+                    e.end,
+                    b.bytes.len()
+                )))
+            })?,
         )?;
         start = e.end;
     }
@@ -654,6 +747,76 @@ mod tests {
             }
             prop_assert_eq!(got, sent.len());
         });
+        std::fs::remove_dir_all(&dir).ok();
+    }
+
+    /// An encoder that takes back bytes it did not write breaks its batch:
+    /// the writer thread stops writing with an error that says so (it does
+    /// not panic), and every later flush, metadata record and the close
+    /// report that error; nothing blocks.
+    #[test]
+    fn a_broken_batch_is_an_error_reported_by_every_later_call() {
+        let dir = std::env::temp_dir().join(format!("polarnav-broken-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("broken.mcap");
+        let mut w = FileWriter::create(&path).unwrap();
+        let c = w.add_channel("/a", "protobuf", schema());
+        for k in 0..100u64 {
+            w.log(c, k, |buf| {
+                buf.extend_from_slice(&payload(c, k));
+                true
+            });
+        }
+        w.log(c, 100, |buf| {
+            buf.clear();
+            buf.push(1);
+            true
+        });
+        let f = w.flush().expect_err("the batch is broken").to_string();
+        assert!(f.contains("not in its batch"), "{f}");
+        let mut map = BTreeMap::new();
+        map.insert("k".to_owned(), "v".to_owned());
+        let m = w
+            .metadata("after", map)
+            .expect_err("still broken")
+            .to_string();
+        assert!(m.contains("not in its batch"), "{m}");
+        for k in 0..50_000u64 {
+            w.log(c, k, |buf| {
+                buf.extend_from_slice(&payload(c, k));
+                true
+            });
+        }
+        let e = w.close().expect_err("still broken").to_string();
+        assert!(
+            e.contains("broken.mcap") && e.contains("not in its batch"),
+            "{e}"
+        );
+        std::fs::remove_dir_all(&dir).ok();
+    }
+
+    /// A metadata record without entries is not written (as the SDK's
+    /// sink did not); one with entries is.
+    #[test]
+    fn an_empty_metadata_record_is_not_written() {
+        let dir = std::env::temp_dir().join(format!("polarnav-meta-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("meta.mcap");
+        let mut w = FileWriter::create(&path).unwrap();
+        w.metadata("empty", BTreeMap::new()).unwrap();
+        let mut map = BTreeMap::new();
+        map.insert("k".to_owned(), "v".to_owned());
+        w.metadata("full", map).unwrap();
+        w.close().unwrap();
+        let bytes = std::fs::read(&path).unwrap();
+        let names: Vec<String> = mcap::read::LinearReader::new(&bytes)
+            .unwrap()
+            .filter_map(|r| match r.unwrap() {
+                mcap::records::Record::Metadata(m) => Some(m.name),
+                _ => None,
+            })
+            .collect();
+        assert_eq!(names, ["full"]);
         std::fs::remove_dir_all(&dir).ok();
     }
 }

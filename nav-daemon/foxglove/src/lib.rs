@@ -25,7 +25,8 @@
 //! | `/truth`, `/truth/fix` | `polarnav.Truth` with geodetic position; `foxglove.LocationFix` | truth records |
 //! | `/truth/bias` | `polarnav.TruthBias`, the simulated IMU bias | truth-bias records |
 //!
-//! An MCAP file has every channel ([`FlightChannels::new`]). The live view
+//! An MCAP file ([`McapFile`]) lists each channel from its first message.
+//! The live view
 //! ([`FlightChannels::new_live`]) advertises a channel with its first
 //! message, or while the daemon's publisher of its output is up
 //! ([`FlightChannels::advertise`], [`FlightChannels::withdraw`]), so a
@@ -442,8 +443,8 @@ fn at(epoch_ns: u64, t_ns: u64) -> u64 {
 }
 
 impl FlightChannels {
-    /// Every channel of the mapping, created now in `ctx` (an MCAP file
-    /// lists them all), without a rate limit.
+    /// Every channel of the mapping, created now in `ctx` (its sinks see
+    /// them all at once), without a rate limit.
     pub fn new(ctx: &Arc<Context>, aid_source: AidSource) -> Self {
         Self::with_every_channel(
             Out::Sdk {
@@ -454,7 +455,8 @@ impl FlightChannels {
         )
     }
 
-    /// Every channel of the mapping, listed now in `out`.
+    /// Every channel of the mapping, defined now in `out` (a file writes
+    /// each with its first message).
     fn with_every_channel(out: Out, aid_source: AidSource) -> Self {
         let mut c = Self::with_out(out, aid_source, None);
         let mut out = std::mem::replace(
@@ -980,6 +982,54 @@ mod tests {
         assert!(ctx.get_channel_by_topic("/events").is_none());
         live.withdraw(Feed::Status);
         assert!(live.open_topics().is_empty());
+    }
+
+    /// A file lists a channel from its first message, as the SDK's sink
+    /// did: no chunk holds only definitions, so with a UTC epoch every
+    /// chunk (and Foxglove's timeline, which starts at the earliest chunk)
+    /// starts at the first message's date, not at 1970; channels without
+    /// messages are not listed.
+    #[test]
+    fn a_file_starts_at_its_first_message_and_lists_the_channels_that_carry_data() {
+        let dir = std::env::temp_dir().join(format!("polarnav-epoch-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("epoch.mcap");
+        let epoch = 1_764_000_000_000_000_000;
+        let mut m = McapFile::create(&path, AidSource::Updates).unwrap();
+        m.channels().set_epoch_ns(epoch);
+        let mut meta = BTreeMap::new();
+        meta.insert("program".to_owned(), "test".to_owned());
+        m.metadata("polarnav.provenance", meta).unwrap();
+        for k in 1..=100u64 {
+            m.channels().solution(&solution(k * 5_000_000));
+        }
+        m.close().unwrap();
+        let bytes = std::fs::read(&path).unwrap();
+        let s = mcap::Summary::read(&bytes).unwrap().unwrap();
+        let stats = s.stats.unwrap();
+        assert_eq!(stats.message_start_time, epoch + 5_000_000);
+        assert!(!s.chunk_indexes.is_empty());
+        for c in &s.chunk_indexes {
+            assert!(
+                c.message_start_time >= epoch,
+                "a chunk starts at {}",
+                c.message_start_time
+            );
+        }
+        let mut topics: Vec<&str> = s.channels.values().map(|c| c.topic.as_str()).collect();
+        topics.sort_unstable();
+        assert_eq!(
+            topics,
+            [
+                "/solution",
+                "/solution/fix",
+                "/solution/nav_frame",
+                "/solution/pose",
+                "/tf/polar",
+                "/track"
+            ]
+        );
+        std::fs::remove_dir_all(&dir).ok();
     }
 
     /// A status repeats an aid's last innovation until the next update; a
