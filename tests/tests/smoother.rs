@@ -540,6 +540,81 @@ fn stationary_rlg_record_smoothed_position_stays_within_a_metre_of_the_start() {
     assert!(pure.all_smoothed == pure.all_forward);
 }
 
+/// The alignment the RLG test starts from, checked on the real record
+/// against an independent computation: the raw PSINS file parsed here (not
+/// by the importer), its mean rate and specific force over the first 600 s,
+/// levelled with Euler-angle formulas and gyrocompassed from the levelled
+/// rate (a second formulation of what `align.rs` does with cross
+/// products). The first solution's heading, pitch and roll equal them;
+/// they are also far from the whole record's gyrocompass heading (88.6°),
+/// which is why pure inertial drifts from there: the forward gyro's rate
+/// in these 600 s is not the record's.
+#[test]
+fn rlg_alignment_equals_an_independent_levelling_and_gyrocompass_of_the_raw_file() {
+    use sensor_replay::interop::{AidSynthesis, import_psins};
+    let path = repo("../shared/datasets/psins-lasergyro/lasergyro.imu");
+    let text = std::fs::read_to_string(&path).expect("lasergyro.imu");
+    let counts: Vec<[f64; 6]> = text
+        .lines()
+        .filter(|l| !l.starts_with('%') && !l.trim().is_empty())
+        .skip(3)
+        .map(|l| {
+            let v: Vec<f64> = l
+                .split_whitespace()
+                .map(|x| x.parse().expect("count"))
+                .collect();
+            [v[0], v[1], v[2], v[3], v[4], v[5]]
+        })
+        .collect();
+    assert_eq!(counts.len(), 184_718);
+    // Mean rate and specific force over samples a..b, in counts: only their
+    // directions matter.
+    let mean = |a: usize, b: usize, k: usize| {
+        counts[a..b].iter().map(|c| c[k]).sum::<f64>() / (b - a) as f64
+    };
+    let attitude = |a: usize, b: usize| {
+        let w = Vector3::new(mean(a, b, 0), mean(a, b, 1), mean(a, b, 2));
+        let f = Vector3::new(mean(a, b, 3), mean(a, b, 4), mean(a, b, 5));
+        // Body x right, y forward, z up; pitch about x, then roll about y.
+        let pitch = f.y.atan2(f.x.hypot(f.z));
+        let roll = (-f.x).atan2(f.z);
+        let level = nalgebra::Rotation3::from_axis_angle(&Vector3::x_axis(), pitch)
+            * nalgebra::Rotation3::from_axis_angle(&Vector3::y_axis(), roll)
+            * w;
+        // The levelled rate's horizontal part points north: (−sin ψ, cos ψ).
+        let heading = (-level.x).atan2(level.y).rem_euclid(std::f64::consts::TAU);
+        (heading.to_degrees(), pitch.to_degrees(), roll.to_degrees())
+    };
+    // The importer stamps the init record with the first sample; the
+    // alignment takes the 600 s of samples after it, the 2nd to the 60 001st.
+    // (One sample more or less moves this record's heading by about 0.008°:
+    // single increments carry the gyros' large dither.)
+    let (h600, p600, r600) = attitude(1, 60_001);
+    let (h_all, _, _) = attitude(0, counts.len());
+
+    let mut buf = Vec::new();
+    import_psins(&path, &AidSynthesis::default(), &mut buf).expect("import");
+    let records = msgs::navlog::read_all(&buf).0;
+    let align = CliOverrides {
+        align_s: Some(600.0),
+        ..Default::default()
+    };
+    let run = run_std(&records, settings(&records, &align), true);
+    let first = run.all_forward.first().expect("a solution");
+    let (h, p, r) = (
+        first.heading_rad.to_degrees(),
+        first.pitch_rad.to_degrees(),
+        first.roll_rad.to_degrees(),
+    );
+    eprintln!(
+        "RLG alignment over 600 s: heading {h:.4}° pitch {p:.4}° roll {r:.4}°; independent: {h600:.4}° {p600:.4}° {r600:.4}°; whole record's gyrocompass heading {h_all:.3}°"
+    );
+    assert!((h - h600).abs() < 1e-3, "heading {h} against {h600}");
+    assert!((p - p600).abs() < 1e-4, "pitch {p} against {p600}");
+    assert!((r - r600).abs() < 1e-4, "roll {r} against {r600}");
+    assert!((h_all - h600).abs() > 3.0, "{h_all} against {h600}");
+}
+
 /// `batch --smooth` to MCAP: the reference reader (PyPI `mcap`) reads the
 /// file, with one `/solution` per row of the smoothed CSV and every value
 /// equal; the smoothed CSV is not the forward one.
