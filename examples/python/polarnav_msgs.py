@@ -102,7 +102,10 @@ class AidStatus(ctypes.Structure):
         ("exclusions", ctypes.c_uint64),
         ("fused", ctypes.c_uint8),
         ("fresh", ctypes.c_uint8),
-        ("_pad", ctypes.c_uint8 * 6),
+        # The frame the last innovation was made in: 1 + WireFrame (1 geographic,
+        # 2 grid), 0 = not known (no update yet, or a daemon before this field).
+        ("made_in_frame", ctypes.c_uint8),
+        ("_pad", ctypes.c_uint8 * 5),
     ]
 
     @staticmethod
