@@ -105,6 +105,23 @@ impl AidPoint {
     }
 }
 
+/// The CSV row of a protobuf solution. Its angles are in degrees with the
+/// CSV's values (the writer converts once, as the CSV does); they are
+/// taken as they are, not through the wire's radians and back, which
+/// would move them by an ulp.
+fn row_of_proto(s: &pb::Solution) -> Row {
+    Row {
+        lat_deg: s.lat_deg,
+        lon_deg: s.lon_deg,
+        heading_deg: s.heading_deg,
+        pitch_deg: s.pitch_deg,
+        roll_deg: s.roll_deg,
+        grid_heading_deg: s.grid_heading_deg,
+        sigma_att_deg: [s.sig_att_x_deg, s.sig_att_y_deg, s.sig_att_z_deg],
+        ..Row::from_solution(&s.to_wire())
+    }
+}
+
 /// The aid updates of a run, per aid.
 #[derive(Debug, Clone, Default, PartialEq)]
 pub struct Aids {
@@ -194,8 +211,9 @@ pub fn load(path: &Path) -> Result<Loaded, String> {
         }
         let aid = match m.topic {
             "/solution" => {
-                let (s, sig) = if json {
-                    solution_of_json(m.data).map_err(|e| bad(&e))?
+                let (row, sig) = if json {
+                    let (s, sig) = solution_of_json(m.data).map_err(|e| bad(&e))?;
+                    (Row::from_solution(&s), sig)
                 } else {
                     let s = pb::Solution::decode(m.data).map_err(|e| bad(&e))?;
                     let sig = [
@@ -206,9 +224,9 @@ pub fn load(path: &Path) -> Result<Loaded, String> {
                         s.sig_ba_y_mps2,
                         s.sig_ba_z_mps2,
                     ];
-                    (s.to_wire(), Some(sig))
+                    (row_of_proto(&s), Some(sig))
                 };
-                rows.push(Row::from_solution(&s));
+                rows.push(row);
                 bias_sigma.push(sig);
                 return Ok(());
             }
@@ -766,5 +784,75 @@ mod tests {
         // No innovation at all (no component): read as zeros without σ.
         let none = AidPoint::from_proto(&pb::AidUpdate::default(), "/aid/srs").unwrap();
         assert!(none.normalized(0).is_none());
+    }
+
+    /// A solution read from a protobuf `/solution` equals, bit for bit,
+    /// the same solution read from the CSV row the batch writes for it,
+    /// angles included: 2 000 solutions with angles, σ and positions drawn
+    /// over their ranges (many of whose degrees do not survive a trip
+    /// through radians and back).
+    #[test]
+    fn a_protobuf_solution_reads_as_its_csv_row_bit_for_bit() {
+        let mut state = 0x9e37_79b9_7f4a_7c15u64;
+        let mut u = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            (state >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let mut msgs = Vec::new();
+        let mut csv = String::from(solution_csv::HEADER);
+        csv.push('\n');
+        let mut writer = solution_csv::RowWriter::new();
+        let mut moved = 0;
+        for k in 0..2000u64 {
+            let s = Solution {
+                t_ns: (k + 1) * 5_000_000,
+                lat_rad: (u() - 0.5) * std::f64::consts::PI,
+                lon_rad: (u() - 0.5) * std::f64::consts::TAU,
+                h_m: u() * 20_000.0,
+                q_b_e: [1.0, 0.0, 0.0, 0.0],
+                heading_rad: u() * std::f64::consts::TAU,
+                grid_heading_rad: u() * std::f64::consts::TAU,
+                pitch_rad: (u() - 0.5) * 0.5,
+                roll_rad: (u() - 0.5) * 0.5,
+                sigma_att_rad: [u() * 1e-3, u() * 1e-3, u() * 1e-2],
+                frame: (k % 2) as u8,
+                ..Default::default()
+            };
+            let deg = s.lat_rad.to_degrees();
+            moved += usize::from(deg.to_radians().to_degrees().to_bits() != deg.to_bits());
+            msgs.push(prost::Message::encode_to_vec(&pb::Solution::from_wire(&s)));
+            csv.push_str(writer.row(&s));
+        }
+        assert!(moved > 100, "only {moved} latitudes would have moved");
+        let mcap = mcap_with("bits", "protobuf", &msgs);
+        let csv_path =
+            std::env::temp_dir().join(format!("polarnav-sf-{}-bits.csv", std::process::id()));
+        std::fs::write(&csv_path, csv).expect("write");
+        let (from_mcap, from_csv) = (load(&mcap).expect("mcap"), load(&csv_path).expect("csv"));
+        assert_eq!(from_mcap.rows.len(), 2000);
+        for (a, b) in from_mcap.rows.iter().zip(&from_csv.rows) {
+            let bits = |r: &Row| {
+                [
+                    r.t_s,
+                    r.lat_deg,
+                    r.lon_deg,
+                    r.h_m,
+                    r.heading_deg,
+                    r.pitch_deg,
+                    r.roll_deg,
+                    r.grid_heading_deg,
+                ]
+                .into_iter()
+                .chain(r.sigma_att_deg)
+                .map(f64::to_bits)
+                .collect::<Vec<_>>()
+            };
+            assert_eq!(bits(a), bits(b), "{a:?}\n{b:?}");
+            assert_eq!(a.frame, b.frame);
+        }
+        let _ = std::fs::remove_file(&mcap);
+        let _ = std::fs::remove_file(&csv_path);
     }
 }
