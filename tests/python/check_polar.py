@@ -10,7 +10,10 @@ the `/tf/polar` transform `ecef` -> that frame it gives the ECEF position
 (to 1 mm) and attitude (to 1e-6 rad) of the `/solution` message of the
 same time (protobuf `polarnav.Solution`); there is one every 50 ms. `/track` has solution
 segments in the polar frames whose points lie on the solutions' positions
-(each within 1 mm of a solution at a whole second). Prints one JSON line:
+(each within 1 mm of some `/solution` position mapped into its frame
+through `/tf/polar`: every solution, not only the 20 Hz poses, so a track
+point between two poses, e.g. after a frame switch restarts the display
+schedule, is still found). Prints one JSON line:
 counts, the largest position and attitude differences, the frames used.
 """
 
@@ -93,7 +96,6 @@ def main():
         fail("no /solution messages")
     worst_pos = worst_att = 0.0
     frames = set()
-    by_second = {}
     by_t = {s["t_ns"]: s for s in solutions}
     span_s = (solutions[-1]["t_ns"] - solutions[0]["t_ns"]) * 1e-9
     if not poses or len(poses) < 20 * span_s:
@@ -114,17 +116,39 @@ def main():
         r = (r[0] + e.translation.x, r[1] + e.translation.y, r[2] + e.translation.z)
         worst_pos = max(worst_pos, math.dist(r, s["r_e_m"]))
         worst_att = max(worst_att, angle(qmul(q_ep, q_pb), s["q_b_e"]))
-        by_second.setdefault(parent, []).append(tp)
     if worst_pos > 1e-3:
         fail(f"ecef -> polar -> body position differs from the solution by {worst_pos} m")
     if worst_att > 1e-6:
         fail(f"ecef -> polar -> body attitude differs from the solution by {worst_att} rad")
     if not track_points:
         fail("/track has no solution segment")
-    # Every track point is a solution's position in the same frame.
+    # Every track point is a solution's position in the same frame: every
+    # /solution position mapped into each track frame (p = R_ep^T (r - t)),
+    # hashed by 1 m cell so that each point looks only at its neighbours.
+    cells = {}
+    for frame in track_frames:
+        if frame not in tf:
+            fail(f"/track frame {frame} has no /tf/polar transform")
+        e = tf[frame]
+        q_pe = (e.rotation.w, -e.rotation.x, -e.rotation.y, -e.rotation.z)
+        for s in solutions:
+            r = s["r_e_m"]
+            p = rotate(q_pe, (r[0] - e.translation.x, r[1] - e.translation.y, r[2] - e.translation.z))
+            key = (frame, *(math.floor(c) for c in p))
+            cells.setdefault(key, []).append(p)
     worst_track = 0.0
     for frame, p in track_points[:: max(1, len(track_points) // 500)]:
-        near = min(math.dist(p, q) for q in by_second.get(frame, [(1e30, 1e30, 1e30)]))
+        c = [math.floor(x) for x in p]
+        near = min(
+            (
+                math.dist(p, q)
+                for dx in (-1, 0, 1)
+                for dy in (-1, 0, 1)
+                for dz in (-1, 0, 1)
+                for q in cells.get((frame, c[0] + dx, c[1] + dy, c[2] + dz), [])
+            ),
+            default=math.inf,
+        )
         worst_track = max(worst_track, near)
     if worst_track > 1e-3:
         fail(f"a /track point lies {worst_track} m from every solution position")
