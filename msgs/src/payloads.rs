@@ -163,6 +163,12 @@ pub enum WireFrame {
 }
 
 impl WireFrame {
+    /// The frame an [`AidStatus::made_in_frame`] byte names (1 + the
+    /// frame); `None` for 0 (not known) or any other value.
+    pub fn from_made_in(v: u8) -> Option<Self> {
+        v.checked_sub(1).and_then(Self::from_u8)
+    }
+
     pub fn from_u8(v: u8) -> Option<Self> {
         match v {
             0 => Some(Self::Geographic),
@@ -341,9 +347,7 @@ pub struct AidStatus {
 impl AidStatus {
     /// The frame the last innovation was made in, when the sender says.
     pub fn made_in(&self) -> Option<WireFrame> {
-        self.made_in_frame
-            .checked_sub(1)
-            .and_then(WireFrame::from_u8)
+        WireFrame::from_made_in(self.made_in_frame)
     }
 
     /// The value of [`AidStatus::made_in_frame`] for an innovation made in `frame`.

@@ -209,11 +209,6 @@ impl FileWriter {
         })
     }
 
-    /// The file.
-    pub fn path(&self) -> &Path {
-        &self.path
-    }
-
     /// Adds a channel; its messages are logged with the index returned.
     pub fn add_channel(&mut self, topic: &str, encoding: &str, schema: Option<Schema>) -> u16 {
         let index = u16::try_from(self.sequence.len()).unwrap_or(u16::MAX);
@@ -550,6 +545,24 @@ mod tests {
         v
     }
 
+    /// A new directory for one test's file, and the file's path in it.
+    fn temp_file(test: &str, name: &str) -> (PathBuf, PathBuf) {
+        let dir = std::env::temp_dir().join(format!("polarnav-{test}-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join(name);
+        (dir, path)
+    }
+
+    /// Logs [`payload`]`(c, k)` at log time `k` for every `k` of `ks`.
+    fn log_payloads(w: &mut FileWriter, c: u16, ks: std::ops::Range<u64>) {
+        for k in ks {
+            w.log(c, k, |buf| {
+                buf.extend_from_slice(&payload(c, k));
+                true
+            });
+        }
+    }
+
     /// Many batches' worth of messages on three channels (the batches are
     /// reused several times over) come back from the `mcap` reader in
     /// order, each with its channel, its bytes, its log time and a
@@ -558,9 +571,7 @@ mod tests {
     /// else; the summary counts every message.
     #[test]
     fn every_message_comes_back_in_order_with_its_sequence() {
-        let dir = std::env::temp_dir().join(format!("polarnav-file-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        let path = dir.join("order.mcap");
+        let (dir, path) = temp_file("file", "order.mcap");
         let mut w = FileWriter::create(&path).unwrap();
         let topics = ["/a", "/b", "/c"];
         let ids: Vec<u16> = topics
@@ -637,12 +648,7 @@ mod tests {
         }
         let mut w = FileWriter::create(path).unwrap();
         let c = w.add_channel("/a", "protobuf", schema());
-        for k in 0..200_000u64 {
-            w.log(c, k, |buf| {
-                buf.extend_from_slice(&payload(c, k));
-                true
-            });
-        }
+        log_payloads(&mut w, c, 0..200_000);
         assert!(w.made <= BATCHES);
         let flushed = w.flush();
         assert!(flushed.is_err(), "{flushed:?}");
@@ -665,18 +671,11 @@ mod tests {
     /// still ends its file: what was logged is read back with its summary.
     #[test]
     fn a_dropped_writer_still_ends_its_file() {
-        let dir = std::env::temp_dir().join(format!("polarnav-drop-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        let path = dir.join("dropped.mcap");
+        let (dir, path) = temp_file("drop", "dropped.mcap");
         {
             let mut w = FileWriter::create(&path).unwrap();
             let c = w.add_channel("/a", "protobuf", schema());
-            for k in 0..1000u64 {
-                w.log(c, k, |buf| {
-                    buf.extend_from_slice(&payload(c, k));
-                    true
-                });
-            }
+            log_payloads(&mut w, c, 0..1000);
         }
         let bytes = std::fs::read(&path).unwrap();
         let summary = mcap::Summary::read(&bytes).unwrap().expect("a summary");
@@ -704,9 +703,7 @@ mod tests {
             (0.0f64..64.0).prop_map(|e| e.exp2() as u64),
         ];
         let msg = (0u16..5, size, time, any::<u8>());
-        let dir = std::env::temp_dir().join(format!("polarnav-prop-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        let path = dir.join("prop.mcap");
+        let (dir, path) = temp_file("prop", "prop.mcap");
         proptest!(ProptestConfig::with_cases(24), |(
             channels in 1u16..=5,
             msgs in proptest::collection::vec(msg, 0..120),
@@ -756,17 +753,10 @@ mod tests {
     /// report that error; nothing blocks.
     #[test]
     fn a_broken_batch_is_an_error_reported_by_every_later_call() {
-        let dir = std::env::temp_dir().join(format!("polarnav-broken-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        let path = dir.join("broken.mcap");
+        let (dir, path) = temp_file("broken", "broken.mcap");
         let mut w = FileWriter::create(&path).unwrap();
         let c = w.add_channel("/a", "protobuf", schema());
-        for k in 0..100u64 {
-            w.log(c, k, |buf| {
-                buf.extend_from_slice(&payload(c, k));
-                true
-            });
-        }
+        log_payloads(&mut w, c, 0..100);
         w.log(c, 100, |buf| {
             buf.clear();
             buf.push(1);
@@ -781,12 +771,7 @@ mod tests {
             .expect_err("still broken")
             .to_string();
         assert!(m.contains("not in its batch"), "{m}");
-        for k in 0..50_000u64 {
-            w.log(c, k, |buf| {
-                buf.extend_from_slice(&payload(c, k));
-                true
-            });
-        }
+        log_payloads(&mut w, c, 0..50_000);
         let e = w.close().expect_err("still broken").to_string();
         assert!(
             e.contains("broken.mcap") && e.contains("not in its batch"),
@@ -799,9 +784,7 @@ mod tests {
     /// sink did not); one with entries is.
     #[test]
     fn an_empty_metadata_record_is_not_written() {
-        let dir = std::env::temp_dir().join(format!("polarnav-meta-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).unwrap();
-        let path = dir.join("meta.mcap");
+        let (dir, path) = temp_file("meta", "meta.mcap");
         let mut w = FileWriter::create(&path).unwrap();
         w.metadata("empty", BTreeMap::new()).unwrap();
         let mut map = BTreeMap::new();

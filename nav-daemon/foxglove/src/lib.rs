@@ -459,17 +459,10 @@ impl FlightChannels {
     /// each with its first message).
     fn with_every_channel(out: Out, aid_source: AidSource) -> Self {
         let mut c = Self::with_out(out, aid_source, None);
-        let mut out = std::mem::replace(
-            &mut c.out,
-            Out::Sdk {
-                ctx: Context::new(),
-                buf: Vec::new(),
-            },
-        );
-        for ch in c.channels_mut() {
-            ch.open_in(&mut out);
+        let (out, channels) = c.out_and_channels();
+        for ch in channels {
+            ch.open_in(out);
         }
-        c.out = out;
         c
     }
 
@@ -555,32 +548,37 @@ impl FlightChannels {
         ]
     }
 
-    fn channels_mut(&mut self) -> [&mut dyn AnyChannel; 22] {
+    /// Where the channels go, and every channel in [`TOPICS`]' order,
+    /// borrowed apart so that each can be opened in it.
+    fn out_and_channels(&mut self) -> (&mut Out, [&mut dyn AnyChannel; 22]) {
         let [a0, a1, a2, a3] = &mut self.aid;
-        [
-            &mut self.imu,
-            &mut self.srs,
-            &mut self.cns,
-            &mut self.baro,
-            &mut self.star,
-            &mut self.init,
-            &mut self.solution,
-            &mut self.fix,
-            &mut self.pose,
-            &mut self.nav_frame,
-            &mut self.tf,
-            &mut self.track,
-            &mut self.status,
-            a0,
-            a1,
-            a2,
-            a3,
-            &mut self.switch,
-            &mut self.log,
-            &mut self.truth,
-            &mut self.truth_fix,
-            &mut self.truth_bias,
-        ]
+        (
+            &mut self.out,
+            [
+                &mut self.imu,
+                &mut self.srs,
+                &mut self.cns,
+                &mut self.baro,
+                &mut self.star,
+                &mut self.init,
+                &mut self.solution,
+                &mut self.fix,
+                &mut self.pose,
+                &mut self.nav_frame,
+                &mut self.tf,
+                &mut self.track,
+                &mut self.status,
+                a0,
+                a1,
+                a2,
+                a3,
+                &mut self.switch,
+                &mut self.log,
+                &mut self.truth,
+                &mut self.truth_fix,
+                &mut self.truth_bias,
+            ],
+        )
     }
 
     /// Log times from now on are `epoch_ns + t_ns`: `epoch_ns` is the UTC

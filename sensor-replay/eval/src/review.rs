@@ -245,11 +245,8 @@ fn aid_series(aids: &Aids, at: &Where) -> Vec<AidSeries> {
                     "CNS" if a.physical => [1.0; 3],
                     "CNS" => match at.get(t).map(|(frame, lat, h)| {
                         // The frame the daemon says it was made in, else the solution's then.
-                        let made = match a.made_in_frame {
-                            1 => 'g',
-                            2 => 'G',
-                            _ => frame,
-                        };
+                        let made = msgs::WireFrame::from_made_in(a.made_in_frame)
+                            .map_or(frame, msgs::WireFrame::letter);
                         (made, lat, h)
                     }) {
                         Some(('g', lat, h)) => {
