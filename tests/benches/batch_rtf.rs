@@ -254,9 +254,27 @@ fn main() {
         )),
         _ => None,
     })));
+    // The message indexes: 16 bytes per message after each chunk, stored
+    // uncompressed. They are not optional for the files' users: Foxglove's
+    // reader (@mcap/core McapIndexedReader.readMessages) finds a chunk's
+    // messages only through them, and shows nothing of a chunk without.
+    let file = std::fs::read(&out).expect("read the MCAP back");
+    let summary = mcap::Summary::read(&file)
+        .expect("summary")
+        .expect("the file has a summary");
+    let index_mb = per_hour(
+        summary
+            .chunk_indexes
+            .iter()
+            .map(|c| usize::try_from(c.message_index_length).expect("index length"))
+            .sum(),
+    );
+    let index_at = |rate_hz: f64| per_hour((16.0 * rate_hz * FLIGHT_S) as usize);
     println!(
-        "  MCAP floor at full rate, per flight hour: /solution alone {solution_mb:.0} MB, /imu alone {imu_mb:.0} MB, together {:.0} MB",
-        solution_mb + imu_mb
+        "  MCAP floor at full rate, per flight hour: /solution alone {solution_mb:.0} MB, /imu alone {imu_mb:.0} MB, together {:.0} MB; message indexes of the file {index_mb:.0} MB, of /solution alone {:.1} MB, so /solution with its index {:.0} MB",
+        solution_mb + imu_mb,
+        index_at(200.0),
+        solution_mb + index_at(200.0)
     );
     // A file for viewing: one solution per 20 ms (50 Hz), inputs whole.
     let _ = std::fs::remove_file(&out);
