@@ -7,13 +7,7 @@ pub mod live;
 pub mod notify;
 pub mod owner;
 
-/// Writes one line to standard error, as `eprintln!` does, but a closed
-/// standard error (`nav-daemon batch ... 2>&1 | head`) loses the line, not
-/// the run: `eprintln!` panics when the write fails.
-#[macro_export]
-macro_rules! note {
-    ($($arg:tt)*) => {{
-        use std::io::Write as _;
-        let _ = writeln!(std::io::stderr(), $($arg)*);
-    }};
-}
+/// `note!`: a line on standard error that a closed standard error loses
+/// without ending the run (the processes' shared macro, in
+/// `polarnav_ipc::logging`).
+pub use polarnav_ipc::note;

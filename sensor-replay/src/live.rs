@@ -259,7 +259,7 @@ pub fn play(
                     && let Some(st) = stalls.next_if(|st| st.at_s <= t_s)
                 {
                     let d = Duration::from_secs_f64(st.for_s);
-                    eprintln!(
+                    polarnav_ipc::note!(
                         "play: IMU stalled at t = {t_s:.3} s for {:.3} s (aids go on)",
                         st.for_s
                     );
@@ -313,7 +313,7 @@ pub fn play(
             let done = sensor_t(s).saturating_sub(t0);
             if done >= next_progress {
                 next_progress += progress_every;
-                eprintln!(
+                polarnav_ipc::note!(
                     "play: pass {} at t = {:.0} s of {:.0} s ({:.0} %)",
                     pass + 1,
                     done as f64 * 1e-9,
@@ -411,7 +411,7 @@ pub fn record(
     let sol = TopicSubscriber::<Solution>::new(&node, cfg, Topic::Solution)?;
     let status = TopicSubscriber::<Status>::new(&node, cfg, Topic::Status)?;
     let settings = TopicSubscriber::<EffectiveSettings>::new(&node, cfg, Topic::Settings)?;
-    eprintln!("record: subscribed to {}/*", cfg.prefix);
+    polarnav_ipc::note!("record: subscribed to {}/*", cfg.prefix);
     // The header carries the daemon's effective settings, so the writer
     // starts once they arrive (or, without a daemon, when the records held
     // meanwhile reach HOLD_RECORDS, or at the end).
@@ -469,7 +469,7 @@ pub fn record(
             let mut text: Option<String> = None;
             settings.drain(|m| text = m.text().map(str::to_owned))?;
             if let Some(t) = text {
-                eprintln!("record: the daemon's effective settings go into the header");
+                polarnav_ipc::note!("record: the daemon's effective settings go into the header");
                 pieces.start(Some(t)).map_err(RecordError::Create)?;
                 started = true;
             } else if buf.len() >= HOLD_RECORDS
@@ -517,7 +517,7 @@ pub fn record(
     n.pieces = c.opened;
     n.removed = c.removed;
     if let Err(e) = finished {
-        eprintln!("record: the last piece could not be closed: {e}");
+        polarnav_ipc::note!("record: the last piece could not be closed: {e}");
     }
     Ok(n)
 }

@@ -291,15 +291,15 @@ impl AidArgs {
 
 fn report_import(out: &std::path::Path, s: &interop::ImportSummary) {
     for (file, line, why) in s.skipped.lines.iter().take(20) {
-        eprintln!("warning: {file}:{line}: skipped: {why}");
+        polarnav_ipc::note!("warning: {file}:{line}: skipped: {why}");
     }
     if s.skipped.count > 20 {
-        eprintln!(
+        polarnav_ipc::note!(
             "warning: ... and {} more skipped lines",
             s.skipped.count - 20
         );
     }
-    eprintln!(
+    polarnav_ipc::note!(
         "import: wrote {}: {} IMU, {} truth, {} CNS, {} baro, {} SRS records; {} line(s) skipped; {} IMU line(s) unused (the time base, or before the first truth epoch)",
         out.display(),
         s.imu,
@@ -348,7 +348,7 @@ fn run(cli: Cli) -> Result<(), Fail> {
                     .map_or(String::new(), |n| n.to_string_lossy().into_owned())
             );
             sensor_replay::scene::draw(&scene, &title, &out).map_err(|e| Fail(1, e))?;
-            eprintln!(
+            polarnav_ipc::note!(
                 "scene: {} lines, {} aircraft poses, {} markers in {frame} to {}",
                 scene.lines.len(),
                 scene.poses.len(),
@@ -368,7 +368,7 @@ fn run(cli: Cli) -> Result<(), Fail> {
             let f = File::create(&out)
                 .map_err(|e| Fail(1, format!("{}: cannot create: {e}", out.display())))?;
             let t0 = std::time::Instant::now();
-            eprintln!(
+            polarnav_ipc::note!(
                 "simulate: {} ({:.0} s of flight, seed {seed}{})",
                 s.name,
                 s.duration_s(),
@@ -386,7 +386,7 @@ fn run(cli: Cli) -> Result<(), Fail> {
                 BufWriter::with_capacity(1 << 20, f),
             )
             .map_err(|e| Fail(1, format!("{}: {e}", out.display())))?;
-            eprintln!(
+            polarnav_ipc::note!(
                 "simulate: wrote {} in {:.1} s: {} IMU, {} SRS, {} CNS, {} baro, {} star, {} truth records",
                 out.display(),
                 t0.elapsed().as_secs_f64(),
@@ -399,9 +399,12 @@ fn run(cli: Cli) -> Result<(), Fail> {
             );
             if let Some(f) = s.faults.as_ref().filter(|_| !no_faults) {
                 for (e, n) in f.events.iter().zip(&sum.injected) {
-                    eprintln!(
+                    polarnav_ipc::note!(
                         "simulate: fault {:?} on {:?} at {} s for {} s: {n} samples",
-                        e.kind, e.stream, e.start_s, e.duration_s
+                        e.kind,
+                        e.stream,
+                        e.start_s,
+                        e.duration_s
                     );
                 }
             }
@@ -444,7 +447,7 @@ fn run(cli: Cli) -> Result<(), Fail> {
             }
             let c = logfile::load(&log).map_err(|e| bad(e.to_string()))?;
             if !c.report.is_clean() {
-                eprintln!("warning: {}: {}", log.display(), c.report);
+                polarnav_ipc::note!("warning: {}: {}", log.display(), c.report);
             }
             if c.init.is_empty() {
                 return Err(bad(format!("{}: no init record to publish", log.display())));
@@ -456,7 +459,7 @@ fn run(cli: Cli) -> Result<(), Fail> {
                 1
             };
             let cfg = polarnav_ipc::TransportConfig::new(&prefix);
-            eprintln!(
+            polarnav_ipc::note!(
                 "play: {} ({} IMU samples) on {prefix}/... at {speed}x",
                 log.display(),
                 c.imu.len()
@@ -565,7 +568,7 @@ fn run(cli: Cli) -> Result<(), Fail> {
             };
             let stop = stop_flag()?;
             let cfg = polarnav_ipc::TransportConfig::new(&prefix);
-            eprintln!("record: {prefix}/... -> {shown} (stop with Ctrl-C)");
+            polarnav_ipc::note!("record: {prefix}/... -> {shown} (stop with Ctrl-C)");
             let n = sensor_replay::live::record(
                 &cfg,
                 target,
@@ -616,7 +619,7 @@ fn run(cli: Cli) -> Result<(), Fail> {
                 duration.map(std::time::Duration::from_secs_f64),
                 |port| {
                     // A test or a script reads the port from this line.
-                    eprintln!("view: serving {prefix}/solution and {prefix}/status on ws://{host}:{port} (Foxglove WebSocket)");
+                    polarnav_ipc::note!("view: serving {prefix}/solution and {prefix}/status on ws://{host}:{port} (Foxglove WebSocket)");
                 },
             )
             .map_err(|e| Fail(1, e.to_string()))?;
@@ -672,20 +675,20 @@ fn run(cli: Cli) -> Result<(), Fail> {
                 .map_err(|m| bad(format!("--utc-start: {m}")))?;
             if let Some(p) = &mcap {
                 let n = export_mcap(&log, p, utc_start.as_ref())?;
-                eprintln!("export: {n} records to {}", p.display());
+                polarnav_ipc::note!("export: {n} records to {}", p.display());
                 if truth_csv.is_none() && solution_csv.is_none() && kfgins.is_none() {
                     return Ok(());
                 }
             }
             let c = logfile::load(&log).map_err(|e| bad(e.to_string()))?;
             if !c.report.is_clean() {
-                eprintln!("warning: {}: {}", log.display(), c.report);
+                polarnav_ipc::note!("warning: {}: {}", log.display(), c.report);
             }
             if let Some(p) = truth_csv {
                 let f = File::create(&p).map_err(|e| Fail(1, format!("{}: {e}", p.display())))?;
                 export::write_truth_csv(BufWriter::new(f), &c.truth)
                     .map_err(|e| Fail(1, format!("{}: {e}", p.display())))?;
-                eprintln!("export: {} truth rows to {}", c.truth.len(), p.display());
+                polarnav_ipc::note!("export: {} truth rows to {}", c.truth.len(), p.display());
             }
             if let Some(p) = solution_csv {
                 let mut f = BufWriter::new(
@@ -697,7 +700,7 @@ fn run(cli: Cli) -> Result<(), Fail> {
                     polarnav::solution_csv::write_row(&mut f, s).map_err(io)?;
                 }
                 f.flush().map_err(io)?;
-                eprintln!(
+                polarnav_ipc::note!(
                     "export: {} solution rows to {}",
                     c.solution.len(),
                     p.display()
@@ -706,7 +709,7 @@ fn run(cli: Cli) -> Result<(), Fail> {
             if let Some(dir) = kfgins {
                 interop::export_kfgins(&dir, &c.imu, &c.truth)
                     .map_err(|e| Fail(1, format!("{}: {e}", dir.display())))?;
-                eprintln!(
+                polarnav_ipc::note!(
                     "export: KF-GINS imu.txt ({} samples) and truth.nav ({} rows) in {}",
                     c.imu.len(),
                     c.truth.len(),
@@ -724,7 +727,7 @@ fn run(cli: Cli) -> Result<(), Fail> {
         } => {
             let c = logfile::load(&log).map_err(|e| bad(e.to_string()))?;
             if !c.report.is_clean() {
-                eprintln!("warning: {}: {}", log.display(), c.report);
+                polarnav_ipc::note!("warning: {}: {}", log.display(), c.report);
             }
             let name = c
                 .header
@@ -884,7 +887,7 @@ fn export_mcap(
         n += 1;
     }
     if !reader.report().is_clean() {
-        eprintln!("warning: {}: {}", log.display(), reader.report());
+        polarnav_ipc::note!("warning: {}: {}", log.display(), reader.report());
     }
     m.close().map_err(|e| Fail(1, e.to_string()))?;
     Ok(n)
@@ -935,7 +938,7 @@ fn main() -> ExitCode {
     match run(Cli::parse()) {
         Ok(()) => ExitCode::SUCCESS,
         Err(Fail(code, msg)) => {
-            eprintln!("error: {msg}");
+            polarnav_ipc::note!("error: {msg}");
             ExitCode::from(code)
         }
     }

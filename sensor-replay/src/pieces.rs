@@ -398,7 +398,7 @@ impl Pieces {
             drop_torn(p);
             if self.failed.is_none() {
                 self.counts.failures += 1;
-                eprintln!(
+                polarnav_ipc::note!(
                     "record: cannot write {}: {e}; the disk is full or failing: records are \
                      counted as lost and the subscriptions drained until a new piece can be \
                      written (tried every {} s)",
@@ -408,7 +408,7 @@ impl Pieces {
             }
         } else if self.failed.is_none() {
             self.counts.failures += 1;
-            eprintln!(
+            polarnav_ipc::note!(
                 "record: cannot start a piece: {e}; the disk is full or failing: records are \
                  counted as lost until one can be written (tried every {} s)",
                 RETRY_PERIOD.as_secs()
@@ -426,7 +426,7 @@ impl Pieces {
         match self.open_next() {
             Ok(()) => {
                 self.failed = None;
-                eprintln!(
+                polarnav_ipc::note!(
                     "record: writing again to {} after {:.1} s; {} records lost so far",
                     self.current()
                         .map_or(String::new(), |p| p.display().to_string()),
@@ -560,13 +560,13 @@ impl Pieces {
                 Ok(()) => {
                     total -= p.bytes;
                     self.counts.removed += 1;
-                    eprintln!(
+                    polarnav_ipc::note!(
                         "record: removed {} ({} bytes): the recordings exceed --keep-bytes {keep}",
                         p.path.display(),
                         p.bytes
                     );
                 }
-                Err(e) => eprintln!("record: cannot remove {}: {e}", p.path.display()),
+                Err(e) => polarnav_ipc::note!("record: cannot remove {}: {e}", p.path.display()),
             }
         }
     }

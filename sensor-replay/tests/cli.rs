@@ -66,3 +66,68 @@ fn listen_into_a_file_writes_plain_lines_without_escapes() {
     assert!(out.contains("solution: none yet"), "{out:?}");
     assert!(!o.stdout.contains(&0x1b), "escape in {out:?}");
 }
+
+/// `cmd` run with standard error a pipe whose reader is gone before the
+/// first line (`sensor-replay ... 2>&1 | head` after head exits): its exit
+/// code. Writing to it fails with EPIPE, on which `eprintln!` panics.
+fn with_stderr_closed(cmd: &mut Command) -> Option<i32> {
+    use std::process::Stdio;
+    let mut child = cmd
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("run sensor-replay");
+    drop(child.stderr.take());
+    child.wait().expect("wait").code()
+}
+
+#[test]
+fn simulate_and_export_with_standard_error_closed_finish_and_write_their_files() {
+    let dir = std::env::temp_dir().join(format!("sr-cli-stderr-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("dir");
+    let text = std::fs::read_to_string(
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("../config/scenarios/transpolar.toml"),
+    )
+    .expect("scenario");
+    let short = text.replace("duration_s = 4480.0", "duration_s = 20.0");
+    assert_ne!(short, text, "the scenario's duration line moved");
+    let scenario = dir.join("short.toml");
+    std::fs::write(&scenario, short).expect("write scenario");
+    let log = dir.join("flight.navlog");
+    let code = with_stderr_closed(
+        Command::new(env!("CARGO_BIN_EXE_sensor-replay"))
+            .arg("simulate")
+            .arg("--scenario")
+            .arg(&scenario)
+            .arg("--out")
+            .arg(&log),
+    );
+    assert_eq!(code, Some(0), "simulate with stderr closed");
+    let truth = dir.join("truth.csv");
+    let mcap = dir.join("flight.mcap");
+    let code = with_stderr_closed(
+        Command::new(env!("CARGO_BIN_EXE_sensor-replay"))
+            .arg("export")
+            .arg(&log)
+            .arg("--truth-csv")
+            .arg(&truth)
+            .arg("--mcap")
+            .arg(&mcap),
+    );
+    assert_eq!(code, Some(0), "export with stderr closed");
+    // 20 s of truth at 10 Hz, with its header.
+    let rows = std::fs::read_to_string(&truth)
+        .expect("truth csv")
+        .lines()
+        .count();
+    assert_eq!(rows, 202, "truth rows and header");
+    let summary = mcap::Summary::read(&std::fs::read(&mcap).expect("mcap"))
+        .expect("summary")
+        .expect("an ended MCAP has a summary");
+    assert!(
+        summary.stats.is_some_and(|s| s.message_count > 4000),
+        "every record exported"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}

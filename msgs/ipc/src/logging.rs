@@ -6,6 +6,20 @@
 
 use std::io::IsTerminal;
 
+/// Writes one line to standard error, as `eprintln!` does, but a closed
+/// standard error (`nav-daemon batch ... 2>&1 | head`, `sensor-replay
+/// record ... 2>&1 | head`, a terminal gone) loses the line, not the run:
+/// `eprintln!` panics when the write fails. For the lines the tools print
+/// for their user (progress, a summary, a warning about a file) beside the
+/// log, which already ignores a failed write.
+#[macro_export]
+macro_rules! note {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stderr(), $($arg)*);
+    }};
+}
+
 use tracing_journald::{Priority, PriorityMappings};
 use tracing_subscriber::layer::SubscriberExt;
 use tracing_subscriber::util::SubscriberInitExt;
