@@ -20,7 +20,7 @@ use polarnav::smoother::{FileStore, SmoothReport, Smoother};
 use crate::events::log_event;
 use polarnav::solution_csv;
 use polarnav_config::{CliOverrides, ConfigError, ConfigFile, Effective, effective};
-use polarnav_foxglove::{AidTopic, McapError, McapFile, UpdateAt};
+use polarnav_foxglove::{AidTopic, McapError, McapFile};
 
 /// Where a batch run writes its solution.
 #[derive(Debug)]
@@ -245,7 +245,6 @@ impl<W: Write> Sink for CsvSink<'_, W> {
                 stream,
                 t_ns,
                 status,
-                frame,
                 lat_rad,
                 h_m,
             } => {
@@ -257,12 +256,8 @@ impl<W: Write> Sink for CsvSink<'_, W> {
                     Stream::Imu => None,
                 };
                 if let (Output::Mcap(m), Some(topic)) = (&mut self.out, topic) {
-                    let at = UpdateAt {
-                        frame: *frame,
-                        lat_rad: *lat_rad,
-                        h_m: *h_m,
-                    };
-                    m.channels().aid_update(topic, *t_ns, status, at);
+                    m.channels()
+                        .aid_update(topic, *t_ns, status, *lat_rad, *h_m);
                 }
             }
             other => log_event(log, other),

@@ -359,11 +359,11 @@ pub enum Event {
     AidUpdate {
         stream: Stream,
         t_ns: u64,
+        /// With the frame the update was made in
+        /// ([`AidStatus::made_in_frame`]).
         status: AidStatus,
-        /// The navigation frame the update was made in ([`msgs::WireFrame`]
-        /// as u8) and the position after it: what turns a CNS innovation
-        /// in g (Δlatitude, Δlongitude in rad) into metres.
-        frame: u8,
+        /// The position after the update: with the frame, what turns a CNS
+        /// innovation in g (Δlatitude, Δlongitude in rad) into metres.
         lat_rad: f64,
         h_m: f64,
     },
@@ -1230,14 +1230,11 @@ impl Session {
                     Aid::Baro(_) => baro,
                     Aid::Star(_) => star,
                 };
-                let state = n.state();
-                let geo = state.geodetic();
-                let frame = state.kind().to_wire();
+                let geo = n.state().geodetic();
                 sink.event(&Event::AidUpdate {
                     stream: a.stream(),
                     t_ns: a.t_ns(),
                     status,
-                    frame: frame as u8,
                     lat_rad: geo.lat_rad,
                     h_m: geo.h_m,
                 });

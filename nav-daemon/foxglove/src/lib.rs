@@ -825,9 +825,23 @@ impl FlightChannels {
         made
     }
 
-    /// One gated update of an aid (with [`AidSource::Updates`]), made at
-    /// `where_` (the frame and position of the navigator then).
-    pub fn aid_update(&mut self, topic: AidTopic, t_ns: u64, a: &AidStatus, where_: UpdateAt) {
+    /// One gated update of an aid (with [`AidSource::Updates`]), made in
+    /// the frame its status names (`AidStatus::made_in_frame`; from a
+    /// sender that does not say, the last solution's) with the navigator
+    /// at `lat_rad`, `h_m` after it.
+    pub fn aid_update(
+        &mut self,
+        topic: AidTopic,
+        t_ns: u64,
+        a: &AidStatus,
+        lat_rad: f64,
+        h_m: f64,
+    ) {
+        let where_ = UpdateAt {
+            frame: a.made_in().map_or(self.last_at.frame, |f| f as u8),
+            lat_rad,
+            h_m,
+        };
         let at = at(self.epoch_ns, t_ns);
         self.aid_made[topic as usize].1 = Some(where_);
         self.aid[topic as usize].log(&mut self.out, at, || {
@@ -1075,13 +1089,21 @@ mod tests {
         let ctx = Context::new();
         let mut b = FlightChannels::new_live(&ctx, AidSource::Updates, None);
         b.solution(&sol(1, 1.3));
+        // An update whose status says g, after a solution in G: made in g.
+        let in_g = AidStatus {
+            made_in_frame: AidStatus::made_in_frame_of(WireFrame::Geographic),
+            ..AidStatus::default()
+        };
+        b.aid_update(AidTopic::Cns, 1, &in_g, 1.1, 5.0);
         let at = UpdateAt {
             frame: 0,
             lat_rad: 1.1,
             h_m: 5.0,
         };
-        b.aid_update(AidTopic::Cns, 1, &AidStatus::default(), at);
         assert_eq!(b.aids_made(&status(1, 9))[1], at);
+        // One whose status does not say: in the last solution's frame (G).
+        b.aid_update(AidTopic::Cns, 2, &AidStatus::default(), 1.2, 5.0);
+        assert_eq!(b.aids_made(&status(1, 10))[1].frame, 1);
     }
 
     /// A 100 Hz limit passes at most one message per 10 ms and counts the
