@@ -127,7 +127,10 @@ pub fn update(screen: &str, terminal: bool) -> String {
 }
 
 /// Shows the newest solution and status until stopped: in place on a
-/// terminal, as successive blocks of plain lines otherwise.
+/// terminal, as successive blocks of plain lines otherwise. A reader that
+/// stopped reading (`sensor-replay listen | head`: a broken pipe) ends the
+/// listening quietly; any other failed write (a full disk) is an error
+/// naming standard output.
 pub fn listen(
     cfg: &TransportConfig,
     stop: &AtomicBool,
@@ -152,11 +155,13 @@ pub fn listen(
             count = 0;
             window = Instant::now();
         }
-        print!(
-            "{}",
-            update(&render(last_sol.as_ref(), last_st.as_ref(), rate), terminal)
-        );
-        let _ = std::io::stdout().flush();
+        let text = update(&render(last_sol.as_ref(), last_st.as_ref(), rate), terminal);
+        let mut out = std::io::stdout().lock();
+        match out.write_all(text.as_bytes()).and_then(|()| out.flush()) {
+            Ok(()) => {}
+            Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => return Ok(()),
+            Err(e) => return Err(TransportError::Io("standard output".into(), e.to_string())),
+        }
     }
     Ok(())
 }

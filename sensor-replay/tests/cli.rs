@@ -131,3 +131,51 @@ fn simulate_and_export_with_standard_error_closed_finish_and_write_their_files()
     );
     std::fs::remove_dir_all(&dir).ok();
 }
+
+#[test]
+fn listen_into_a_closed_pipe_stops_quietly_and_into_a_full_disk_names_standard_output() {
+    use std::process::Stdio;
+    use std::time::{Duration, Instant};
+    // Nothing publishes on this prefix: listen writes "none yet" every 250 ms.
+    let prefix = format!("sr-listen-epipe-{}", std::process::id());
+    let mut child = Command::new(env!("CARGO_BIN_EXE_sensor-replay"))
+        .args(["listen", "--duration", "60", "--prefix", &prefix])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("run listen");
+    // `listen | head -0`: the reader is gone before the first block.
+    drop(child.stdout.take());
+    let deadline = Instant::now() + Duration::from_secs(20);
+    let status = loop {
+        if let Some(s) = child.try_wait().expect("wait") {
+            break s;
+        }
+        if Instant::now() > deadline {
+            child.kill().ok();
+            panic!("listen went on writing into a closed pipe for 20 s");
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    };
+    let mut err = String::new();
+    std::io::Read::read_to_string(&mut child.stderr.take().expect("stderr"), &mut err)
+        .expect("stderr");
+    assert_eq!(status.code(), Some(0), "{err}");
+    assert!(!err.contains("panicked"), "{err}");
+
+    let full = std::fs::OpenOptions::new().write(true).open("/dev/full");
+    let Ok(full) = full else {
+        return; // no /dev/full in this sandbox: the first half stands alone
+    };
+    let o = Command::new(env!("CARGO_BIN_EXE_sensor-replay"))
+        .args(["listen", "--duration", "20", "--prefix", &prefix])
+        .stdout(full)
+        .output()
+        .expect("run listen");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(
+        err.contains("standard output") && !err.contains("panicked"),
+        "{err}"
+    );
+}
