@@ -156,8 +156,10 @@ fn main() -> ExitCode {
             return ExitCode::SUCCESS;
         }
         Some(Cmd::Man) => {
+            // `nav-daemon man | head`: a reader that stopped is not an error.
             return match man(&mut std::io::stdout()) {
                 Ok(()) => ExitCode::SUCCESS,
+                Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => ExitCode::SUCCESS,
                 Err(e) => {
                     nav_daemon::note!("error: man: {e}");
                     ExitCode::from(1)

@@ -486,3 +486,29 @@ fn batch_with_standard_error_closed_finishes_and_writes_every_row() {
     let rows = std::fs::read_to_string(&out).expect("csv").lines().count();
     assert_eq!(rows, 2001, "header and one row per IMU sample");
 }
+
+/// `nav-daemon man | head`: a reader gone before the page is written is
+/// not an error (exit 0, nothing on stderr); a full disk is (exit 1,
+/// naming the man page).
+#[test]
+fn man_into_a_closed_pipe_exits_0_and_into_a_full_disk_exits_1() {
+    // A pipe whose reader is closed before the child starts: its first
+    // write fails with EPIPE, whatever the timing.
+    let (reader, writer) = std::io::pipe().expect("pipe");
+    drop(reader);
+    let o = bin()
+        .arg("man")
+        .stdout(writer)
+        .output()
+        .expect("run nav-daemon man");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(0), "{err}");
+    assert!(err.is_empty(), "{err}");
+    let Ok(full) = std::fs::OpenOptions::new().write(true).open("/dev/full") else {
+        return; // no /dev/full here: the first half stands alone
+    };
+    let o = bin().arg("man").stdout(full).output().expect("run");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(1), "{err}");
+    assert!(err.contains("man:"), "{err}");
+}

@@ -334,7 +334,13 @@ fn run(cli: Cli) -> Result<(), Fail> {
             completions(shell, &mut std::io::stdout());
             Ok(())
         }
-        Cmd::Man => man(&mut std::io::stdout()).map_err(|e| Fail(1, format!("man: {e}"))),
+        // `sensor-replay man | head`: a reader that stopped is not an error.
+        Cmd::Man => match man(&mut std::io::stdout()) {
+            Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => {
+                Err(Fail(1, format!("man: {e}")))
+            }
+            _ => Ok(()),
+        },
         Cmd::Scene { mcap, out, frame } => {
             if frame != "polar_north" && frame != "polar_south" {
                 return Err(bad(format!(

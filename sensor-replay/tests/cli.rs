@@ -67,18 +67,18 @@ fn listen_into_a_file_writes_plain_lines_without_escapes() {
     assert!(!o.stdout.contains(&0x1b), "escape in {out:?}");
 }
 
-/// `cmd` run with standard error a pipe whose reader is gone before the
-/// first line (`sensor-replay ... 2>&1 | head` after head exits): its exit
-/// code. Writing to it fails with EPIPE, on which `eprintln!` panics.
+/// `cmd` run with standard error a pipe whose reader was closed before
+/// the child started (`sensor-replay ... 2>&1 | head` after head exits):
+/// its exit code. Every write to it fails with EPIPE, on which
+/// `eprintln!` panics.
 fn with_stderr_closed(cmd: &mut Command) -> Option<i32> {
-    use std::process::Stdio;
-    let mut child = cmd
-        .stdout(Stdio::null())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("run sensor-replay");
-    drop(child.stderr.take());
-    child.wait().expect("wait").code()
+    let (reader, writer) = std::io::pipe().expect("pipe");
+    drop(reader);
+    cmd.stdout(std::process::Stdio::null())
+        .stderr(writer)
+        .status()
+        .expect("run sensor-replay")
+        .code()
 }
 
 #[test]
@@ -138,14 +138,15 @@ fn listen_into_a_closed_pipe_stops_quietly_and_into_a_full_disk_names_standard_o
     use std::time::{Duration, Instant};
     // Nothing publishes on this prefix: listen writes "none yet" every 250 ms.
     let prefix = format!("sr-listen-epipe-{}", std::process::id());
+    // `listen | head -0`: the reader is gone before the first block.
+    let (reader, writer) = std::io::pipe().expect("pipe");
+    drop(reader);
     let mut child = Command::new(env!("CARGO_BIN_EXE_sensor-replay"))
         .args(["listen", "--duration", "60", "--prefix", &prefix])
-        .stdout(Stdio::piped())
+        .stdout(writer)
         .stderr(Stdio::piped())
         .spawn()
         .expect("run listen");
-    // `listen | head -0`: the reader is gone before the first block.
-    drop(child.stdout.take());
     let deadline = Instant::now() + Duration::from_secs(20);
     let status = loop {
         if let Some(s) = child.try_wait().expect("wait") {
@@ -178,4 +179,18 @@ fn listen_into_a_closed_pipe_stops_quietly_and_into_a_full_disk_names_standard_o
         err.contains("standard output") && !err.contains("panicked"),
         "{err}"
     );
+}
+
+#[test]
+fn man_into_a_closed_pipe_exits_0() {
+    let (reader, writer) = std::io::pipe().expect("pipe");
+    drop(reader);
+    let o = Command::new(env!("CARGO_BIN_EXE_sensor-replay"))
+        .arg("man")
+        .stdout(writer)
+        .output()
+        .expect("run sensor-replay man");
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert_eq!(o.status.code(), Some(0), "{err}");
+    assert!(err.is_empty(), "{err}");
 }
