@@ -192,7 +192,12 @@ fn scenario(rel: &str) -> String {
 /// is observed only weakly (transpolar: σ 2.3′ all flight long); where the
 /// whole flight does not separate them a smoother cannot either, and the
 /// forward error, a random walk inside its σ, may lie closer to the truth
-/// by chance for a while. What must hold: the smoothed attitude σ is never
+/// by chance for a while. The filter's own covariance says so (printed
+/// below): the RMS smoothed attitude σ is 0.95, 0.75 and 0.98 of the
+/// forward one in tilt, 0.89, 0.94 and 0.30 in heading (transpolar,
+/// paper-sim, polar-crossing), so half the forward RMSE is beyond the
+/// information in these flights except for polar-crossing's heading,
+/// where the smoothed heading RMSE is 0.07 of the forward one. What must hold: the smoothed attitude σ is never
 /// above the forward one (the backward pass only adds information), and
 /// the smoothed attitude error lies inside its ±3σ at 99 % of the epochs.
 #[test]
@@ -262,6 +267,28 @@ fn smoothed_flights_are_twice_as_accurate_as_forward_and_consistent() {
             rms_sigma(&r.smoothed, 2),
             rms_sigma(&r.forward, 0),
             rms_sigma(&r.smoothed, 0)
+        );
+        // What the filter's own covariance says smoothing can give for
+        // attitude: the ratio of the RMS smoothed σ to the RMS forward σ
+        // (tilt: both horizontal axes; heading: the up axis).
+        let rms_att = |sols: &[Option<Solution>], axes: &[usize]| {
+            let v: Vec<f64> = sols
+                .iter()
+                .flatten()
+                .map(|s| {
+                    axes.iter()
+                        .map(|&i| s.sigma_att_rad[i].powi(2))
+                        .sum::<f64>()
+                })
+                .collect();
+            (v.iter().sum::<f64>() / v.len() as f64).sqrt()
+        };
+        eprintln!(
+            "{rel}: attitude σ ratio smoothed/forward (RMS over the flight): tilt {:.3}, heading {:.3}; RMSE ratio tilt {:.3}, heading {:.3}",
+            rms_att(&r.smoothed, &[0, 1]) / rms_att(&r.forward, &[0, 1]),
+            rms_att(&r.smoothed, &[2]) / rms_att(&r.forward, &[2]),
+            s.tilt / f.tilt,
+            s.heading / f.heading
         );
         let (mut inside, mut n, mut above) = (0usize, 0usize, 0usize);
         for ((t, fs), ss) in r.truth.iter().zip(&r.forward).zip(&r.smoothed) {
