@@ -1222,6 +1222,9 @@ impl Session {
         };
         let resets = n.aid_resets();
         match a.offer(n) {
+            // Not used (the aid disabled) or undone as invalid: counted in
+            // the status, but no update to report.
+            Ok(o) if !o.gated => {}
             Ok(_) => {
                 let [srs, cns, baro, star] = n.aid_statuses();
                 let status = match a {

@@ -12,8 +12,10 @@
 //!
 //! After every push: (a) every solution emitted is finite, with finite
 //! positive σ; (b) the accounting is exact per stream and `received` equals
-//! what was pushed; (c) the work of one push is bounded; (d) the navigator
-//! state is finite. At the end: `finish`, the same checks, and a genuine
+//! what was pushed, and each aid reported as many updates
+//! (`Event::AidUpdate`) as it counts gated samples (accepted or rejected at
+//! the gate): none for a sample not used or undone as invalid; (c) the work
+//! of one push is bounded; (d) the navigator state is finite. At the end: `finish`, the same checks, and a genuine
 //! stream is accepted again (never blinded for more than
 //! `TIME_JUMP_CONFIRM` samples). Named tests pin down specific cases,
 //! including the library deviations the property found.
@@ -28,7 +30,8 @@ use polarnav::earth::{self, Geodetic};
 use polarnav::frames;
 use polarnav::navigator::MAX_BRIDGE_STEPS;
 use polarnav::session::{
-    AID_QUEUE, Event, Input, MAX_AID_LEAD_NS, Session, SessionSettings, Sink, TIME_JUMP_CONFIRM,
+    AID_QUEUE, Event, Input, MAX_AID_LEAD_NS, Session, SessionSettings, Sink, Stream,
+    TIME_JUMP_CONFIRM,
 };
 use polarnav::smoother::{MemoryStore, Smoother};
 use proptest::prelude::*;
@@ -178,8 +181,13 @@ struct Harness {
 impl Harness {
     /// A session started from a genuine init at `T0_NS`.
     fn new(truth: Truth) -> Self {
+        Self::with_settings(truth, SessionSettings::default())
+    }
+
+    /// The same with `settings`.
+    fn with_settings(truth: Truth, settings: SessionSettings) -> Self {
         let mut h = Self {
-            session: Session::new(SessionSettings::default()),
+            session: Session::new(settings),
             sink: Checker::default(),
             truth,
             pushed: [0; 5],
@@ -250,6 +258,25 @@ impl Harness {
                 return Err(format!(
                     "(b) {name}: received {} but {n} pushed ({c:?})",
                     c.received
+                ));
+            }
+        }
+        for (stream, c) in [
+            (Stream::Srs, st.srs),
+            (Stream::Cns, st.cns),
+            (Stream::Baro, st.baro),
+            (Stream::Star, st.star),
+        ] {
+            let reported = self
+                .sink
+                .events
+                .iter()
+                .filter(|e| matches!(e, Event::AidUpdate { stream: s, .. } if *s == stream))
+                .count() as u64;
+            if reported != c.accepted + c.rejected_gate {
+                return Err(format!(
+                    "(b) {stream:?}: {reported} updates reported, {} gated ({c:?})",
+                    c.accepted + c.rejected_gate
                 ));
             }
         }
@@ -1353,6 +1380,36 @@ fn flood_of_10000_aids_half_a_second_ahead() {
 
 /// Aids waiting in the queue for the IMU have been received: `status()`
 /// must count them (as it counts the held time-jump candidates).
+/// A disabled aid's samples are counted as not used and reported as no
+/// update: `Event::AidUpdate` (batch's `/aid/*` messages, eval's gate
+/// statistics) comes only from a sample that reached the gate. It used to
+/// come for every sample the navigator did not refuse, disabled or undone
+/// as invalid, repeating the aid's last status (all zero here).
+#[test]
+fn a_disabled_aid_reports_no_update() {
+    let mut settings = SessionSettings::default();
+    settings.navigator.aids.cns = false;
+    settings.navigator.aids.star = false;
+    let mut h = Harness::with_settings(Truth { speed_mps: 200.0 }, settings);
+    h.genuine(2000).expect("genuine flight");
+    h.finish().expect("finish");
+    let st = h.session.status();
+    assert!(st.cns.not_used >= 40 && st.star.not_used >= 40, "{st:?}");
+    assert!(st.baro.accepted >= 150, "{:?}", st.baro);
+    let updates = |stream| {
+        h.sink
+            .events
+            .iter()
+            .filter(|e| matches!(e, Event::AidUpdate { stream: s, .. } if *s == stream))
+            .count()
+    };
+    assert_eq!((updates(Stream::Cns), updates(Stream::Star)), (0, 0));
+    assert_eq!(
+        updates(Stream::Baro) as u64,
+        st.baro.accepted + st.baro.rejected_gate
+    );
+}
+
 #[test]
 fn queued_aid_is_counted_as_received() {
     let mut h = started(0.0);

@@ -151,6 +151,7 @@ impl Navigator {
         let Some(out) = self.err.update(m, gate) else {
             self.control_mut(which).rejected_invalid();
             return AidOutcome {
+                gated: false,
                 fused: false,
                 test_ratio: f64::NAN,
                 excluded_body: None,
@@ -173,6 +174,7 @@ impl Navigator {
             self.maybe_reset(which, t_ns, m);
         }
         AidOutcome {
+            gated: true,
             fused: out.fused,
             test_ratio: out.test_ratio,
             excluded_body: None,
@@ -319,6 +321,7 @@ impl Navigator {
         if !enabled {
             self.control_mut(which).counters.not_used += 1;
             return Ok(AidOutcome {
+                gated: false,
                 fused: false,
                 test_ratio: f64::NAN,
                 excluded_body: None,

@@ -118,6 +118,10 @@ pub struct ImuOutcome {
 /// Outcome of one aid sample that reached the gate.
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct AidOutcome {
+    /// The measurement reached its gate and the aid's status records it
+    /// (fused or rejected there): false for a disabled aid (not used) and
+    /// for an update undone as invalid, which leave the status as it was.
+    pub gated: bool,
     pub fused: bool,
     pub test_ratio: f64,
     /// SRS only: the body excluded by fault detection.
