@@ -19,7 +19,7 @@
 //! | `/tf/polar` | `foxglove.FrameTransform` `ecef` → `polar_north`, `polar_south` | every 5 s |
 //! | `/track` | `foxglove.SceneUpdate`: poles, switch latitudes, solution and truth tracks | 1 point/s |
 //! | `/status` | `polarnav.Status` | status records |
-//! | `/aid/srs`, `/aid/cns`, `/aid/baro`, `/aid/star` | `polarnav.AidUpdate` (innovation in the aid's one unit) | each gated update, or status |
+//! | `/aid/srs`, `/aid/cns`, `/aid/baro`, `/aid/star` | `polarnav.AidUpdate` (innovation in the aid's one unit) | each gated update (batch), each new one a status reports (recording, export, live view) |
 //! | `/events/switch` | `polarnav.SwitchNote` | a frame change between solutions |
 //! | `/events` | `foxglove.Log` | the same switch as a line for Foxglove's Log panel |
 //! | `/truth`, `/truth/fix` | `polarnav.Truth` with geodetic position; `foxglove.LocationFix` | truth records |
@@ -372,6 +372,11 @@ pub struct FlightChannels {
     /// does not clear, so it is turned into metres in the frame and at the
     /// position of the update, not of the status.
     aid_made: [(u64, Option<UpdateAt>); 4],
+    /// With [`AidSource::Status`], per aid: the gated count and the
+    /// innovation of the update last put on its `/aid/*` channel, so that a
+    /// status repeating it (every status until the next update: ten times
+    /// for a 0.1 Hz aid and 1 Hz status) does not put it there again.
+    aid_logged: [Option<(u64, [u64; 3])>; 4],
     /// Added to every `t_ns` to make a log time (the UTC epoch of sensor time 0, or 0).
     epoch_ns: u64,
     /// Sensor time of the last solution drawn on the display channels
@@ -517,6 +522,7 @@ impl FlightChannels {
             epoch_ns: 0,
             last_display_ns: None,
             aid_made: [(0, None); 4],
+            aid_logged: [None; 4],
         }
     }
 
@@ -620,6 +626,7 @@ impl FlightChannels {
             }
             Feed::Status => {
                 self.status.close();
+                self.aid_logged = [None; 4];
                 for a in &mut self.aid {
                     a.close();
                 }
@@ -764,7 +771,8 @@ impl FlightChannels {
     }
 
     /// A status record: `/status`, and with [`AidSource::Status`] the last
-    /// update of each aid that has had one.
+    /// update of each aid that has had one, when it is new since the
+    /// previous status (its gated count or its innovation changed).
     ///
     /// Each aid's innovation is turned into its unit where it was made:
     /// with [`AidSource::Updates`], as [`Self::aid_update`] recorded it;
@@ -788,7 +796,11 @@ impl FlightChannels {
                 (AidTopic::Baro, &st.baro_aid, &st.baro),
                 (AidTopic::Star, &st.star_aid, &st.star),
             ] {
-                if c.accepted + c.rejected_gate > 0 {
+                let n = c.accepted + c.rejected_gate;
+                let key = Some((n, a.innovation.map(f64::to_bits)));
+                let logged = &mut self.aid_logged[topic as usize];
+                if n > 0 && *logged != key {
+                    *logged = key;
                     let where_ = made[topic as usize];
                     self.aid[topic as usize].log(ctx, at, || {
                         convert::aid_update(st.t_ns, topic.aid(), a, where_)
@@ -1041,6 +1053,58 @@ mod tests {
                 "/track"
             ]
         );
+        std::fs::remove_dir_all(&dir).ok();
+    }
+
+    /// From status records (a recording), an aid's update goes on its
+    /// `/aid/*` channel once, at the first status that reports it, not at
+    /// every status until the next update: eval counts each message of
+    /// the channel as one gated update. A new count, or a new innovation
+    /// at the same count (a restarted daemon), is a new update.
+    #[test]
+    fn from_status_records_each_update_is_logged_once() {
+        let dir = std::env::temp_dir().join(format!("polarnav-aid-once-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let path = dir.join("status.mcap");
+        let mut m = McapFile::create(&path, AidSource::Status).unwrap();
+        m.channels().solution(&solution(1));
+        let status = |k: u64, star: u64, innovation: f64| {
+            let mut st = Status {
+                t_ns: k * 1_000_000_000,
+                ..Status::default()
+            };
+            st.star.accepted = star;
+            st.star_aid.innovation = [innovation, 0.0, 0.0];
+            st.star_aid.innovation_var = [1.0; 3];
+            st.star_aid.fused = 1;
+            st
+        };
+        // A 0.1 Hz star tracker under 1 Hz status, then a restart whose
+        // first update has the count the old run had.
+        let mut expected = Vec::new();
+        for k in 0..30u64 {
+            let (n, innovation) = if k < 25 {
+                (k / 10, 1.0 + (k / 10) as f64)
+            } else {
+                (1, 9.0)
+            };
+            m.channels().status(&status(k, n, innovation));
+            if n > 0 && expected.last() != Some(&innovation) {
+                expected.push(innovation);
+            }
+        }
+        assert_eq!(expected, [2.0, 3.0, 9.0]);
+        m.close().unwrap();
+        let bytes = std::fs::read(&path).unwrap();
+        let mut got = Vec::new();
+        for msg in mcap::MessageStream::new(&bytes).unwrap() {
+            let msg = msg.unwrap();
+            if msg.channel.topic == "/aid/star" {
+                let u = <pb::AidUpdate as prost::Message>::decode(&msg.data[..]).unwrap();
+                got.push(u.innovation_rad[0]);
+            }
+        }
+        assert_eq!(got, expected);
         std::fs::remove_dir_all(&dir).ok();
     }
 

@@ -42,6 +42,22 @@ pub struct AidPoint {
 }
 
 impl AidPoint {
+    /// Equal to `other` bit for bit in every field (NaN test ratios too).
+    fn same_bits(&self, other: &Self) -> bool {
+        let bits = |p: &Self| {
+            (
+                p.t_ns,
+                p.innovation.map(f64::to_bits),
+                p.innovation_var.map(f64::to_bits),
+                p.test_ratio.to_bits(),
+                p.fused,
+                p.physical,
+                p.made_in_frame,
+            )
+        };
+        bits(self) == bits(other)
+    }
+
     /// The update a protobuf `polarnav.AidUpdate` of channel `topic`
     /// carries. Its innovation must be in the pair of fields of that aid's
     /// unit (`/aid/srs` in m/s, `/aid/cns` and `/aid/baro` in m, `/aid/star`
@@ -160,6 +176,18 @@ pub const BIAS_SIGMA_FIELDS: [&str; 2] = ["sigma_gyro_bias_rps", "sigma_accel_bi
 /// The longest MCAP record (a chunk, compressed or decompressed) eval reads.
 pub const MAX_MCAP_RECORD_BYTES: usize = 64 << 20;
 
+/// How many times its size a file's messages may expand to (chunk
+/// decompression), beyond [`MCAP_EXPANSION_ALLOWANCE`]: polarnav's zstd
+/// chunks expand about 2.4 times, JSON ones of earlier versions less than
+/// 10. More is a file made to expand (a few kilobytes of one repeated
+/// message that would decode to gigabytes of rows), refused before it does.
+pub const MAX_MCAP_EXPANSION: u64 = 32;
+/// Message bytes any file may hold whatever its size.
+pub const MCAP_EXPANSION_ALLOWANCE: u64 = 1 << 20;
+/// The bytes of a message record besides its data (opcode, length, channel,
+/// sequence, log and publish time).
+const MESSAGE_RECORD_OVERHEAD: u64 = 31;
+
 /// True for a file named `*.mcap`.
 pub fn is_mcap(p: &Path) -> bool {
     p.extension()
@@ -258,6 +286,18 @@ pub fn load(path: &Path) -> Result<Loaded, String> {
     let (rows, bias_sigma) = both.into_iter().unzip();
     for v in [&mut aids.srs, &mut aids.cns, &mut aids.baro, &mut aids.star] {
         v.sort_by_key(|a| a.t_ns);
+        // Recordings' MCAP files written before each update went on its
+        // channel once repeat the last update at every status (1 Hz) until
+        // the next one: a point equal to the one before it in everything
+        // but its time is that same update. Two distinct updates equal to
+        // the bit in innovation, σ and test ratio do not occur.
+        v.dedup_by(|later, earlier| {
+            AidPoint {
+                t_ns: earlier.t_ns,
+                ..*later
+            }
+            .same_bits(earlier)
+        });
     }
     Ok(Loaded {
         rows,
@@ -287,6 +327,11 @@ pub fn for_each_message(
 ) -> Result<(), String> {
     let p = path.display();
     let mut file = std::fs::File::open(path).map_err(|e| format!("{p}: {e}"))?;
+    let size = file.metadata().map_err(|e| format!("{p}: {e}"))?.len();
+    let limit = size
+        .saturating_mul(MAX_MCAP_EXPANSION)
+        .saturating_add(MCAP_EXPANSION_ALLOWANCE);
+    let mut expanded = 0u64;
     let mut channel_of: HashMap<u16, (String, String)> = HashMap::new();
     let mut reader = LinearReader::new_with_options(
         LinearReaderOptions::default().with_record_length_limit(MAX_MCAP_RECORD_BYTES),
@@ -305,6 +350,16 @@ pub fn for_each_message(
                         channel_of.insert(c.id, (c.topic, c.message_encoding));
                     }
                     Record::Message { header, data } => {
+                        expanded =
+                            expanded.saturating_add(data.len() as u64 + MESSAGE_RECORD_OVERHEAD);
+                        if expanded > limit {
+                            return Err(format!(
+                                "{p}: MCAP: its messages expand to more than {limit} bytes, \
+                                 {MAX_MCAP_EXPANSION} times the file's {size} (and {MCAP_EXPANSION_ALLOWANCE} more): \
+                                 not a file of polarnav's (whose chunks expand about 2.4 times); \
+                                 refused before it fills memory"
+                            ));
+                        }
                         let (topic, encoding) = channel_of
                             .get(&header.channel_id)
                             .map_or(("", ""), |(t, e)| (t.as_str(), e.as_str()));
@@ -642,6 +697,20 @@ mod tests {
     /// A small MCAP file with one `/solution` channel of `encoding` and the
     /// given messages.
     fn mcap_with(name: &str, encoding: &str, messages: &[Vec<u8>]) -> std::path::PathBuf {
+        mcap_of(
+            name,
+            encoding,
+            &[("/solution", "polarnav.Solution", messages)],
+        )
+    }
+
+    /// A small MCAP file with channels (topic, schema name, messages) of
+    /// `encoding`, their messages in turn, logged 1 ns apart.
+    fn mcap_of(
+        name: &str,
+        encoding: &str,
+        channels: &[(&str, &str, &[Vec<u8>])],
+    ) -> std::path::PathBuf {
         let p =
             std::env::temp_dir().join(format!("polarnav-sf-{}-{name}.mcap", std::process::id()));
         let mut w = mcap::WriteOptions::new()
@@ -650,28 +719,141 @@ mod tests {
                 std::fs::File::create(&p).expect("create"),
             ))
             .expect("writer");
-        let schema = w
-            .add_schema("polarnav.Solution", encoding, pb::FILE_DESCRIPTOR_SET)
-            .expect("schema");
-        let ch = w
-            .add_channel(
-                schema,
-                "/solution",
-                encoding,
-                &std::collections::BTreeMap::new(),
-            )
-            .expect("channel");
-        for (k, m) in messages.iter().enumerate() {
-            let header = mcap::records::MessageHeader {
-                channel_id: ch,
-                sequence: k as u32 + 1,
-                log_time: k as u64,
-                publish_time: k as u64,
-            };
-            w.write_to_known_channel(&header, m).expect("message");
+        let mut t = 0;
+        for (topic, schema_name, messages) in channels {
+            let schema = w
+                .add_schema(schema_name, encoding, pb::FILE_DESCRIPTOR_SET)
+                .expect("schema");
+            let ch = w
+                .add_channel(schema, topic, encoding, &std::collections::BTreeMap::new())
+                .expect("channel");
+            for (k, m) in messages.iter().enumerate() {
+                let header = mcap::records::MessageHeader {
+                    channel_id: ch,
+                    sequence: k as u32 + 1,
+                    log_time: t,
+                    publish_time: t,
+                };
+                t += 1;
+                w.write_to_known_channel(&header, m).expect("message");
+            }
         }
         w.finish().expect("finish");
         p
+    }
+
+    /// A few kilobytes of zstd chunks of one repeated `/solution` (a
+    /// decompression bomb: here 40 MB of messages) are refused, naming the
+    /// file, once the messages pass 32 times its size; the same messages
+    /// in a file that is their own size are read.
+    #[test]
+    fn a_file_that_expands_beyond_32_times_its_size_is_refused() {
+        let s = Solution {
+            t_ns: 1,
+            lat_rad: 1.2,
+            h_m: 100.0,
+            q_b_e: [1.0, 0.0, 0.0, 0.0],
+            ..Default::default()
+        };
+        let one = prost::Message::encode_to_vec(&pb::Solution::from_wire(&s));
+        let messages = vec![one.clone(); 40_000_000 / (one.len() + 31)];
+        let write = |name: &str, compression| {
+            let p = std::env::temp_dir()
+                .join(format!("polarnav-sf-{}-{name}.mcap", std::process::id()));
+            // Large chunks without message indexes: what a bomb would be.
+            let mut w = mcap::WriteOptions::new()
+                .compression(compression)
+                .chunk_size(Some(32 << 20))
+                .emit_message_indexes(false)
+                .create(std::io::BufWriter::new(
+                    std::fs::File::create(&p).expect("create"),
+                ))
+                .expect("writer");
+            let schema = w
+                .add_schema("polarnav.Solution", "protobuf", pb::FILE_DESCRIPTOR_SET)
+                .expect("schema");
+            let ch = w
+                .add_channel(
+                    schema,
+                    "/solution",
+                    "protobuf",
+                    &std::collections::BTreeMap::new(),
+                )
+                .expect("channel");
+            for m in &messages {
+                let header = mcap::records::MessageHeader {
+                    channel_id: ch,
+                    sequence: 0,
+                    log_time: 0,
+                    publish_time: 0,
+                };
+                w.write_to_known_channel(&header, m).expect("message");
+            }
+            w.finish().expect("finish");
+            p
+        };
+        let bomb = write("bomb", Some(mcap::Compression::Zstd));
+        let size = std::fs::metadata(&bomb).unwrap().len();
+        assert!(size < 2_000_000, "the bomb is {size} bytes");
+        let e = load(&bomb).expect_err("refused");
+        assert!(
+            e.contains(&bomb.display().to_string()) && e.contains("expand"),
+            "{e}"
+        );
+        let _ = std::fs::remove_file(&bomb);
+        let plain = write("plain", None);
+        assert_eq!(load(&plain).expect("read").rows.len(), messages.len());
+        let _ = std::fs::remove_file(&plain);
+    }
+
+    /// A recording's MCAP written before each update went on its channel
+    /// once repeats an aid's last update at every status until the next:
+    /// each is read as one update, a new one (another innovation, test
+    /// ratio or verdict) as another.
+    #[test]
+    fn an_update_repeated_by_status_records_is_read_once() {
+        let s = Solution {
+            t_ns: 1,
+            lat_rad: 1.2,
+            h_m: 100.0,
+            q_b_e: [1.0, 0.0, 0.0, 0.0],
+            ..Default::default()
+        };
+        let solution = [prost::Message::encode_to_vec(&pb::Solution::from_wire(&s))];
+        let update = |t_ns: u64, innovation: f64, fused: bool| {
+            prost::Message::encode_to_vec(&pb::AidUpdate {
+                t_ns,
+                innovation_rad: vec![innovation, 0.0, 0.0],
+                innovation_sigma_rad: vec![1e-5; 3],
+                test_ratio: 0.5,
+                fused,
+                ..Default::default()
+            })
+        };
+        // Status at 1 Hz, star tracker at 0.1 Hz; the third update has the
+        // second's innovation but was rejected.
+        let mut star = Vec::new();
+        for k in 0..30u64 {
+            let (innovation, fused) = match k {
+                0..10 => (1e-5, true),
+                10..20 => (2e-5, true),
+                _ => (2e-5, false),
+            };
+            star.push(update(k * 1_000_000_000, innovation, fused));
+        }
+        let p = mcap_of(
+            "repeated",
+            "protobuf",
+            &[
+                ("/solution", "polarnav.Solution", &solution),
+                ("/aid/star", "polarnav.AidUpdate", &star),
+            ],
+        );
+        let l = load(&p).expect("load");
+        let star = l.aids.expect("aids").star;
+        let t: Vec<u64> = star.iter().map(|a| a.t_ns).collect();
+        assert_eq!(t, [0, 10_000_000_000, 20_000_000_000]);
+        let _ = std::fs::remove_file(&p);
     }
 
     /// Protobuf `/solution` messages read back to the wire solution (angles
