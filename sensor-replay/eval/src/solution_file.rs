@@ -426,6 +426,28 @@ pub struct CsvRows {
 /// Lines parsed per chunk.
 const CHUNK_LINES: usize = 1 << 14;
 
+/// The longest line a solution CSV may have (a row is under 1 KiB, the
+/// header under 2 KiB): a longer one is refused when it is that long, so a
+/// large file without line ends is not read whole into one line.
+pub const MAX_CSV_LINE_BYTES: u64 = 64 << 10;
+
+/// One line of `reader` into `line` (appended), at most
+/// [`MAX_CSV_LINE_BYTES`]; the bytes read (0 at the end of the file).
+fn read_bounded_line(
+    reader: &mut impl std::io::BufRead,
+    line: &mut String,
+) -> std::io::Result<usize> {
+    use std::io::{BufRead as _, Read as _};
+    let n = reader.take(MAX_CSV_LINE_BYTES + 1).read_line(line)?;
+    if n as u64 > MAX_CSV_LINE_BYTES {
+        return Err(std::io::Error::new(
+            std::io::ErrorKind::InvalidData,
+            format!("a line longer than {MAX_CSV_LINE_BYTES} bytes"),
+        ));
+    }
+    Ok(n)
+}
+
 impl CsvRows {
     /// Opens `path` and checks its header (an error names the file, and the
     /// file's kind when it is a navlog, MCAP or binary data).
@@ -442,7 +464,7 @@ impl CsvRows {
             return Err(solution_csv::ReadCsvError::Mcap { path: p }.to_string());
         }
         let mut header = String::new();
-        reader.read_line(&mut header).map_err(|e| {
+        read_bounded_line(&mut reader, &mut header).map_err(|e| {
             solution_csv::ReadCsvError::NotText {
                 path: p.clone(),
                 at: 0,
@@ -484,7 +506,6 @@ impl CsvRows {
     }
 
     fn fill(&mut self) -> Result<(), String> {
-        use std::io::BufRead;
         let first = self.next_line;
         let mut text = String::with_capacity((self.header.len() + 8) * (CHUNK_LINES + 1));
         text.push_str(&self.header);
@@ -493,7 +514,7 @@ impl CsvRows {
         let mut line = String::new();
         for _ in 0..CHUNK_LINES {
             line.clear();
-            let n = self.reader.read_line(&mut line).map_err(|e| {
+            let n = read_bounded_line(&mut self.reader, &mut line).map_err(|e| {
                 format!(
                     "{}:{}: {e} (a solution CSV is UTF-8 text)",
                     self.path, self.next_line
@@ -691,6 +712,32 @@ mod tests {
         let _ = std::fs::remove_file(&p);
         let p = write("text", b"t_s,frame\n1,g\n");
         assert!(load(&p).is_err());
+        let _ = std::fs::remove_file(&p);
+    }
+
+    /// A file without line ends (a renamed binary or a damaged copy) is
+    /// refused at the first line longer than 64 KiB, in the header or in
+    /// a row, naming the file and the line, not read whole into one line.
+    #[test]
+    fn a_line_longer_than_64_kib_is_refused_naming_the_line() {
+        let p = write("long-header", &vec![b'a'; 4 << 20]);
+        let e = CsvRows::open(&p).expect_err("no header");
+        assert!(
+            e.contains(&p.display().to_string()) && e.contains("longer than 65536 bytes"),
+            "{e}"
+        );
+        let _ = std::fs::remove_file(&p);
+        let mut text = format!("{}\n", polarnav::solution_csv::HEADER).into_bytes();
+        text.extend(std::iter::repeat_n(b'1', 4 << 20));
+        let p = write("long-row", &text);
+        let e = CsvRows::open(&p)
+            .expect("the header is whole")
+            .find_map(Result::err)
+            .expect("the row is refused");
+        assert!(
+            e.contains(&format!("{}:2:", p.display())) && e.contains("longer than 65536 bytes"),
+            "{e}"
+        );
         let _ = std::fs::remove_file(&p);
     }
 
