@@ -727,7 +727,7 @@ mod tests {
             "{e}"
         );
         let _ = std::fs::remove_file(&p);
-        let mut text = format!("{}\n", polarnav::solution_csv::HEADER).into_bytes();
+        let mut text = format!("{}\n", solution_csv::HEADER).into_bytes();
         text.extend(std::iter::repeat_n(b'1', 4 << 20));
         let p = write("long-row", &text);
         let e = CsvRows::open(&p)
