@@ -33,6 +33,9 @@ use mcap::records::{MessageHeader, Metadata};
 
 /// A batch is sent to the writer when its messages reach this many bytes.
 pub const BATCH_BYTES: usize = 256 << 10;
+/// ... or when it holds this many messages (empty messages, which add no
+/// bytes, would otherwise grow its list of entries until a flush).
+pub const BATCH_MESSAGES: usize = BATCH_BYTES / 32;
 /// Batches in flight (being filled, queued, being written) at most.
 pub const BATCHES: usize = 6;
 /// The zstd level of the chunks. The writer thread is the slower of the
@@ -120,7 +123,7 @@ impl Batch {
     fn with_capacity() -> Self {
         Self {
             bytes: Vec::with_capacity(BATCH_BYTES + (64 << 10)),
-            entries: Vec::with_capacity(BATCH_BYTES / 64),
+            entries: Vec::with_capacity(BATCH_MESSAGES),
         }
     }
 
@@ -240,7 +243,7 @@ impl FileWriter {
             log_ns,
             end: self.batch.bytes.len(),
         });
-        if self.batch.bytes.len() >= BATCH_BYTES {
+        if self.batch.bytes.len() >= BATCH_BYTES || self.batch.entries.len() >= BATCH_MESSAGES {
             self.send_batch();
         }
     }
@@ -703,17 +706,22 @@ mod tests {
             (0.0f64..64.0).prop_map(|e| e.exp2() as u64),
         ];
         let msg = (0u16..5, size, time, any::<u8>());
+        // Runs of empty messages, longer than a batch holds.
+        let run = prop_oneof![Just(0usize), Just(BATCH_MESSAGES + 7)];
         let (dir, path) = temp_file("prop", "prop.mcap");
         proptest!(ProptestConfig::with_cases(24), |(
             channels in 1u16..=5,
             msgs in proptest::collection::vec(msg, 0..120),
             flush_every in 1usize..200,
+            empties in run,
         )| {
             let mut w = FileWriter::create(&path).unwrap();
             for c in 0..channels {
                 w.add_channel(&format!("/t{c}"), "protobuf", schema());
             }
             let mut sent = Vec::new();
+            let empty = std::iter::repeat_n((0u16, 0usize, 5u64, 0u8), empties);
+            let msgs: Vec<_> = empty.chain(msgs.iter().copied()).collect();
             for (k, (c, len, t, fill)) in msgs.iter().enumerate() {
                 let c = c % channels;
                 w.log(c, *t, |buf| {
@@ -722,6 +730,7 @@ mod tests {
                 });
                 sent.push((c, *len, *fill, *t));
                 prop_assert!(w.made <= BATCHES);
+                prop_assert!(w.batch.entries.len() < BATCH_MESSAGES);
                 if k % flush_every == flush_every - 1 {
                     w.flush().unwrap();
                 }
