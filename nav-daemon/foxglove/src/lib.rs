@@ -626,7 +626,10 @@ impl FlightChannels {
             }
             Feed::Status => {
                 self.status.close();
+                // A daemon that comes back counts from 0 again: nothing of
+                // the old one's updates is carried over to its statuses.
                 self.aid_logged = [None; 4];
+                self.aid_made = [(0, None); 4];
                 for a in &mut self.aid {
                     a.close();
                 }
@@ -1149,6 +1152,13 @@ mod tests {
         said.cns.accepted = 8;
         said.cns_aid.made_in_frame = AidStatus::made_in_frame_of(WireFrame::Grid);
         assert_eq!(c.aids_made(&said)[1].frame, 1);
+        // The daemon goes away and a new one comes at 1.3 rad whose first
+        // status has the old one's count by chance: its update is placed
+        // where it now is, not where the old one's was.
+        c.withdraw(Feed::Status);
+        c.solution(&sol(1, 1.3));
+        let m = c.aids_made(&status(1, 8))[1];
+        assert_eq!((m.frame, m.lat_rad), (1, 1.3));
 
         let ctx = Context::new();
         let mut b = FlightChannels::new_live(&ctx, AidSource::Updates, None);
