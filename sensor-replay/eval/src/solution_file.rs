@@ -789,12 +789,8 @@ mod tests {
         p
     }
 
-    /// A few kilobytes of zstd chunks of one repeated `/solution` (a
-    /// decompression bomb: here 40 MB of messages) are refused, naming the
-    /// file, once the messages pass 32 times its size; the same messages
-    /// in a file that is their own size are read.
-    #[test]
-    fn a_file_that_expands_beyond_32_times_its_size_is_refused() {
+    /// One protobuf `/solution` at 1 ns.
+    fn one_solution() -> Vec<u8> {
         let s = Solution {
             t_ns: 1,
             lat_rad: 1.2,
@@ -802,7 +798,16 @@ mod tests {
             q_b_e: [1.0, 0.0, 0.0, 0.0],
             ..Default::default()
         };
-        let one = prost::Message::encode_to_vec(&pb::Solution::from_wire(&s));
+        prost::Message::encode_to_vec(&pb::Solution::from_wire(&s))
+    }
+
+    /// A few kilobytes of zstd chunks of one repeated `/solution` (a
+    /// decompression bomb: here 40 MB of messages) are refused, naming the
+    /// file, once the messages pass 32 times its size; the same messages
+    /// in a file that is their own size are read.
+    #[test]
+    fn a_file_that_expands_beyond_32_times_its_size_is_refused() {
+        let one = one_solution();
         let messages = vec![one.clone(); 40_000_000 / (one.len() + 31)];
         let write = |name: &str, compression| {
             let p = std::env::temp_dir()
@@ -859,14 +864,7 @@ mod tests {
     /// ratio or verdict) as another.
     #[test]
     fn an_update_repeated_by_status_records_is_read_once() {
-        let s = Solution {
-            t_ns: 1,
-            lat_rad: 1.2,
-            h_m: 100.0,
-            q_b_e: [1.0, 0.0, 0.0, 0.0],
-            ..Default::default()
-        };
-        let solution = [prost::Message::encode_to_vec(&pb::Solution::from_wire(&s))];
+        let solution = [one_solution()];
         let update = |t_ns: u64, innovation: f64, fused: bool| {
             prost::Message::encode_to_vec(&pb::AidUpdate {
                 t_ns,
