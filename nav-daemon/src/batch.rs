@@ -193,6 +193,16 @@ impl<W: Write> Sink for CsvSink<'_, W> {
     fn tape(&mut self, records: &[u8]) {
         if let Some(sm) = &mut self.smoother {
             sm.records(records);
+            // The temporary file failed (a full disk): the run stops here,
+            // not hours later at the backward pass.
+            if let Some(e) = sm.failed()
+                && self.error.is_none()
+            {
+                self.error = Some(std::io::Error::new(
+                    e.kind(),
+                    format!("the smoother's temporary file: {e}"),
+                ));
+            }
         }
     }
 

@@ -643,7 +643,13 @@ impl<S: ChunkStore> Smoother<S> {
     }
 
     /// The filter's records since the last call (whole records, in order).
+    /// After a chunk could not be stored ([`Self::failed`]) nothing more is
+    /// kept: the backward pass cannot run, and a tape growing in memory
+    /// instead of the full disk would end a long flight out of memory.
     pub fn records(&mut self, bytes: &[u8]) {
+        if self.error.is_some() {
+            return;
+        }
         if self.newest.capacity() == 0 {
             // One allocation per chunk (records arrive a few hundred bytes
             // at a time; doubling would copy each chunk twice on average).
@@ -653,7 +659,7 @@ impl<S: ChunkStore> Smoother<S> {
         }
         self.newest.extend_from_slice(bytes);
         self.bytes += bytes.len() as u64;
-        if self.newest.len() < self.chunk_bytes || self.error.is_some() {
+        if self.newest.len() < self.chunk_bytes {
             return;
         }
         let in_memory = self.memory.len() * self.chunk_bytes;
@@ -671,6 +677,13 @@ impl<S: ChunkStore> Smoother<S> {
             }
             Err(e) => self.error = Some(e),
         }
+    }
+
+    /// The failure to store a chunk of the tape, if one happened: the
+    /// smoother keeps nothing more and [`Self::finish`] returns it, so a
+    /// driver can stop the forward pass at once instead of at its end.
+    pub fn failed(&self) -> Option<&std::io::Error> {
+        self.error.as_ref()
     }
 
     /// The backward pass: `out` receives every smoothed solution in time
@@ -809,6 +822,43 @@ mod tests {
             }
         }
         p
+    }
+
+    /// A store that fails every write (a full disk).
+    struct FullDisk;
+    impl ChunkStore for FullDisk {
+        fn put(&mut self, _k: usize, _bytes: &[u8]) -> std::io::Result<()> {
+            Err(std::io::Error::from(std::io::ErrorKind::StorageFull))
+        }
+        fn get(&mut self, _k: usize, _buf: &mut Vec<u8>) -> std::io::Result<()> {
+            Err(std::io::Error::other("nothing was stored"))
+        }
+    }
+
+    /// When a chunk cannot be stored, the smoother says so at once and
+    /// keeps nothing more: 100 MB of tape offered after the failure leave
+    /// less than a chunk in memory (they all stayed there before), and the
+    /// backward pass returns the store's error.
+    #[test]
+    fn a_full_disk_is_reported_at_once_and_the_tape_stops_growing() {
+        let chunk = 64 << 10;
+        let mut sm = Smoother::with_limits(FullDisk, chunk, 0, 0);
+        let piece = vec![0u8; 4096];
+        let mut first_failure = None;
+        for k in 0..(100_000_000 / piece.len()) {
+            sm.records(&piece);
+            if first_failure.is_none() && sm.failed().is_some() {
+                first_failure = Some(k);
+            }
+        }
+        assert_eq!(first_failure, Some(chunk / piece.len() - 1));
+        assert_eq!(
+            sm.failed().map(std::io::Error::kind),
+            Some(std::io::ErrorKind::StorageFull)
+        );
+        assert!(sm.newest.len() <= chunk, "{} bytes kept", sm.newest.len());
+        let e = sm.finish(|_| Ok(())).expect_err("no backward pass");
+        assert_eq!(e.kind(), std::io::ErrorKind::StorageFull);
     }
 
     /// The backward pass over a closed-loop filter's tape on a linear
