@@ -553,6 +553,10 @@ impl Navigator {
         self.history.convert(to);
         if self.conversion == Conversion::Paper {
             self.err.convert(to, &before);
+        } else {
+            // The error state keeps the old frame's axes: the smoother
+            // cannot carry its backward state across this switch.
+            self.err.tape_break();
         }
         // The aids' innovations change axes with the frame.
         self.aids.clear_streaks();
