@@ -355,6 +355,22 @@ fn absurd_solution_files_are_refused_naming_file_and_line() {
         assert!(err.contains(name) && err.contains(want), "{name}: {err}");
         assert!(!err.contains("panicked"), "{name}: {err}");
     }
+    // The same NaN time in the reference: refused naming it, not a join
+    // that stops there and leaves every later row unmatched.
+    let c = logfile::load(&log).expect("load");
+    let e = review::review(
+        &c,
+        &review::Options {
+            solution: &csv,
+            reference: Some(&dir.join("nan.csv")),
+            out: None,
+        },
+    )
+    .expect_err("a reference with a NaN time");
+    assert!(
+        e.contains("nan.csv") && e.contains("row 2 has a non-finite time"),
+        "{e}"
+    );
     // A BOM, one row and a duplicated stamp are fine.
     let p = dir.join("bom.csv");
     std::fs::write(&p, format!("\u{feff}{header}\n{row}\n{row}\n")).expect("write");

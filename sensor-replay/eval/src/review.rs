@@ -115,9 +115,12 @@ pub struct NisTest {
 /// above [`REJECTED_MAX`] is too optimistic on its own (the gate hides the
 /// large NIS of an overconfident model).
 pub fn nis_test(nis: &[(f64, bool)], dim: usize) -> Option<NisTest> {
+    // An infinite NIS (a variance so small its square overflows) is the
+    // most overconfident update there is: it counts, and its mean is
+    // infinite. Only NaN (no valid component) is no update to test.
     let accepted: Vec<f64> = nis
         .iter()
-        .filter(|x| x.1 && x.0.is_finite())
+        .filter(|x| x.1 && !x.0.is_nan())
         .map(|x| x.0)
         .collect();
     let rejected = nis.iter().filter(|x| !x.1).count();
@@ -134,9 +137,9 @@ pub fn nis_test(nis: &[(f64, bool)], dim: usize) -> Option<NisTest> {
     let lo = lo95.min(m / NIS_TOLERANCE);
     let hi = hi95.max(m * NIS_TOLERANCE);
     let (a, b) = (chi2::quantile(0.025, m), chi2::quantile(0.975, m));
-    let finite: Vec<f64> = nis.iter().map(|x| x.0).filter(|x| x.is_finite()).collect();
+    let tested: Vec<f64> = nis.iter().map(|x| x.0).filter(|x| !x.is_nan()).collect();
     let inside =
-        finite.iter().filter(|&&x| x >= a && x <= b).count() as f64 / finite.len().max(1) as f64;
+        tested.iter().filter(|&&x| x >= a && x <= b).count() as f64 / tested.len().max(1) as f64;
     let rej_frac = rejected as f64 / (n + rejected) as f64;
     let verdict = if mean > hi || rej_frac > REJECTED_MAX {
         Verdict::TooOptimistic
@@ -580,6 +583,16 @@ fn stream(opts: &Options<'_>) -> Result<(Pass, Option<Aids>), String> {
                         if let Some(Err(e)) = it.next() {
                             return Err(e);
                         }
+                    }
+                    // A time that orders nowhere would stop the join here
+                    // and leave every later row unmatched without a word.
+                    Ok((x, _)) if !x.t_s.is_finite() => {
+                        return Err(format!(
+                            "{}: row {} has a non-finite time t_s = {}",
+                            rp.path,
+                            rp.rows + 1,
+                            x.t_s
+                        ));
                     }
                     Ok((x, _)) if x.t_s < row.t_s - 1e-6 => {
                         rp.rows += 1;
@@ -1137,7 +1150,9 @@ fn aid_figure<DB: DrawingBackend>(
     let mut acc = Envelope::new(1);
     let mut rej = Envelope::new(1);
     const FLOOR: f64 = -4.0;
-    for p in &s.points {
+    // A point without a NIS (no valid component) is not drawn: max() would
+    // put NaN at the floor, among the small, consistent ones.
+    for p in s.points.iter().filter(|p| !p.4.is_nan()) {
         let v = p.4.max(1e-300).log10().max(FLOOR);
         if p.3 {
             acc.push(p.0, &[v]);
@@ -1687,6 +1702,22 @@ mod tests {
         }
         assert!(nis_test(&[], 3).is_none());
         assert!(nis_test(&[(f64::NAN, true)], 1).is_none());
+        // One accepted update with an infinite NIS (innovation 1 over a
+        // variance of 1e-320) among 999 consistent ones: it counts, and it
+        // makes the aid too optimistic; it is outside the interval.
+        let mut d = draws(999, 1, 1.0);
+        let without = nis_test(&d, 1).expect("test");
+        d.push((f64::INFINITY, true));
+        let t = nis_test(&d, 1).expect("test");
+        assert_eq!(
+            (t.accepted, t.verdict),
+            (1000, Verdict::TooOptimistic),
+            "{t:?}"
+        );
+        assert!(
+            (t.inside - without.inside * 999.0 / 1000.0).abs() < 1e-12,
+            "{t:?} {without:?}"
+        );
         // Every update rejected: too optimistic, no mean.
         let t = nis_test(&[(50.0, false), (80.0, false)], 1).expect("test");
         assert_eq!(t.verdict, Verdict::TooOptimistic);
