@@ -160,6 +160,11 @@ enum Out {
     File(file::FileWriter),
 }
 
+/// Which update of an aid a status reports: its gated count and the bits
+/// of its innovation (a restarted daemon counts from 0 again).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
+struct UpdateKey(u64, [u64; 3]);
+
 /// A message type of the mapping: its schema and how it encodes.
 trait Msg {
     fn schema() -> Option<Schema>;
@@ -366,17 +371,14 @@ pub struct FlightChannels {
     last_frame: Option<u8>,
     /// Where the last solution was (frame, latitude, height).
     last_at: UpdateAt,
-    /// Per aid (SRS, CNS, baro, star): where its last innovation was made,
-    /// and its gated count (accepted + rejected at the gate) then. A
-    /// status record repeats the last innovation, which a frame switch
-    /// does not clear, so it is turned into metres in the frame and at the
-    /// position of the update, not of the status.
-    aid_made: [(u64, Option<UpdateAt>); 4],
-    /// With [`AidSource::Status`], per aid: the gated count and the
-    /// innovation of the update last put on its `/aid/*` channel, so that a
-    /// status repeating it (every status until the next update: ten times
-    /// for a 0.1 Hz aid and 1 Hz status) does not put it there again.
-    aid_logged: [Option<(u64, [u64; 3])>; 4],
+    /// Per aid (SRS, CNS, baro, star): which update the last status
+    /// reported (its gated count, accepted + rejected at the gate, and its
+    /// innovation) and where that innovation was made. A status repeats
+    /// the last update until the next one (ten times for a 0.1 Hz aid and
+    /// 1 Hz status), which a frame switch does not clear: it goes on the
+    /// `/aid/*` channel once, and is turned into metres in the frame and at
+    /// the position of the update, not of the status.
+    aid_made: [(UpdateKey, Option<UpdateAt>); 4],
     /// Added to every `t_ns` to make a log time (the UTC epoch of sensor time 0, or 0).
     epoch_ns: u64,
     /// Sensor time of the last solution drawn on the display channels
@@ -521,8 +523,7 @@ impl FlightChannels {
             },
             epoch_ns: 0,
             last_display_ns: None,
-            aid_made: [(0, None); 4],
-            aid_logged: [None; 4],
+            aid_made: [(UpdateKey::default(), None); 4],
         }
     }
 
@@ -628,8 +629,7 @@ impl FlightChannels {
                 self.status.close();
                 // A daemon that comes back counts from 0 again: nothing of
                 // the old one's updates is carried over to its statuses.
-                self.aid_logged = [None; 4];
-                self.aid_made = [(0, None); 4];
+                self.aid_made = [(UpdateKey::default(), None); 4];
                 for a in &mut self.aid {
                     a.close();
                 }
@@ -789,7 +789,7 @@ impl FlightChannels {
     /// not say (the byte zero), the status's frame is taken.
     pub fn status(&mut self, st: &Status) {
         let at = at(self.epoch_ns, st.t_ns);
-        let made = self.aids_made(st);
+        let (made, new) = self.aids_made(st);
         let ctx = &mut self.out;
         self.status.log(ctx, at, || convert::status(st, made));
         if self.aid_source == AidSource::Status {
@@ -799,11 +799,7 @@ impl FlightChannels {
                 (AidTopic::Baro, &st.baro_aid, &st.baro),
                 (AidTopic::Star, &st.star_aid, &st.star),
             ] {
-                let n = c.accepted + c.rejected_gate;
-                let key = Some((n, a.innovation.map(f64::to_bits)));
-                let logged = &mut self.aid_logged[topic as usize];
-                if n > 0 && *logged != key {
-                    *logged = key;
+                if c.accepted + c.rejected_gate > 0 && new[topic as usize] {
                     let where_ = made[topic as usize];
                     self.aid[topic as usize].log(ctx, at, || {
                         convert::aid_update(st.t_ns, topic.aid(), a, where_)
@@ -813,8 +809,9 @@ impl FlightChannels {
         }
     }
 
-    /// Where each aid's innovation in `st` was made (see [`Self::status`]).
-    fn aids_made(&mut self, st: &Status) -> [UpdateAt; 4] {
+    /// Where each aid's innovation in `st` was made, and whether it is an
+    /// update the previous status did not report (see [`Self::status`]).
+    fn aids_made(&mut self, st: &Status) -> ([UpdateAt; 4], [bool; 4]) {
         let aids = [
             (&st.srs, &st.srs_aid),
             (&st.cns, &st.cns_aid),
@@ -826,18 +823,20 @@ impl FlightChannels {
             ..self.last_at
         };
         let mut made = [here; 4];
+        let mut new = [false; 4];
         for (k, (c, a)) in aids.iter().enumerate() {
-            let n = c.accepted + c.rejected_gate;
+            let key = UpdateKey(c.accepted + c.rejected_gate, a.innovation.map(f64::to_bits));
             let slot = &mut self.aid_made[k];
             let exact = self.aid_source == AidSource::Updates && slot.1.is_some();
-            if !exact && (slot.1.is_none() || slot.0 != n) {
+            new[k] = !exact && (slot.1.is_none() || slot.0 != key);
+            if new[k] {
                 // The frame the daemon says the update was made in, else the status's.
                 let frame = a.made_in().map_or(st.frame, |f| f as u8);
-                *slot = (n, Some(UpdateAt { frame, ..here }));
+                *slot = (key, Some(UpdateAt { frame, ..here }));
             }
             made[k] = slot.1.unwrap_or(here);
         }
-        made
+        (made, new)
     }
 
     /// One gated update of an aid (with [`AidSource::Updates`]), made in
@@ -1134,30 +1133,30 @@ mod tests {
             st
         };
         c.solution(&sol(0, 1.2));
-        let m = c.aids_made(&status(0, 5))[1];
+        let m = c.aids_made(&status(0, 5)).0[1];
         assert_eq!((m.frame, m.lat_rad), (0, 1.2));
         // Switched to G at 1.25 rad; no CNS update since: still g at 1.2.
         c.solution(&sol(1, 1.25));
-        let m = c.aids_made(&status(1, 5))[1];
+        let m = c.aids_made(&status(1, 5)).0[1];
         assert_eq!((m.frame, m.lat_rad), (0, 1.2));
         // A new CNS update: made in G, here.
-        let m = c.aids_made(&status(1, 6))[1];
+        let m = c.aids_made(&status(1, 6)).0[1];
         assert_eq!((m.frame, m.lat_rad), (1, 1.25));
         // An update the daemon says it made in g, reported by a status in
         // G (the switch came between them): converted in g.
         let mut said = status(1, 7);
         said.cns_aid.made_in_frame = AidStatus::made_in_frame_of(WireFrame::Geographic);
-        let m = c.aids_made(&said)[1];
+        let m = c.aids_made(&said).0[1];
         assert_eq!((m.frame, m.lat_rad), (0, 1.25));
         said.cns.accepted = 8;
         said.cns_aid.made_in_frame = AidStatus::made_in_frame_of(WireFrame::Grid);
-        assert_eq!(c.aids_made(&said)[1].frame, 1);
+        assert_eq!(c.aids_made(&said).0[1].frame, 1);
         // The daemon goes away and a new one comes at 1.3 rad whose first
         // status has the old one's count by chance: its update is placed
         // where it now is, not where the old one's was.
         c.withdraw(Feed::Status);
         c.solution(&sol(1, 1.3));
-        let m = c.aids_made(&status(1, 8))[1];
+        let m = c.aids_made(&status(1, 8)).0[1];
         assert_eq!((m.frame, m.lat_rad), (1, 1.3));
 
         let ctx = Context::new();
@@ -1174,10 +1173,10 @@ mod tests {
             lat_rad: 1.1,
             h_m: 5.0,
         };
-        assert_eq!(b.aids_made(&status(1, 9))[1], at);
+        assert_eq!(b.aids_made(&status(1, 9)).0[1], at);
         // One whose status does not say: in the last solution's frame (G).
         b.aid_update(AidTopic::Cns, 2, &AidStatus::default(), 1.2, 5.0);
-        assert_eq!(b.aids_made(&status(1, 10))[1].frame, 1);
+        assert_eq!(b.aids_made(&status(1, 10)).0[1].frame, 1);
     }
 
     /// A 100 Hz limit passes at most one message per 10 ms and counts the
