@@ -10,3 +10,17 @@ pub mod monitor;
 pub mod pieces;
 pub mod scene;
 pub mod view;
+
+/// Writes `bytes` to standard output and flushes it. `Ok(false)` when the
+/// reader stopped reading (`sensor-replay ... | head`: a broken pipe),
+/// which is not an error: the caller drops the rest and goes on or stops
+/// as it sees fit. Rust ignores SIGPIPE, so `print!` would panic there.
+pub fn write_stdout(bytes: &[u8]) -> std::io::Result<bool> {
+    use std::io::Write as _;
+    let mut out = std::io::stdout().lock();
+    match out.write_all(bytes).and_then(|()| out.flush()) {
+        Ok(()) => Ok(true),
+        Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => Ok(false),
+        Err(e) => Err(e),
+    }
+}

@@ -335,12 +335,11 @@ fn run(cli: Cli) -> Result<(), Fail> {
             Ok(())
         }
         // `sensor-replay man | head`: a reader that stopped is not an error.
-        Cmd::Man => match man(&mut std::io::stdout()) {
-            Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => {
-                Err(Fail(1, format!("man: {e}")))
-            }
-            _ => Ok(()),
-        },
+        Cmd::Man => {
+            let mut page = Vec::new();
+            man(&mut page).map_err(|e| Fail(1, format!("man: {e}")))?;
+            print_stdout(&String::from_utf8_lossy(&page))
+        }
         Cmd::Scene { mcap, out, frame } => {
             if frame != "polar_north" && frame != "polar_south" {
                 return Err(bad(format!(
@@ -905,13 +904,9 @@ fn export_mcap(
 /// are still written) and exits as it would have. Rust ignores SIGPIPE, so
 /// without this `println!` panics there.
 fn print_stdout(text: &str) -> Result<(), Fail> {
-    let mut out = std::io::stdout().lock();
-    match out.write_all(text.as_bytes()).and_then(|()| out.flush()) {
-        Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => {
-            Err(Fail(1, format!("standard output: {e}")))
-        }
-        _ => Ok(()),
-    }
+    sensor_replay::write_stdout(text.as_bytes())
+        .map(drop)
+        .map_err(|e| Fail(1, format!("standard output: {e}")))
 }
 
 /// SIGINT/SIGTERM set the returned flag (the loops finish their cycle and exit cleanly).

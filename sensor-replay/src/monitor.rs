@@ -1,6 +1,6 @@
 //! `sensor-replay listen`: the live monitor (like `px4 listener`).
 
-use std::io::{IsTerminal, Write};
+use std::io::IsTerminal;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
@@ -156,10 +156,9 @@ pub fn listen(
             window = Instant::now();
         }
         let text = update(&render(last_sol.as_ref(), last_st.as_ref(), rate), terminal);
-        let mut out = std::io::stdout().lock();
-        match out.write_all(text.as_bytes()).and_then(|()| out.flush()) {
-            Ok(()) => {}
-            Err(e) if e.kind() == std::io::ErrorKind::BrokenPipe => return Ok(()),
+        match crate::write_stdout(text.as_bytes()) {
+            Ok(true) => {}
+            Ok(false) => return Ok(()),
             Err(e) => return Err(TransportError::Io("standard output".into(), e.to_string())),
         }
     }
