@@ -135,32 +135,30 @@ fn simulate_and_export_with_standard_error_closed_finish_and_write_their_files()
 #[test]
 fn listen_into_a_closed_pipe_stops_quietly_and_into_a_full_disk_names_standard_output() {
     use std::process::Stdio;
-    use std::time::{Duration, Instant};
+    use std::time::Duration;
     // Nothing publishes on this prefix: listen writes "none yet" every 250 ms.
     let prefix = format!("sr-listen-epipe-{}", std::process::id());
     // `listen | head -0`: the reader is gone before the first block.
     let (reader, writer) = std::io::pipe().expect("pipe");
     drop(reader);
-    let mut child = Command::new(env!("CARGO_BIN_EXE_sensor-replay"))
+    let child = Command::new(env!("CARGO_BIN_EXE_sensor-replay"))
         .args(["listen", "--duration", "60", "--prefix", &prefix])
         .stdout(writer)
         .stderr(Stdio::piped())
         .spawn()
         .expect("run listen");
-    let deadline = Instant::now() + Duration::from_secs(20);
-    let status = loop {
-        if let Some(s) = child.try_wait().expect("wait") {
-            break s;
-        }
-        if Instant::now() > deadline {
-            child.kill().ok();
-            panic!("listen went on writing into a closed pipe for 20 s");
-        }
-        std::thread::sleep(Duration::from_millis(50));
+    // Its end is waited for on a thread, with a deadline here.
+    let pid = child.id();
+    let (done_tx, done) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        let _ = done_tx.send(child.wait_with_output());
+    });
+    let Ok(o) = done.recv_timeout(Duration::from_secs(20)) else {
+        let _ = Command::new("kill").arg("-9").arg(pid.to_string()).status();
+        panic!("listen went on writing into a closed pipe for 20 s");
     };
-    let mut err = String::new();
-    std::io::Read::read_to_string(&mut child.stderr.take().expect("stderr"), &mut err)
-        .expect("stderr");
+    let o = o.expect("wait");
+    let (status, err) = (o.status, String::from_utf8_lossy(&o.stderr).into_owned());
     assert_eq!(status.code(), Some(0), "{err}");
     assert!(!err.contains("panicked"), "{err}");
 
