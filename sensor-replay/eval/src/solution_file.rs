@@ -42,11 +42,11 @@ pub struct AidPoint {
 }
 
 impl AidPoint {
-    /// Equal to `other` bit for bit in every field (NaN test ratios too).
-    fn same_bits(&self, other: &Self) -> bool {
+    /// The same update as `other`, whatever the time it is reported at:
+    /// equal bit for bit in every other field (NaN test ratios too).
+    fn same_update(&self, other: &Self) -> bool {
         let bits = |p: &Self| {
             (
-                p.t_ns,
                 p.innovation.map(f64::to_bits),
                 p.innovation_var.map(f64::to_bits),
                 p.test_ratio.to_bits(),
@@ -291,13 +291,7 @@ pub fn load(path: &Path) -> Result<Loaded, String> {
         // the next one: a point equal to the one before it in everything
         // but its time is that same update. Two distinct updates equal to
         // the bit in innovation, σ and test ratio do not occur.
-        v.dedup_by(|later, earlier| {
-            AidPoint {
-                t_ns: earlier.t_ns,
-                ..*later
-            }
-            .same_bits(earlier)
-        });
+        v.dedup_by(|later, earlier| later.same_update(earlier));
     }
     Ok(Loaded {
         rows,
@@ -812,7 +806,9 @@ mod tests {
         let write = |name: &str, compression| {
             let p = std::env::temp_dir()
                 .join(format!("polarnav-sf-{}-{name}.mcap", std::process::id()));
-            // Large chunks without message indexes: what a bomb would be.
+            // Large chunks without message indexes, every message stamped
+            // alike (unlike mcap_of's, whose stamps count up and leave the
+            // file a tenth of its messages): what a bomb would be.
             let mut w = mcap::WriteOptions::new()
                 .compression(compression)
                 .chunk_size(Some(32 << 20))
