@@ -6,6 +6,10 @@
 
 use std::io::IsTerminal;
 
+use tracing_journald::{Priority, PriorityMappings};
+use tracing_subscriber::layer::SubscriberExt;
+use tracing_subscriber::util::SubscriberInitExt;
+
 /// Writes one line to standard error, as `eprintln!` does, but a closed
 /// standard error (`nav-daemon batch ... 2>&1 | head`, `sensor-replay
 /// record ... 2>&1 | head`, a terminal gone) loses the line, not the run:
@@ -19,10 +23,6 @@ macro_rules! note {
         let _ = writeln!(std::io::stderr(), $($arg)*);
     }};
 }
-
-use tracing_journald::{Priority, PriorityMappings};
-use tracing_subscriber::layer::SubscriberExt;
-use tracing_subscriber::util::SubscriberInitExt;
 
 /// Where the log lines go.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
