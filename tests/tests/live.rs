@@ -440,7 +440,24 @@ fn soak(tag: &str, scenario: &str, load: &Load) -> Outcome {
         "solutions duplicated or out of order"
     );
     if load.record_all {
-        assert_eq!(live.len(), batch.len(), "the recorder lost solutions");
+        // Which ones, and the recorder's own account, to tell a start-up
+        // race from a subscriber buffer overrun under load.
+        let recorded: std::collections::HashSet<u64> = live.iter().map(|s| s.seq).collect();
+        let missing: Vec<u64> = batch
+            .iter()
+            .map(|s| s.seq)
+            .filter(|q| !recorded.contains(q))
+            .take(20)
+            .collect();
+        assert_eq!(
+            live.len(),
+            batch.len(),
+            "the recorder lost solutions, seq {missing:?} (of {}..={}); recorder: {}",
+            batch.first().map_or(0, |s| s.seq),
+            batch.last().map_or(0, |s| s.seq),
+            std::fs::read_to_string(env.dir.join("record.out")).unwrap_or_default()
+                + &std::fs::read_to_string(env.dir.join("record.err")).unwrap_or_default()
+        );
     } else {
         assert!(
             live.len() * 100 >= batch.len() * 99,
