@@ -271,10 +271,10 @@ pub fn run(records: &[Record], cfg: &NavigatorConfig, init: Option<InitState>) -
     );
     let st = session.status();
     out.switches = sink.switches;
-    out.fused = st.srs.accepted + st.cns.accepted + st.baro.accepted + st.star.accepted;
-    out.rejected = [&st.srs, &st.cns, &st.baro, &st.star]
-        .iter()
-        .map(|c| c.rejected_invalid + c.rejected_time + c.rejected_gate)
+    out.fused = st.each_aid().map(|(_, c, _)| c.accepted).sum();
+    out.rejected = st
+        .each_aid()
+        .map(|(_, c, _)| c.rejected_invalid + c.rejected_time + c.rejected_gate)
         .sum();
     out
 }

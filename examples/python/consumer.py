@@ -25,7 +25,7 @@ import time
 
 import iceoryx2 as iox2
 
-from polarnav_msgs import FLAG_IMU_LOST, FRAME_GRID, Solution, Status
+from polarnav_msgs import AIDS, FLAG_IMU_LOST, FRAME_GRID, Solution, Status
 
 
 def node_config():
@@ -120,12 +120,10 @@ def main() -> int:
                 frame = "grid" if st.frame == FRAME_GRID else "geo"
                 pos = (f"lat {math.degrees(last[1]):.6f} lon {math.degrees(last[2]):.6f} "
                        f"h {last[3]:.1f}" if last else "no solution yet")
+                aids = "".join(f"{name}={'fresh' if st.aid(name).fresh else 'stale'} "
+                               for name in AIDS)
                 print(f"status t={st.t_ns * 1e-9:.3f} s frame={frame} {pos} "
-                      f"imu={st.imu.accepted}/{st.imu.received} "
-                      f"srs={'fresh' if st.srs_aid.fresh else 'stale'} "
-                      f"cns={'fresh' if st.cns_aid.fresh else 'stale'} "
-                      f"baro={'fresh' if st.baro_aid.fresh else 'stale'} "
-                      f"star={'fresh' if st.star_aid.fresh else 'stale'} "
+                      f"imu={st.imu.accepted}/{st.imu.received} {aids}"
                       f"{'IMU_LOST ' if st.flags & FLAG_IMU_LOST else ''}"
                       f"overruns={st.overruns} solutions={received} gaps={gaps}", flush=True)
                 done = args.until_imu_accepted and st.imu.accepted >= args.until_imu_accepted

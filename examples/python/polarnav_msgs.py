@@ -28,6 +28,12 @@ FLAG_SECOND_PUBLISHER = 1 << 10
 FRAME_GEOGRAPHIC = 0
 FRAME_GRID = 1
 
+# The aids, in the order of Status.aids (the Rust declaration's, msgs/src/aids.rs:
+# the layout test holds this tuple to it). Status.streams has the IMU first.
+AIDS = ("srs", "cns", "baro", "star")
+AID_COUNT = len(AIDS)
+STREAM_COUNT = AID_COUNT + 1
+
 
 class Solution(ctypes.Structure):
     """Full navigation solution, one per filter cycle (`polarnav/solution`)."""
@@ -92,7 +98,7 @@ class StreamCounters(ctypes.Structure):
 
 
 class AidStatus(ctypes.Structure):
-    """Status of one aid (SRS, CNS, barometer or star tracker)."""
+    """Status of one aid (the same record for every aid)."""
 
     _fields_ = [
         ("innovation", V3),
@@ -119,15 +125,9 @@ class Status(ctypes.Structure):
     _fields_ = [
         ("t_ns", ctypes.c_uint64),
         ("seq", ctypes.c_uint64),
-        ("imu", StreamCounters),
-        ("srs", StreamCounters),
-        ("cns", StreamCounters),
-        ("baro", StreamCounters),
-        ("star", StreamCounters),
-        ("srs_aid", AidStatus),
-        ("cns_aid", AidStatus),
-        ("baro_aid", AidStatus),
-        ("star_aid", AidStatus),
+        # streams[0] the IMU's counters, streams[1 + k] aid k's (k an index of AIDS).
+        ("streams", StreamCounters * STREAM_COUNT),
+        ("aids", AidStatus * AID_COUNT),
         ("cycles", ctypes.c_uint64),
         ("overruns", ctypes.c_uint64),
         ("overruns_cpu", ctypes.c_uint64),
@@ -145,6 +145,18 @@ class Status(ctypes.Structure):
         ("resumed", ctypes.c_uint8),
         ("_pad", ctypes.c_uint8 * 6),
     ]
+
+    @property
+    def imu(self) -> StreamCounters:
+        return self.streams[0]
+
+    def counters(self, aid: str) -> StreamCounters:
+        """The counters of the aid named `aid`."""
+        return self.streams[1 + AIDS.index(aid)]
+
+    def aid(self, aid: str) -> AidStatus:
+        """The status of the aid named `aid`."""
+        return self.aids[AIDS.index(aid)]
 
     @staticmethod
     def type_name() -> str:
@@ -175,4 +187,6 @@ def layout() -> dict:
         out[t.__name__] = ctypes.sizeof(t)
         for name, _ in t._fields_:
             out[f"{t.__name__}.{name}"] = getattr(t, name).offset
+    for k, name in enumerate(AIDS):
+        out[f"aid.{name}"] = k
     return out

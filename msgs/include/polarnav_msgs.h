@@ -9,6 +9,17 @@
 #include <stdint.h>
 
 /**
+ * Number of aids (the length of `Status::aids`).
+ */
+#define POLARNAV_AID_COUNT 4
+
+/**
+ * Number of input streams with counters: the IMU and the aids (the
+ * length of `Status::streams`).
+ */
+#define POLARNAV_STREAM_COUNT (POLARNAV_AID_COUNT + 1)
+
+/**
  * Maximum number of spectral lines in one SRS message.
  */
 #define POLARNAV_SRS_MAX_LINES 8
@@ -54,6 +65,39 @@
  * its samples were refused (`StreamCounters::refused_publisher`).
  */
 #define POLARNAV_FLAG_SECOND_PUBLISHER (1 << 10)
+
+/**
+ * An aid, by its index in every per-aid array (`Status::aids`).
+ */
+enum AidKind
+#if defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+  : uint8_t
+#endif // defined(__cplusplus) || __STDC_VERSION__ >= 202311L
+ {
+  /**
+   * Spectral-redshift velocity.
+   */
+  AidKind_Srs = 0,
+  /**
+   * Celestial latitude and longitude.
+   */
+  AidKind_Cns = 1,
+  /**
+   * Barometric altitude.
+   */
+  AidKind_Baro = 2,
+  /**
+   * Star tracker attitude.
+   */
+  AidKind_Star = 3,
+};
+#ifndef __cplusplus
+#if __STDC_VERSION__ >= 202311L
+typedef enum AidKind AidKind;
+#else
+typedef uint8_t AidKind;
+#endif // __STDC_VERSION__ >= 202311L
+#endif // __cplusplus
 
 /**
  * Navigation frame tag used on the wire.
@@ -403,7 +447,7 @@ typedef struct {
 } StreamCounters;
 
 /**
- * The status record every aid reports (same shape for SRS, CNS, baro and star).
+ * The status record every aid reports (one shape for every aid).
  */
 typedef struct {
   /**
@@ -455,15 +499,15 @@ typedef struct {
 typedef struct {
   uint64_t t_ns;
   uint64_t seq;
-  StreamCounters imu;
-  StreamCounters srs;
-  StreamCounters cns;
-  StreamCounters baro;
-  StreamCounters star;
-  AidStatus srs_aid;
-  AidStatus cns_aid;
-  AidStatus baro_aid;
-  AidStatus star_aid;
+  /**
+   * Counters per input stream: `streams[0]` the IMU's, `streams[1 + k]`
+   * aid k's (k an `AidKind`).
+   */
+  StreamCounters streams[POLARNAV_STREAM_COUNT];
+  /**
+   * Status per aid: `aids[k]` aid k's (k an `AidKind`).
+   */
+  AidStatus aids[POLARNAV_AID_COUNT];
   /**
    * Filter cycles run, and cycles that overran their period in wall-clock
    * time (including time the thread was preempted).
@@ -521,7 +565,5 @@ typedef struct {
    */
   uint8_t _pad[6];
 } Status;
-
-
 
 #endif  /* POLARNAV_MSGS_H */

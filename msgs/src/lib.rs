@@ -17,8 +17,12 @@
 //! CRC-32 protected, COBS-framed) that the simulator, the recorder and
 //! `nav-daemon batch` share.
 
+pub mod aids;
 pub mod navlog;
 pub mod payloads;
 pub mod service;
 
+pub use aids::{
+    AID_COUNT, AidDecl, AidKind, AidPayload, AidSample, PerAid, PerStream, STREAM_COUNT, Stream,
+};
 pub use payloads::*;

@@ -15,9 +15,8 @@ use std::io::{BufRead, Write};
 
 use serde::{Deserialize, Serialize};
 
-use crate::payloads::{
-    BaroSample, CnsFix, ImuSample, InitState, Solution, SrsSample, StarSample, Status, TruthRecord,
-};
+use crate::aids::{AidKind, AidSample};
+use crate::payloads::{ImuSample, InitState, Solution, Status, TruthRecord};
 
 /// First bytes of every navlog's header record.
 pub const MAGIC: [u8; 8] = *b"POLARNAV";
@@ -67,23 +66,137 @@ impl Header {
 /// One navlog record. The large, infrequent payloads are boxed so that a
 /// record is about the size of an IMU sample (moving 800-byte SRS-sized
 /// values per IMU record cost 11 % of batch time).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+///
+/// Encoded as postcard encodes an enum (variant index, then content) with
+/// the indices fixed: the records here at 0, 1, 2, 6, 7, 8 and 10, and
+/// each aid's sample at its declaration's `record` (SRS 3, CNS 4, baro 5,
+/// star 9, ...). An index is never reused, so a file keeps its encoding
+/// whatever aids are declared after it was written.
+#[derive(Debug, Clone, PartialEq)]
 pub enum Record {
     Header(Box<Header>),
     Init(InitState),
     Imu(ImuSample),
-    Srs(Box<SrsSample>),
-    Cns(CnsFix),
-    Baro(BaroSample),
+    /// A sample of any aid.
+    Aid(Box<AidSample>),
     Truth(TruthRecord),
     Solution(Box<Solution>),
     Status(Box<Status>),
-    /// Appended last, so the variant indices of the records before it (and
-    /// with them every file without star records) are unchanged.
-    Star(StarSample),
     /// The simulated IMU bias at a truth epoch (constant draw plus
-    /// Gauss–Markov part), body axes. Appended last: older files decode.
+    /// Gauss–Markov part), body axes.
     TruthBias(TruthBias),
+}
+
+/// Postcard writes an enum as its variant index and the variant's content;
+/// the indices of the records that are not aids are fixed here, and each
+/// aid's is its declaration's `record` (indices are never reused, so every
+/// file keeps its encoding whatever aids are added after it).
+const TAG_HEADER: u32 = 0;
+const TAG_INIT: u32 = 1;
+const TAG_IMU: u32 = 2;
+const TAG_TRUTH: u32 = 6;
+const TAG_SOLUTION: u32 = 7;
+const TAG_STATUS: u32 = 8;
+const TAG_TRUTH_BIAS: u32 = 10;
+
+impl Serialize for Record {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        const R: &str = "Record";
+        match self {
+            Record::Header(x) => s.serialize_newtype_variant(R, TAG_HEADER, "Header", x),
+            Record::Init(x) => s.serialize_newtype_variant(R, TAG_INIT, "Init", x),
+            Record::Imu(x) => s.serialize_newtype_variant(R, TAG_IMU, "Imu", x),
+            Record::Truth(x) => s.serialize_newtype_variant(R, TAG_TRUTH, "Truth", x),
+            Record::Solution(x) => s.serialize_newtype_variant(R, TAG_SOLUTION, "Solution", x),
+            Record::Status(x) => s.serialize_newtype_variant(R, TAG_STATUS, "Status", x),
+            Record::TruthBias(x) => s.serialize_newtype_variant(R, TAG_TRUTH_BIAS, "TruthBias", x),
+            Record::Aid(a) => {
+                let d = a.kind().decl();
+                crate::match_aid!(&**a, x => s.serialize_newtype_variant(R, d.record, d.variant, x))
+            }
+        }
+    }
+}
+
+impl<'de> Deserialize<'de> for Record {
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        use serde::de::{self, EnumAccess, VariantAccess};
+
+        /// A variant index (postcard's) or name (a self-describing format's).
+        struct Tag(u32);
+        impl<'de> Deserialize<'de> for Tag {
+            fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+                struct V;
+                impl de::Visitor<'_> for V {
+                    type Value = Tag;
+                    fn expecting(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+                        f.write_str("a navlog record variant")
+                    }
+                    fn visit_u64<E: de::Error>(self, v: u64) -> Result<Tag, E> {
+                        u32::try_from(v)
+                            .map(Tag)
+                            .map_err(|_| E::custom(format!("record variant {v}")))
+                    }
+                    fn visit_str<E: de::Error>(self, v: &str) -> Result<Tag, E> {
+                        let fixed = [
+                            ("Header", TAG_HEADER),
+                            ("Init", TAG_INIT),
+                            ("Imu", TAG_IMU),
+                            ("Truth", TAG_TRUTH),
+                            ("Solution", TAG_SOLUTION),
+                            ("Status", TAG_STATUS),
+                            ("TruthBias", TAG_TRUTH_BIAS),
+                        ];
+                        fixed
+                            .into_iter()
+                            .find(|(n, _)| *n == v)
+                            .map(|(_, t)| t)
+                            .or_else(|| {
+                                AidKind::ALL
+                                    .into_iter()
+                                    .find(|k| k.decl().variant == v)
+                                    .map(|k| k.decl().record)
+                            })
+                            .map(Tag)
+                            .ok_or_else(|| E::unknown_variant(v, &[]))
+                    }
+                }
+                d.deserialize_identifier(V)
+            }
+        }
+
+        struct V;
+        impl<'de> de::Visitor<'de> for V {
+            type Value = Record;
+            fn expecting(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+                f.write_str("a navlog record")
+            }
+            fn visit_enum<A: EnumAccess<'de>>(self, data: A) -> Result<Record, A::Error> {
+                let (Tag(t), v) = data.variant::<Tag>()?;
+                Ok(match t {
+                    TAG_HEADER => Record::Header(v.newtype_variant()?),
+                    TAG_INIT => Record::Init(v.newtype_variant()?),
+                    TAG_IMU => Record::Imu(v.newtype_variant()?),
+                    TAG_TRUTH => Record::Truth(v.newtype_variant()?),
+                    TAG_SOLUTION => Record::Solution(v.newtype_variant()?),
+                    TAG_STATUS => Record::Status(v.newtype_variant()?),
+                    TAG_TRUTH_BIAS => Record::TruthBias(v.newtype_variant()?),
+                    other => {
+                        let Some(kind) = AidKind::from_record(other) else {
+                            return Err(de::Error::custom(format!(
+                                "unknown navlog record variant {other}"
+                            )));
+                        };
+                        let sample: AidSample = crate::match_aid_kind!(kind, P => {
+                            v.newtype_variant::<P>()?.into()
+                        });
+                        Record::Aid(Box::new(sample))
+                    }
+                })
+            }
+        }
+        d.deserialize_enum("Record", &[], V)
+    }
 }
 
 /// True IMU bias of a simulated flight at `t_ns`, body axes.
@@ -103,15 +216,17 @@ impl Record {
             Record::Header(_) => None,
             Record::Init(r) => Some(r.t_ns),
             Record::Imu(r) => Some(r.t_ns),
-            Record::Srs(r) => Some(r.t_ns),
-            Record::Cns(r) => Some(r.t_ns),
-            Record::Baro(r) => Some(r.t_ns),
+            Record::Aid(r) => Some(r.t_ns()),
             Record::Truth(r) => Some(r.t_ns),
             Record::Solution(r) => Some(r.t_ns),
             Record::Status(r) => Some(r.t_ns),
-            Record::Star(r) => Some(r.t_ns),
             Record::TruthBias(r) => Some(r.t_ns),
         }
+    }
+
+    /// The record of an aid's sample.
+    pub fn aid(sample: impl Into<AidSample>) -> Self {
+        Record::Aid(Box::new(sample.into()))
     }
 }
 
@@ -596,8 +711,8 @@ mod tests {
             seq: 5,
             ..Default::default()
         };
-        status.imu.received = 1000;
-        status.cns_aid.test_ratio = 0.3;
+        status.streams[0].received = 1000;
+        status.aids[AidKind::Cns as usize].test_ratio = 0.3;
         vec![
             Record::Header(Box::new(Header::new("test", "unit", 42, "key = 1"))),
             Record::Init(InitState {
@@ -614,15 +729,15 @@ mod tests {
                 d_theta_rad: [1e-6, -2e-6, 3e-9],
                 d_v_mps: [0.0, 0.0, 0.049],
             }),
-            Record::Srs(Box::new(srs)),
-            Record::Cns(CnsFix {
+            Record::aid(srs),
+            Record::aid(CnsFix {
                 t_ns: 4,
                 seq: 2,
                 lat_rad: 1.5,
                 lon_rad: -3.1,
                 sigma_h_m: 20.0,
             }),
-            Record::Baro(BaroSample {
+            Record::aid(BaroSample {
                 t_ns: 5,
                 seq: 3,
                 pressure_pa: 7565.0,
@@ -637,7 +752,7 @@ mod tests {
             }),
             Record::Solution(Box::new(sol)),
             Record::Status(Box::new(status)),
-            Record::Star(StarSample {
+            Record::aid(StarSample {
                 t_ns: 10,
                 seq: 6,
                 q_b_i: [0.5, 0.5, -0.5, 0.5],

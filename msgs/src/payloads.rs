@@ -7,6 +7,8 @@
 use iceoryx2::prelude::ZeroCopySend;
 use serde::{Deserialize, Serialize};
 
+use crate::aids::{AID_COUNT, AidKind, STREAM_COUNT, Stream};
+
 /// Maximum number of spectral lines in one SRS message.
 pub const SRS_MAX_LINES: usize = 8;
 
@@ -313,7 +315,7 @@ pub struct StreamCounters {
     pub refused_publisher: u64,
 }
 
-/// The status record every aid reports (same shape for SRS, CNS, baro and star).
+/// The status record every aid reports (one shape for every aid).
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
 #[cfg_attr(feature = "iceoryx2", derive(ZeroCopySend))]
 #[repr(C)]
@@ -364,15 +366,11 @@ impl AidStatus {
 pub struct Status {
     pub t_ns: u64,
     pub seq: u64,
-    pub imu: StreamCounters,
-    pub srs: StreamCounters,
-    pub cns: StreamCounters,
-    pub baro: StreamCounters,
-    pub star: StreamCounters,
-    pub srs_aid: AidStatus,
-    pub cns_aid: AidStatus,
-    pub baro_aid: AidStatus,
-    pub star_aid: AidStatus,
+    /// Counters per input stream: `streams[0]` the IMU's, `streams[1 + k]`
+    /// aid k's (k an `AidKind`).
+    pub streams: [StreamCounters; STREAM_COUNT],
+    /// Status per aid: `aids[k]` aid k's (k an `AidKind`).
+    pub aids: [AidStatus; AID_COUNT],
     /// Filter cycles run, and cycles that overran their period in wall-clock
     /// time (including time the thread was preempted).
     pub cycles: u64,
@@ -405,6 +403,42 @@ pub struct Status {
     pub resumed: u8,
     /// Always zero.
     pub _pad: [u8; 6],
+}
+
+impl Status {
+    /// The counters of `stream`.
+    pub fn counters(&self, stream: Stream) -> &StreamCounters {
+        &self.streams[stream.index()]
+    }
+    pub fn counters_mut(&mut self, stream: Stream) -> &mut StreamCounters {
+        &mut self.streams[stream.index()]
+    }
+    /// The IMU's counters.
+    pub fn imu(&self) -> &StreamCounters {
+        &self.streams[0]
+    }
+    /// The counters of aid `k`.
+    pub fn aid_counters(&self, k: AidKind) -> &StreamCounters {
+        self.counters(Stream::Aid(k))
+    }
+    /// The counters of aid `k`, to change.
+    pub fn aid_counters_mut(&mut self, k: AidKind) -> &mut StreamCounters {
+        self.counters_mut(Stream::Aid(k))
+    }
+    /// The status of aid `k`.
+    pub fn aid(&self, k: AidKind) -> &AidStatus {
+        &self.aids[k as usize]
+    }
+    /// The status of aid `k`, to change.
+    pub fn aid_mut(&mut self, k: AidKind) -> &mut AidStatus {
+        &mut self.aids[k as usize]
+    }
+    /// Each aid with its counters and status.
+    pub fn each_aid(&self) -> impl Iterator<Item = (AidKind, &StreamCounters, &AidStatus)> {
+        AidKind::ALL
+            .into_iter()
+            .map(|k| (k, self.aid_counters(k), self.aid(k)))
+    }
 }
 
 /// Truth record of a simulated or reference flight (navlog only, not on the wire).
@@ -464,7 +498,11 @@ mod tests {
         assert_eq!(size_of::<AidStatus>(), 48 + 8 + 8 + 8 + 8);
         assert_eq!(
             size_of::<Status>(),
-            16 + 5 * size_of::<StreamCounters>() + 4 * size_of::<AidStatus>() + 9 * 8 + 4 * 4 + 8
+            16 + STREAM_COUNT * size_of::<StreamCounters>()
+                + AID_COUNT * size_of::<AidStatus>()
+                + 9 * 8
+                + 4 * 4
+                + 8
         );
         for a in [
             align_of::<ImuSample>(),

@@ -2,6 +2,8 @@
 //! (default [`DEFAULT_PREFIX`]) so that tests and parallel deployments are
 //! isolated from each other.
 
+use crate::aids::{AID_COUNT, AidKind};
+
 /// Prefix used when none is configured.
 pub const DEFAULT_PREFIX: &str = "polarnav";
 
@@ -44,11 +46,8 @@ pub fn validate_prefix(prefix: &str) -> Result<(), String> {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 pub enum Topic {
     Imu,
-    Srs,
-    Cns,
-    Baro,
-    /// Star tracker attitude (`StarSample`), the optional fourth aid.
-    Star,
+    /// An aid's samples (its payload), `<prefix>/NAME`.
+    Aid(AidKind),
     Init,
     Solution,
     Status,
@@ -56,28 +55,30 @@ pub enum Topic {
     Settings,
 }
 
+/// Number of services: the IMU, the aids, init, solution, status, settings.
+pub const TOPIC_COUNT: usize = AID_COUNT + 5;
+
 impl Topic {
-    /// Every topic, in a fixed order.
-    pub const ALL: [Topic; 9] = [
-        Topic::Imu,
-        Topic::Srs,
-        Topic::Cns,
-        Topic::Baro,
-        Topic::Star,
-        Topic::Init,
-        Topic::Solution,
-        Topic::Status,
-        Topic::Settings,
-    ];
+    /// Every topic, in a fixed order: the IMU, the aids, then the rest.
+    pub const ALL: [Topic; TOPIC_COUNT] = {
+        let mut all = [Topic::Imu; TOPIC_COUNT];
+        let mut k = 0;
+        while k < AID_COUNT {
+            all[1 + k] = Topic::Aid(AidKind::ALL[k]);
+            k += 1;
+        }
+        all[AID_COUNT + 1] = Topic::Init;
+        all[AID_COUNT + 2] = Topic::Solution;
+        all[AID_COUNT + 3] = Topic::Status;
+        all[AID_COUNT + 4] = Topic::Settings;
+        all
+    };
 
     /// The last path component of the service name.
     pub fn leaf(self) -> &'static str {
         match self {
             Topic::Imu => "imu",
-            Topic::Srs => "srs",
-            Topic::Cns => "cns",
-            Topic::Baro => "baro",
-            Topic::Star => "star",
+            Topic::Aid(k) => k.name(),
             Topic::Init => "init",
             Topic::Solution => "solution",
             Topic::Status => "status",

@@ -23,7 +23,7 @@ int main(void) {
     S(ImuSample) S(SrsLine) S(SrsSample) S(CnsFix) S(BaroSample) S(StarSample) S(InitState)
     S(Solution) S(StreamCounters) S(AidStatus) S(Status)
     O(ImuSample, d_v_mps) O(SrsLine, body_id) O(SrsSample, lines) O(InitState, sigma_heading_rad)
-    O(Solution, q_b_e) O(Solution, flags) O(Solution, frame) O(Status, baro_aid) O(Status, star_aid) O(Status, frame)
+    O(Solution, q_b_e) O(Solution, flags) O(Solution, frame) O(Status, streams) O(Status, aids) O(Status, frame)
     O(StarSample, boresight_b) O(StarSample, sigma_boresight_arcsec)
     printf("SRS_MAX_LINES %d\n", POLARNAV_SRS_MAX_LINES);
     printf("IMU_LOST %d\n", POLARNAV_FLAG_IMU_LOST);
@@ -76,8 +76,8 @@ int main(void) {
         ("Solution.q_b_e", offset_of!(Solution, q_b_e)),
         ("Solution.flags", offset_of!(Solution, flags)),
         ("Solution.frame", offset_of!(Solution, frame)),
-        ("Status.baro_aid", offset_of!(Status, baro_aid)),
-        ("Status.star_aid", offset_of!(Status, star_aid)),
+        ("Status.streams", offset_of!(Status, streams)),
+        ("Status.aids", offset_of!(Status, aids)),
         (
             "StarSample.boresight_b",
             offset_of!(StarSample, boresight_b),

@@ -15,14 +15,14 @@ fn record(kind: u8, k: u64, x: f64) -> Record {
             d_theta_rad: [x, -x, 1e-9 * x],
             d_v_mps: [0.0, x, 0.049],
         }),
-        1 => Record::Cns(CnsFix {
+        1 => Record::aid(CnsFix {
             t_ns: k,
             seq: k,
             lat_rad: x,
             lon_rad: -x,
             sigma_h_m: 20.0,
         }),
-        _ => Record::Baro(BaroSample {
+        _ => Record::aid(BaroSample {
             t_ns: k,
             seq: k,
             pressure_pa: 7565.0 + x,

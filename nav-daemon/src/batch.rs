@@ -20,7 +20,7 @@ use polarnav::smoother::{FileStore, SmoothReport, Smoother};
 use crate::events::log_event;
 use polarnav::solution_csv;
 use polarnav_config::{CliOverrides, ConfigError, ConfigFile, Effective, effective};
-use polarnav_foxglove::{AidTopic, McapError, McapFile};
+use polarnav_foxglove::{McapError, McapFile};
 
 /// Where a batch run writes its solution.
 #[derive(Debug)]
@@ -76,10 +76,10 @@ impl BatchReport {
     /// Aid samples fused, and refused (content, time or gate), over all aids.
     pub fn aid_totals(&self) -> (u64, u64) {
         let s = &self.status;
-        let fused = s.srs.accepted + s.cns.accepted + s.baro.accepted + s.star.accepted;
-        let rejected = [&s.srs, &s.cns, &s.baro, &s.star]
-            .iter()
-            .map(|c| c.rejected_invalid + c.rejected_time + c.rejected_gate)
+        let fused = s.each_aid().map(|(_, c, _)| c.accepted).sum();
+        let rejected = s
+            .each_aid()
+            .map(|(_, c, _)| c.rejected_invalid + c.rejected_time + c.rejected_gate)
             .sum();
         (fused, rejected)
     }
@@ -258,16 +258,8 @@ impl<W: Write> Sink for CsvSink<'_, W> {
                 lat_rad,
                 h_m,
             } => {
-                let topic = match stream {
-                    Stream::Srs => Some(AidTopic::Srs),
-                    Stream::Cns => Some(AidTopic::Cns),
-                    Stream::Baro => Some(AidTopic::Baro),
-                    Stream::Star => Some(AidTopic::Star),
-                    Stream::Imu => None,
-                };
-                if let (Output::Mcap(m), Some(topic)) = (&mut self.out, topic) {
-                    m.channels()
-                        .aid_update(topic, *t_ns, status, *lat_rad, *h_m);
+                if let (Output::Mcap(m), Stream::Aid(aid)) = (&mut self.out, stream) {
+                    m.channels().aid_update(*aid, *t_ns, status, *lat_rad, *h_m);
                 }
             }
             other => log_event(log, other),

@@ -24,14 +24,16 @@ use iceoryx2::prelude::*;
 use iceoryx2::waitset::WaitSetRunResult;
 use msgs::service::Topic;
 use msgs::{
-    BaroSample, CnsFix, EffectiveSettings, ImuSample, InitState, Solution, SrsSample, StarSample,
-    Status, solution_flags,
+    AidKind, AidSample, EffectiveSettings, ImuSample, InitState, PerAid, Solution, Status, Stream,
+    solution_flags,
 };
 use polarnav::checkpoint::{self, Checkpoint};
 use polarnav::inbox::{Inbox, Received};
 use polarnav::session::{Event, PerStream, Session, Sink};
 use polarnav_config::Effective;
-use polarnav_ipc::{TopicPublisher, TopicSubscriber, TransportConfig, TransportError};
+use polarnav_ipc::{
+    AidSubscriber, TopicPublisher, TopicSubscriber, TransportConfig, TransportError,
+};
 
 use crate::events::RateLimit;
 use crate::owner::Owner;
@@ -231,10 +233,8 @@ const CAPACITY: usize = 1024;
 struct Ports {
     cfg: TransportConfig,
     imu: TopicSubscriber<ImuSample>,
-    srs: TopicSubscriber<SrsSample>,
-    cns: TopicSubscriber<CnsFix>,
-    baro: TopicSubscriber<BaroSample>,
-    star: TopicSubscriber<StarSample>,
+    /// One subscriber per aid.
+    aids: PerAid<Box<dyn AidSubscriber>>,
     init: TopicSubscriber<InitState>,
     solution: TopicPublisher<Solution>,
     status: TopicPublisher<Status>,
@@ -251,25 +251,40 @@ impl Ports {
         mut take: impl FnMut(T),
     ) -> Result<(), TransportError> {
         sub.drain_with_origin(|p, x| {
-            if owner.admit(stream, p, |o| self.connected(sub, o)) {
+            if owner.admit(stream, p, |o| self.connected(|id| sub.has_publisher(id), o)) {
                 take(x);
             }
         })?;
         Ok(())
     }
 
-    /// Whether publisher `id` still serves `sub`'s service: dead processes'
-    /// publishers are removed first (a driver killed with SIGKILL and
-    /// restarted takes over its service).
-    fn connected<T: std::fmt::Debug + ZeroCopySend + Copy + 'static>(
+    /// Drains aid `k`'s subscriber into `take`, keeping only the samples
+    /// of its owner.
+    fn drain_aid(
         &self,
-        sub: &TopicSubscriber<T>,
-        id: u128,
-    ) -> bool {
+        k: AidKind,
+        owner: &mut Owner,
+        take: &mut dyn FnMut(AidSample),
+    ) -> Result<(), TransportError> {
+        let sub = &self.aids[k];
+        sub.drain_samples(&mut |p, x| {
+            if owner.admit(k.decl().label, p, |o| {
+                self.connected(|id| sub.has_publisher(id), o)
+            }) {
+                take(x);
+            }
+        })?;
+        Ok(())
+    }
+
+    /// Whether publisher `id` still serves a service (`has_publisher`):
+    /// dead processes' publishers are removed first (a driver killed with
+    /// SIGKILL and restarted takes over its service).
+    fn connected(&self, has_publisher: impl FnOnce(u128) -> bool, id: u128) -> bool {
         if let Err(e) = polarnav_ipc::remove_dead_nodes(&self.cfg) {
             tracing::warn!("dead nodes not removed: {e}");
         }
-        sub.has_publisher(id)
+        has_publisher(id)
     }
 }
 
@@ -292,10 +307,7 @@ pub fn run(
         cfg: transport_cfg.clone(),
         init,
         imu: TopicSubscriber::new(&node, transport_cfg, Topic::Imu)?,
-        srs: TopicSubscriber::new(&node, transport_cfg, Topic::Srs)?,
-        cns: TopicSubscriber::new(&node, transport_cfg, Topic::Cns)?,
-        baro: TopicSubscriber::new(&node, transport_cfg, Topic::Baro)?,
-        star: TopicSubscriber::new(&node, transport_cfg, Topic::Star)?,
+        aids: polarnav_ipc::aid_subscribers(&node, transport_cfg)?,
         solution: TopicPublisher::new(&node, transport_cfg, Topic::Solution)?,
         status: TopicPublisher::new(&node, transport_cfg, Topic::Status)?,
         settings: TopicPublisher::new(&node, transport_cfg, Topic::Settings)?,
@@ -419,7 +431,7 @@ pub fn waiting_line(session: &Session, prefix: &str) -> String {
     if let Some(done) = session.alignment_progress_s() {
         return format!("aligning: {done:.1} s of IMU data so far");
     }
-    let imu_seen = session.status().imu.received > 0;
+    let imu_seen = session.status().imu().received > 0;
     match (session.has_config_init(), imu_seen) {
         (true, false) => {
             format!(
@@ -444,16 +456,13 @@ pub fn status_line(s: &Status, lat_deg: Option<f64>) -> String {
         "ok"
     };
     let lat = lat_deg.map_or_else(|| "-".to_owned(), |l| format!("{l:.4}°"));
+    let aids: String = s
+        .each_aid()
+        .map(|(k, _, a)| format!("{} {}, ", k.name(), fresh(a)))
+        .collect();
     format!(
-        "frame {frame}, lat {lat}, switches {}, imu {imu}, srs {}, cns {}, baro {}, star {}, cycles {}, overruns {} (CPU {})",
-        s.switch_count,
-        fresh(&s.srs_aid),
-        fresh(&s.cns_aid),
-        fresh(&s.baro_aid),
-        fresh(&s.star_aid),
-        s.cycles,
-        s.overruns,
-        s.overruns_cpu
+        "frame {frame}, lat {lat}, switches {}, imu {imu}, {aids}cycles {}, overruns {} (CPU {})",
+        s.switch_count, s.cycles, s.overruns, s.overruns_cpu
     )
 }
 
@@ -553,10 +562,12 @@ struct LoopState {
     inbox: Inbox,
     checkpoint: Option<CheckpointWriter>,
     out: OutputState,
-    /// Owners of the init, IMU, SRS, CNS, baro and star services.
-    owners: [Owner; 6],
-    /// Freshness of SRS, CNS, baro, star in the last status (for transition events).
-    aid_fresh: [bool; 4],
+    /// Owner of the init service.
+    init_owner: Owner,
+    /// Owners of the IMU and each aid's service.
+    owners: PerStream<Owner>,
+    /// Freshness of each aid in the last status (for transition events).
+    aid_fresh: PerAid<bool>,
     last_imu_wall: Option<Instant>,
     imu_lost: bool,
     last_status: Instant,
@@ -576,8 +587,9 @@ impl LoopState {
             inbox: Inbox::with_capacity(CAPACITY),
             checkpoint: opts.checkpoint.as_ref().map(CheckpointWriter::start),
             out: OutputState::default(),
-            owners: Default::default(),
-            aid_fresh: [false; 4],
+            init_owner: Owner::default(),
+            owners: PerStream::default(),
+            aid_fresh: PerAid::default(),
             last_imu_wall: None,
             imu_lost: false,
             last_status: Instant::now(),
@@ -595,7 +607,6 @@ impl LoopState {
     fn cycle(&mut self, ports: &Ports) -> Result<(), LiveError> {
         self.report.cycles += 1;
         let mut imu_seen = false;
-        let [o_init, o_imu, o_srs, o_cns, o_baro, o_star] = &mut self.owners;
         let (inbox, session, gaps) = (&mut self.inbox, &mut self.session, &mut self.out.gaps);
         // Sequence gaps are noted in arrival order.
         let mut receive = |r: Received| {
@@ -605,19 +616,20 @@ impl LoopState {
                 tracing::warn!(suppressed, "{e:?}");
             }
         };
-        ports.drain_owned(&ports.init, o_init, "init", |x| receive(Received::Init(x)))?;
-        ports.drain_owned(&ports.imu, o_imu, "IMU", |x| {
+        ports.drain_owned(&ports.init, &mut self.init_owner, "init", |x| {
+            receive(Received::Init(x));
+        })?;
+        ports.drain_owned(&ports.imu, &mut self.owners[Stream::Imu], "IMU", |x| {
             imu_seen = true;
             receive(Received::Imu(x));
         })?;
-        ports.drain_owned(&ports.srs, o_srs, "SRS", |x| receive(Received::Srs(x)))?;
-        ports.drain_owned(&ports.cns, o_cns, "CNS", |x| receive(Received::Cns(x)))?;
-        ports.drain_owned(&ports.baro, o_baro, "baro", |x| receive(Received::Baro(x)))?;
-        ports.drain_owned(&ports.star, o_star, "star", |x| receive(Received::Star(x)))?;
-        ports.srs.clear_events();
-        ports.cns.clear_events();
-        ports.baro.clear_events();
-        ports.star.clear_events();
+        for k in AidKind::ALL {
+            let owner = &mut self.owners[Stream::Aid(k)];
+            ports.drain_aid(k, owner, &mut |x| receive(Received::Aid(x)))?;
+        }
+        for (_, sub) in ports.aids.iter() {
+            sub.clear_events();
+        }
         ports.init.clear_events();
         if imu_seen {
             self.last_imu_wall = Some(Instant::now());
@@ -682,21 +694,15 @@ impl LoopState {
             .as_ref()
             .map_or(0, CheckpointWriter::written);
         s.cycles = self.report.cycles;
-        let [_, o_imu, o_srs, o_cns, o_baro, o_star] = &mut self.owners;
         let mut second = false;
-        for (c, o) in [
-            (&mut s.imu, o_imu),
-            (&mut s.srs, o_srs),
-            (&mut s.cns, o_cns),
-            (&mut s.baro, o_baro),
-            (&mut s.star, o_star),
-        ] {
-            c.refused_publisher = o.refused;
+        for (k, o) in self.owners.iter_mut() {
+            s.counters_mut(k).refused_publisher = o.refused;
             second |= o.refused > o.refused_at_status;
             o.refused_at_status = o.refused;
         }
-        second |= self.owners[0].refused > self.owners[0].refused_at_status;
-        self.owners[0].refused_at_status = self.owners[0].refused;
+        let init = &mut self.init_owner;
+        second |= init.refused > init.refused_at_status;
+        init.refused_at_status = init.refused;
         if second {
             s.flags |= solution_flags::SECOND_PUBLISHER;
         }
@@ -708,15 +714,8 @@ impl LoopState {
         s.cycle_time_max_ns = self.cycle_time_max.as_nanos() as u64;
         self.report.reinits = s.reinit_count;
         // Aid timeouts and recoveries, once per transition.
-        for (k, (name, a)) in [
-            ("SRS", &s.srs_aid),
-            ("CNS", &s.cns_aid),
-            ("baro", &s.baro_aid),
-            ("star", &s.star_aid),
-        ]
-        .into_iter()
-        .enumerate()
-        {
+        for (k, _, a) in s.each_aid() {
+            let name = k.decl().label;
             let fresh = a.fresh == 1;
             if fresh != self.aid_fresh[k] {
                 if fresh {

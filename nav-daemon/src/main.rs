@@ -64,9 +64,9 @@ enum Cmd {
         /// Never switch frames: stay in g throughout (the reference run of the switching experiments).
         #[arg(long, conflicts_with = "force_switch")]
         no_switch: bool,
-        /// Aids to fuse: a list of srs, cns, baro, star, or none (default: the
-        /// configuration's `[aids] fuse`, all of them).
-        #[arg(long)]
+        /// Aids to fuse: a comma-separated list of aid names, or none
+        /// (default: the configuration's `[aids] fuse`, all of them).
+        #[arg(long, long_help = aids_help())]
         aids: Option<String>,
         /// Print a progress line every this many seconds of flight (0 = quiet).
         #[arg(long, default_value_t = 0.0)]
@@ -144,6 +144,15 @@ fn find_config(explicit: Option<&PathBuf>) -> Result<ConfigFile, (String, i32)> 
             .join(", ")
     );
     Ok(ConfigFile::defaults())
+}
+
+/// The `--aids` help, naming the declared aids.
+fn aids_help() -> String {
+    format!(
+        "Aids to fuse: a comma-separated list of {}, or none (default: the configuration's \
+         `[aids] fuse`, all of them)",
+        msgs::AidKind::names()
+    )
 }
 
 fn main() -> ExitCode {
@@ -323,23 +332,23 @@ fn main() -> ExitCode {
                     let span = (r.last_t_ns.saturating_sub(r.first_t_ns)) as f64 * 1e-9;
                     let s = &r.status;
                     let (fused, rejected) = r.aid_totals();
-                    let not_used =
-                        s.srs.not_used + s.cns.not_used + s.baro.not_used + s.star.not_used;
+                    let not_used: u64 = s.each_aid().map(|(_, c, _)| c.not_used).sum();
+                    let exclusions: u64 = s.each_aid().map(|(_, _, a)| a.exclusions).sum();
                     nav_daemon::note!(
-                        "batch: {} rows, {:.1} s of flight in {:.2} s ({:.0}x real time), {} frame switch(es), {} IMU rejected, {} IMU not used, {} time resync(s), {} covariance repair(s); aids: {} fused, {} rejected, {} not used, {} SRS line exclusions; inits: {} used, {} rejected, {} not used; log: {}",
+                        "batch: {} rows, {:.1} s of flight in {:.2} s ({:.0}x real time), {} frame switch(es), {} IMU rejected, {} IMU not used, {} time resync(s), {} covariance repair(s); aids: {} fused, {} rejected, {} not used, {} excluded by fault detection (SRS lines); inits: {} used, {} rejected, {} not used; log: {}",
                         r.rows,
                         span,
                         wall,
                         span / wall.max(1e-9),
                         r.switches.len(),
-                        s.imu.rejected_invalid + s.imu.rejected_time,
-                        s.imu.not_used,
+                        s.imu().rejected_invalid + s.imu().rejected_time,
+                        s.imu().not_used,
                         r.time_resyncs,
                         r.covariance_repairs,
                         fused,
                         rejected,
                         not_used,
-                        s.srs_aid.exclusions,
+                        exclusions,
                         r.inits.used,
                         r.inits.rejected,
                         r.inits.not_used,

@@ -307,7 +307,7 @@ fn batch_logs_and_counts_a_refused_star_sample_and_goes_on() {
             if s.t_ns == 2_000_000_000 {
                 star.q_b_i[0] = f64::NAN;
             }
-            w.write(&Record::Star(star)).expect("star");
+            w.write(&Record::aid(star)).expect("star");
         }
     }
     let log = w.finish().expect("finish");

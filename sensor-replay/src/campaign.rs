@@ -14,13 +14,13 @@
 use std::path::Path;
 
 use msgs::navlog::Record;
-use msgs::{Status, StreamCounters, TruthRecord};
+use msgs::{AidKind, PerStream, Status, Stream, StreamCounters, TruthRecord};
 use polarnav::session;
 use polarnav::solution_csv::Row;
 use polarnav_config::{CliOverrides, ConfigFile, effective};
 
 use polarnav_eval::eval;
-use polarnav_sim::faults::{FaultKind, Stream};
+use polarnav_sim::faults::FaultKind;
 use polarnav_sim::scenario::Scenario;
 use polarnav_sim::simulate::{SimOptions, simulate};
 
@@ -44,12 +44,11 @@ pub fn scenario_files(dir: &Path) -> std::io::Result<Vec<std::path::PathBuf>> {
 
 /// One line per stream: published, received, sequence gaps and where every
 /// received sample went.
-pub fn accounting_lines(published: &[u64; 5], status: &Status) -> String {
+pub fn accounting_lines(published: &PerStream<u64>, status: &Status) -> String {
     let mut out = String::new();
-    for (name, (p, c)) in ["imu", "srs", "cns", "baro", "star"]
-        .iter()
-        .zip(published.iter().zip(streams(status)))
-    {
+    for (stream, p) in published.iter() {
+        let name = stream.name();
+        let c = status.counters(stream);
         out += &format!(
             "   {name:<4} published {p:>7}, received {:>7}, sequence gaps {}; received = accepted {:>7} + invalid {} + time {} + gate {} + not used {}\n",
             c.received,
@@ -64,25 +63,22 @@ pub fn accounting_lines(published: &[u64; 5], status: &Status) -> String {
     out
 }
 
-/// Records per stream (IMU, SRS, CNS, baro, star) in a log.
-pub fn published(records: &[Record]) -> [u64; 5] {
-    let mut n = [0u64; 5];
+/// Records per stream in a log.
+pub fn published(records: &[Record]) -> PerStream<u64> {
+    let mut n = PerStream::<u64>::default();
     for r in records {
         match r {
-            Record::Imu(_) => n[0] += 1,
-            Record::Srs(_) => n[1] += 1,
-            Record::Cns(_) => n[2] += 1,
-            Record::Baro(_) => n[3] += 1,
-            Record::Star(_) => n[4] += 1,
+            Record::Imu(_) => n[Stream::Imu] += 1,
+            Record::Aid(a) => n[Stream::Aid(a.kind())] += 1,
             _ => {}
         }
     }
     n
 }
 
-/// The five stream counters of a status, in the order of [`published`].
-pub fn streams(s: &Status) -> [StreamCounters; 5] {
-    [s.imu, s.srs, s.cns, s.baro, s.star]
+/// The stream counters of a status, in the order of [`published`].
+pub fn streams(s: &Status) -> PerStream<StreamCounters> {
+    PerStream(s.streams)
 }
 
 /// `received = accepted + rejected + not used` for every stream, and what
@@ -91,15 +87,13 @@ pub fn streams(s: &Status) -> [StreamCounters; 5] {
 /// upstream` where `upstream` are the samples the source never sent (an
 /// outage skips their sequence numbers). `Err` names the first mismatch.
 pub fn check_accounting(
-    published: [u64; 5],
-    upstream: Option<[u64; 5]>,
+    published: PerStream<u64>,
+    upstream: Option<PerStream<u64>>,
     status: &Status,
 ) -> Result<(), String> {
-    for (k, (name, (p, c))) in ["imu", "srs", "cns", "baro", "star"]
-        .iter()
-        .zip(published.iter().zip(streams(status)))
-        .enumerate()
-    {
+    for (stream, p) in published.iter() {
+        let name = stream.name();
+        let c = status.counters(stream);
         let sum = c.accepted + c.rejected_invalid + c.rejected_time + c.rejected_gate + c.not_used;
         if sum != c.received {
             return Err(format!(
@@ -112,7 +106,7 @@ pub fn check_accounting(
                 c.not_used
             ));
         }
-        let never_sent = upstream.map_or(0, |u| u[k]);
+        let never_sent = upstream.map_or(0, |u| u[stream]);
         if c.received + c.seq_gaps != *p + never_sent {
             return Err(format!(
                 "{name}: published {p} (+ {never_sent} never sent) but received {} + sequence gaps {}",
@@ -196,11 +190,11 @@ pub struct Window {
 }
 
 /// Samples per stream (IMU, SRS, CNS, baro) that the source never sent.
-pub fn upstream_missing(s: &Scenario, injected: &[u64]) -> [u64; 5] {
-    let mut n = [0u64; 5];
+pub fn upstream_missing(s: &Scenario, injected: &[u64]) -> PerStream<u64> {
+    let mut n = PerStream::<u64>::default();
     for (e, k) in s.faults.iter().flat_map(|f| &f.events).zip(injected) {
         if e.kind == FaultKind::Outage {
-            n[e.stream as usize] += k;
+            n[e.stream] += k;
         }
     }
     n
@@ -309,13 +303,7 @@ pub fn fault_lines(s: &Scenario, injected: &[u64], status: &Status) -> Vec<Fault
     let Some(f) = &s.faults else {
         return Vec::new();
     };
-    let c = |st: Stream| match st {
-        Stream::Imu => status.imu,
-        Stream::Srs => status.srs,
-        Stream::Cns => status.cns,
-        Stream::Baro => status.baro,
-        Stream::Star => status.star,
-    };
+    let c = |st: Stream| *status.counters(st);
     // Events of the same kind on the same stream share a counter.
     let total = |kind: FaultKind, stream: Stream| -> u64 {
         f.events
@@ -385,10 +373,10 @@ pub fn fault_lines(s: &Scenario, injected: &[u64], status: &Status) -> Vec<Fault
                         v >= jumped + total(FaultKind::Duplicate, st),
                     )
                 }
-                (FaultKind::Outliers, Stream::Srs) => {
-                    let v = status.srs_aid.exclusions
-                        + c(Stream::Srs).rejected_gate
-                        + c(Stream::Srs).rejected_invalid;
+                (FaultKind::Outliers, Stream::Aid(AidKind::Srs)) => {
+                    let v = status.aid(AidKind::Srs).exclusions
+                        + c(Stream::Aid(AidKind::Srs)).rejected_gate
+                        + c(Stream::Aid(AidKind::Srs)).rejected_invalid;
                     (Some(("lines excluded + rejected".into(), v)), v >= need)
                 }
                 (FaultKind::Outliers, Stream::Imu) => {
@@ -416,7 +404,7 @@ pub struct ScenarioResult {
     pub name: String,
     pub faults: Vec<FaultLine>,
     pub errors: ErrorJudgement,
-    pub published: [u64; 5],
+    pub published: PerStream<u64>,
     pub status: Status,
     pub accounting: Result<(), String>,
     /// The faulted flight (navlog bytes), for a live run of the same data.

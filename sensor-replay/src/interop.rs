@@ -405,16 +405,16 @@ fn synthesize_aids(
         if t.t_ns >= next_1hz {
             next_1hz = (t.t_ns / 1_000_000_000 + 1) * 1_000_000_000;
             if let Some(s) = aids.cns_sigma_m {
-                out.push(Record::Cns(sensors::cns_fix(
+                out.push(Record::aid(sensors::cns_fix(
                     &mut rng, t.t_ns, sum.cns, &r, s, true,
                 )));
                 sum.cns += 1;
             }
             if let Some(s) = aids.srs_sigma_mps {
                 let mask = 10f64.to_radians();
-                out.push(Record::Srs(Box::new(sensors::srs_sample(
+                out.push(Record::aid(sensors::srs_sample(
                     &mut rng, t.t_ns, sum.srs, &r, &v, &catalogue, mask, s, true,
-                ))));
+                )));
                 sum.srs += 1;
             }
         }
@@ -422,7 +422,7 @@ fn synthesize_aids(
             next_10hz = (t.t_ns / 100_000_000 + 1) * 100_000_000;
             if let Some(s) = aids.baro_sigma_m {
                 let h = earth::ecef_to_geodetic(&r).h_m;
-                out.push(Record::Baro(sensors::baro_sample(
+                out.push(Record::aid(sensors::baro_sample(
                     &mut rng, t.t_ns, sum.baro, h, s, true,
                 )));
                 sum.baro += 1;
@@ -438,7 +438,7 @@ fn sort_records(records: &mut [Record]) {
         Record::Header(_) => 0,
         Record::Init(_) => 1,
         Record::Imu(_) => 2,
-        Record::Srs(_) | Record::Cns(_) | Record::Baro(_) => 3,
+        Record::Aid(_) => 3,
         _ => 4,
     };
     records.sort_by_key(|r| (r.t_ns().unwrap_or(0), rank(r)));

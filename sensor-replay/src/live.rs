@@ -6,8 +6,8 @@ use std::time::{Duration, Instant};
 use msgs::navlog::Record;
 use msgs::service::Topic;
 use msgs::{
-    BaroSample, CnsFix, EffectiveSettings, ImuSample, InitState, Solution, SrsSample, StarSample,
-    Status,
+    AidKind, AidSample, EffectiveSettings, ImuSample, InitState, PerStream, STREAM_COUNT, Solution,
+    Status, Stream,
 };
 use polarnav_ipc::{TopicPublisher, TopicSubscriber, TransportConfig, TransportError};
 
@@ -18,8 +18,8 @@ use polarnav_eval::logfile::{LogContents, SensorRef};
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
 pub struct Pacing {
     pub published: u64,
-    /// Samples published per stream: IMU, SRS, CNS, baro, star.
-    pub per_stream: [u64; 5],
+    /// Samples published per stream (the IMU, then each aid).
+    pub per_stream: PerStream<u64>,
     pub p50_us: f64,
     pub p99_us: f64,
     pub max_us: f64,
@@ -39,10 +39,15 @@ pub const REPLAY_MAX_WAIT: Duration = Duration::from_secs(2);
 impl Pacing {
     /// The one-line summary `play` prints when it ends.
     pub fn summary(&self) -> String {
-        let [imu, srs, cns, baro, star] = self.per_stream;
+        let counts: Vec<String> = self
+            .per_stream
+            .iter()
+            .map(|(s, n)| format!("{} {n}", s.name()))
+            .collect();
         format!(
-            "play: {} samples published (imu {imu}, srs {srs}, cns {cns}, baro {baro}, star {star}); pacing lateness p50 {:.1} µs, p99 {:.1} µs, max {:.1} µs; full input buffers: {} waits (longest {:.1} ms), {} samples lost",
+            "play: {} samples published ({}); pacing lateness p50 {:.1} µs, p99 {:.1} µs, max {:.1} µs; full input buffers: {} waits (longest {:.1} ms), {} samples lost",
             self.published,
+            counts.join(", "),
             self.p50_us,
             self.p99_us,
             self.max_us,
@@ -52,35 +57,41 @@ impl Pacing {
         )
     }
 
-    /// The per-stream counts (IMU, SRS, CNS, baro, star) read back from text
-    /// containing a [`Pacing::summary`] line (e.g. `play`'s captured stdout).
-    pub fn published_in(text: &str) -> Option<[u64; 5]> {
+    /// The per-stream counts read back from text containing a
+    /// [`Pacing::summary`] line (e.g. `play`'s captured stdout).
+    pub fn published_in(text: &str) -> Option<PerStream<u64>> {
         let line = text.lines().find(|l| l.starts_with("play: "))?;
         let inner = line.split_once('(')?.1.split(')').next()?;
         let counts: Vec<u64> = inner
             .split(", ")
             .map(|kv| kv.split_whitespace().nth(1)?.parse().ok())
             .collect::<Option<_>>()?;
-        counts.try_into().ok()
+        let counts: [u64; STREAM_COUNT] = counts.try_into().ok()?;
+        Some(PerStream(counts))
     }
 }
 
+/// A sensor record of the log: an IMU sample, or an aid's (by value, out
+/// of the log's per-aid vectors).
 #[derive(Debug, Clone, Copy)]
 enum Sensor<'a> {
     Imu(&'a ImuSample),
-    Srs(&'a SrsSample),
-    Cns(&'a CnsFix),
-    Baro(&'a BaroSample),
-    Star(&'a StarSample),
+    Aid(&'a LogContents, AidKind, usize),
+}
+
+impl Sensor<'_> {
+    fn aid(&self) -> Option<AidSample> {
+        match self {
+            Sensor::Imu(_) => None,
+            Sensor::Aid(log, k, i) => log.aids.get(*k, *i),
+        }
+    }
 }
 
 fn sensor_t(s: &Sensor<'_>) -> u64 {
     match s {
         Sensor::Imu(x) => x.t_ns,
-        Sensor::Srs(x) => x.t_ns,
-        Sensor::Cns(x) => x.t_ns,
-        Sensor::Baro(x) => x.t_ns,
-        Sensor::Star(x) => x.t_ns,
+        Sensor::Aid(..) => s.aid().map_or(0, |x| x.t_ns()),
     }
 }
 
@@ -112,10 +123,7 @@ fn in_log_order(log: &LogContents) -> Vec<Sensor<'_>> {
         .iter()
         .map(|r| match *r {
             SensorRef::Imu(k) => Sensor::Imu(&log.imu[k]),
-            SensorRef::Srs(k) => Sensor::Srs(&log.srs[k]),
-            SensorRef::Cns(k) => Sensor::Cns(&log.cns[k]),
-            SensorRef::Baro(k) => Sensor::Baro(&log.baro[k]),
-            SensorRef::Star(k) => Sensor::Star(&log.star[k]),
+            SensorRef::Aid(a, k) => Sensor::Aid(log, a, k),
         })
         .collect();
     let mut k = 0;
@@ -185,10 +193,7 @@ pub fn play(
     // sensor driver in flight would use Delivery::Discard and count).
     let wait = polarnav_ipc::Delivery::Wait(REPLAY_MAX_WAIT);
     let imu = TopicPublisher::<ImuSample>::with_delivery(&node, cfg, Topic::Imu, wait)?;
-    let srs = TopicPublisher::<SrsSample>::with_delivery(&node, cfg, Topic::Srs, wait)?;
-    let cns = TopicPublisher::<CnsFix>::with_delivery(&node, cfg, Topic::Cns, wait)?;
-    let baro = TopicPublisher::<BaroSample>::with_delivery(&node, cfg, Topic::Baro, wait)?;
-    let star = TopicPublisher::<StarSample>::with_delivery(&node, cfg, Topic::Star, wait)?;
+    let aids = polarnav_ipc::aid_publishers(&node, cfg, wait)?;
     let init_pub = TopicPublisher::<InitState>::new(&node, cfg, Topic::Init)?;
 
     let sensors = in_log_order(log);
@@ -204,7 +209,7 @@ pub fn play(
     let sidereal_ns = (std::f64::consts::TAU / polarnav::earth::OMEGA_IE * 1e9).round() as u64;
     let span_sidereal = span.div_ceil(sidereal_ns) * sidereal_ns;
     let mut lateness: Vec<u64> = Vec::with_capacity(sensors.len());
-    let mut per_stream = [0u64; 5];
+    let mut per_stream = PerStream::<u64>::default();
     let progress_every = (span / 10).max(1);
     let mut next_progress = progress_every;
     let start = Instant::now() + Duration::from_millis(100);
@@ -266,7 +271,7 @@ pub fn play(
                     stalled_until = Some(Instant::now() + d);
                 }
                 if stalled_until.is_some() {
-                    per_stream[0] += 1;
+                    per_stream[Stream::Imu] += 1;
                     held.push(ImuSample {
                         t_ns: x.t_ns + offset,
                         seq: x.seq + pass * log.imu.len() as u64,
@@ -276,11 +281,8 @@ pub fn play(
                 }
             }
             per_stream[match s {
-                Sensor::Imu(_) => 0,
-                Sensor::Srs(_) => 1,
-                Sensor::Cns(_) => 2,
-                Sensor::Baro(_) => 3,
-                Sensor::Star(_) => 4,
+                Sensor::Imu(_) => Stream::Imu,
+                Sensor::Aid(_, k, _) => Stream::Aid(*k),
             }] += 1;
             // A daemon that subscribed after this pass's init went out gets
             // it now, from the init topic's history, before the IMU it needs.
@@ -291,23 +293,13 @@ pub fn play(
                     seq: x.seq + pass * log.imu.len() as u64,
                     ..**x
                 })?,
-                Sensor::Srs(x) => srs.publish(&SrsSample {
-                    t_ns: x.t_ns + offset,
-                    ..**x
-                })?,
-                Sensor::Cns(x) => cns.publish(&CnsFix {
-                    t_ns: x.t_ns + offset,
-                    ..**x
-                })?,
-                Sensor::Baro(x) => baro.publish(&BaroSample {
-                    t_ns: x.t_ns + offset,
-                    ..**x
-                })?,
-                // Whole sidereal days later the inertial attitude is the same.
-                Sensor::Star(x) => star.publish(&StarSample {
-                    t_ns: x.t_ns + offset,
-                    ..**x
-                })?,
+                // Whole sidereal days later an inertial observation (SRS,
+                // star tracker) is the same.
+                Sensor::Aid(..) => {
+                    let Some(mut x) = s.aid() else { continue };
+                    *x.t_ns_mut() += offset;
+                    aids[x.kind()].publish_sample(&x)?
+                }
             };
             lateness.push(deadline.elapsed().as_nanos() as u64);
             let done = sensor_t(s).saturating_sub(t0);
@@ -338,13 +330,11 @@ pub fn play(
             .map_or(0.0, |v| *v as f64 * 1e-3)
     };
     let (mut waits, mut max_wait, mut lost) = (0, Duration::ZERO, 0);
-    for (w, m, l) in [
-        (imu.waits().0, imu.waits().1, imu.lost()),
-        (srs.waits().0, srs.waits().1, srs.lost()),
-        (cns.waits().0, cns.waits().1, cns.lost()),
-        (baro.waits().0, baro.waits().1, baro.lost()),
-        (star.waits().0, star.waits().1, star.lost()),
-    ] {
+    let per_publisher = std::iter::once((imu.waits().0, imu.waits().1, imu.lost())).chain(
+        aids.iter()
+            .map(|(_, p)| (p.waits().0, p.waits().1, p.lost())),
+    );
+    for (w, m, l) in per_publisher {
         waits += w;
         max_wait = max_wait.max(m);
         lost += l;
@@ -403,10 +393,7 @@ pub fn record(
     use iceoryx2::prelude::*;
     let node = polarnav_ipc::node(cfg, "sensor-replay-record")?;
     let imu = TopicSubscriber::<ImuSample>::new(&node, cfg, Topic::Imu)?;
-    let srs = TopicSubscriber::<SrsSample>::new(&node, cfg, Topic::Srs)?;
-    let cns = TopicSubscriber::<CnsFix>::new(&node, cfg, Topic::Cns)?;
-    let baro = TopicSubscriber::<BaroSample>::new(&node, cfg, Topic::Baro)?;
-    let star = TopicSubscriber::<StarSample>::new(&node, cfg, Topic::Star)?;
+    let aids = polarnav_ipc::aid_subscribers(&node, cfg)?;
     let init = TopicSubscriber::<InitState>::new(&node, cfg, Topic::Init)?;
     let sol = TopicSubscriber::<Solution>::new(&node, cfg, Topic::Solution)?;
     let status = TopicSubscriber::<Status>::new(&node, cfg, Topic::Status)?;
@@ -449,10 +436,9 @@ pub fn record(
             || max_duration.is_some_and(|d| t_start.elapsed() >= d);
         init.drain(|x| buf.push(Record::Init(x)))?;
         imu.drain(|x| buf.push(Record::Imu(x)))?;
-        srs.drain(|x| buf.push(Record::Srs(Box::new(x))))?;
-        cns.drain(|x| buf.push(Record::Cns(x)))?;
-        baro.drain(|x| buf.push(Record::Baro(x)))?;
-        star.drain(|x| buf.push(Record::Star(x)))?;
+        for (_, sub) in aids.iter() {
+            sub.drain_samples(&mut |_, x| buf.push(Record::aid(x)))?;
+        }
         sol.drain(|x| {
             n.solutions += 1;
             buf.push(Record::Solution(Box::new(x)));
@@ -486,15 +472,14 @@ pub fn record(
         }
         for s in [
             imu.listener(),
-            srs.listener(),
-            cns.listener(),
-            baro.listener(),
-            star.listener(),
             init.listener(),
             sol.listener(),
             status.listener(),
         ] {
             let _ = s.try_wait(|_| {});
+        }
+        for (_, sub) in aids.iter() {
+            sub.clear_events();
         }
         if !started {
             continue;
@@ -540,7 +525,7 @@ pub enum RecordError {
 
 #[cfg(test)]
 mod tests {
-    use super::{ImuStall, Pacing};
+    use super::{ImuStall, Pacing, PerStream};
 
     #[test]
     fn imu_stalls_parse_and_absurd_ones_are_refused_naming_the_part() {
@@ -575,7 +560,9 @@ mod tests {
     fn summary_counts_read_back() {
         let p = Pacing {
             published: 1_234_567 + 89 + 1011 + 12_131 + 7,
-            per_stream: [1_234_567, 89, 1011, 12_131, 7],
+            per_stream: PerStream(std::array::from_fn(|k| {
+                [1_234_567, 89, 1011, 12_131, 7, 3][k]
+            })),
             p50_us: 3.25,
             p99_us: 41.0,
             max_us: 1200.5,

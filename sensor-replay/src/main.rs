@@ -391,15 +391,16 @@ fn run(cli: Cli) -> Result<(), Fail> {
                 BufWriter::with_capacity(1 << 20, f),
             )
             .map_err(|e| Fail(1, format!("{}: {e}", out.display())))?;
+            let aids: String = sum
+                .aids
+                .iter()
+                .map(|(k, n)| format!("{n} {}, ", k.decl().label))
+                .collect();
             polarnav_ipc::note!(
-                "simulate: wrote {} in {:.1} s: {} IMU, {} SRS, {} CNS, {} baro, {} star, {} truth records",
+                "simulate: wrote {} in {:.1} s: {} IMU, {aids}{} truth records",
                 out.display(),
                 t0.elapsed().as_secs_f64(),
                 sum.imu,
-                sum.srs,
-                sum.cns,
-                sum.baro,
-                sum.star,
                 sum.truth
             );
             if let Some(f) = s.faults.as_ref().filter(|_| !no_faults) {

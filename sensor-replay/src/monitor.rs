@@ -84,13 +84,10 @@ pub fn render(sol: Option<&Solution>, st: Option<&Status>, solutions_per_s: f64)
                 x.checkpoints_written,
                 if x.resumed == 1 { " (resumed)" } else { "" }
             ));
-            for (name, c, a) in [
-                ("imu ", &x.imu, None),
-                ("srs ", &x.srs, Some(&x.srs_aid)),
-                ("cns ", &x.cns, Some(&x.cns_aid)),
-                ("baro", &x.baro, Some(&x.baro_aid)),
-                ("star", &x.star, Some(&x.star_aid)),
-            ] {
+            let rows = std::iter::once(("imu", x.imu(), None))
+                .chain(x.each_aid().map(|(k, c, a)| (k.name(), c, Some(a))));
+            for (name, c, a) in rows {
+                let name = format!("{name:<4}");
                 s.push_str(&format!(
                     "  {name} rx {:8} ok {:8} bad {:4} time {:4} gate {:4} unused {:4} gaps {:4}",
                     c.received,
@@ -182,8 +179,8 @@ mod tests {
             cycles: 10,
             ..Default::default()
         };
-        st.cns_aid.fresh = 1;
-        st.imu.received = 300;
+        st.aid_mut(msgs::AidKind::Cns).fresh = 1;
+        st.counters_mut(msgs::Stream::Imu).received = 300;
         let text = render(Some(&sol), Some(&st), 200.0);
         assert!(
             text.contains("frame G") && text.contains("lat +85.9436693°"),

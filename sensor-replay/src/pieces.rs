@@ -336,13 +336,7 @@ impl Pieces {
                     self.tail.pop_front();
                 }
             }
-            Record::Imu(_)
-            | Record::Srs(_)
-            | Record::Cns(_)
-            | Record::Baro(_)
-            | Record::Star(_)
-                if self.last_solution.is_some() =>
-            {
+            Record::Imu(_) | Record::Aid(_) if self.last_solution.is_some() => {
                 if self.tail.len() == TAIL_MAX {
                     self.tail.pop_front();
                 }

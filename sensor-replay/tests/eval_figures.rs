@@ -3,6 +3,7 @@
 //! named in the summary, and the simulator's IMU bias comes back from the
 //! navlog as it was drawn.
 
+use msgs::AidKind;
 use std::io::BufWriter;
 
 use nav_daemon::batch::Output;
@@ -75,7 +76,11 @@ fn eval_writes_every_figure_from_an_mcap_solution_and_truth_bias_round_trips() {
     );
     let loaded = solution_file::load(&mcap).expect("read the MCAP solution");
     let aids = loaded.aids.as_ref().expect("aid updates");
-    assert!(!aids.srs.is_empty() && !aids.cns.is_empty() && !aids.baro.is_empty());
+    assert!(
+        !aids[AidKind::Srs].is_empty()
+            && !aids[AidKind::Cns].is_empty()
+            && !aids[AidKind::Baro].is_empty()
+    );
     assert!(loaded.rows.iter().any(|r| r.frame == 'g'));
     assert!(loaded.rows.iter().any(|r| r.frame == 'G'));
 

@@ -5,6 +5,7 @@
 //! aids' stated σ is 10× smaller than simulated; `--reference` draws the
 //! difference of two runs and its RMS agrees with an independent one.
 
+use msgs::{AidKind, AidSample};
 use std::io::BufWriter;
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -226,20 +227,23 @@ fn verdicts_are_consistent_with_the_scenarios_own_noise_and_too_optimistic_with_
     let tight = dir.join("tight.navlog");
     rewrite(&log, &tight, |r| {
         Some(match r {
-            Record::Srs(mut s) => {
-                for l in s.lines.iter_mut() {
-                    l.sigma_mps *= 0.1;
+            Record::Aid(a) => match *a {
+                AidSample::Srs(mut s) => {
+                    for l in s.lines.iter_mut() {
+                        l.sigma_mps *= 0.1;
+                    }
+                    Record::aid(s)
                 }
-                Record::Srs(s)
-            }
-            Record::Cns(mut c) => {
-                c.sigma_h_m *= 0.1;
-                Record::Cns(c)
-            }
-            Record::Baro(mut b) => {
-                b.sigma_m *= 0.1;
-                Record::Baro(b)
-            }
+                AidSample::Cns(mut c) => {
+                    c.sigma_h_m *= 0.1;
+                    Record::aid(c)
+                }
+                AidSample::Baro(mut b) => {
+                    b.sigma_m *= 0.1;
+                    Record::aid(b)
+                }
+                other => Record::aid(other),
+            },
             other => other,
         })
     });
@@ -263,7 +267,7 @@ fn reference_difference_and_its_rms_without_truth() {
     rewrite(&full, &log, no_truth);
     let no_cns = dir.join("no-cns.navlog");
     rewrite(&log, &no_cns, |r| {
-        (!matches!(r, Record::Cns(_))).then_some(r)
+        (!matches!(r, Record::Aid(ref a) if a.kind() == AidKind::Cns)).then_some(r)
     });
     let (fwd, reference) = (dir.join("no-cns.csv"), dir.join("all.csv"));
     batch_to(&no_cns, &fwd);

@@ -51,7 +51,7 @@ fn batch_runs(
             )
             .expect("batch");
             let dt = t.elapsed().as_secs_f64();
-            assert_eq!(r.status.imu.accepted, (FLIGHT_S * 200.0) as u64);
+            assert_eq!(r.status.imu().accepted, (FLIGHT_S * 200.0) as u64);
             dt
         })
         .collect()
@@ -121,9 +121,7 @@ fn main() {
                 nav.on_imu(x).expect("imu");
                 sols.push(nav.solution());
             }
-            Record::Srs(x) => drop(nav.on_srs(x)),
-            Record::Cns(x) => drop(nav.on_cns(x)),
-            Record::Baro(x) => drop(nav.on_baro(x)),
+            Record::Aid(x) => drop(nav.on_aid(x)),
             _ => {}
         }
     }
@@ -134,9 +132,7 @@ fn main() {
     for r in &records {
         match r {
             Record::Imu(x) => drop(nav2.on_imu(x).expect("imu")),
-            Record::Srs(x) => drop(nav2.on_srs(x)),
-            Record::Cns(x) => drop(nav2.on_cns(x)),
-            Record::Baro(x) => drop(nav2.on_baro(x)),
+            Record::Aid(x) => drop(nav2.on_aid(x)),
             _ => {}
         }
     }

@@ -11,6 +11,7 @@
 //! `cargo build --release --bins && cargo bench -p polarnav-tests --bench live_latency [-- SECONDS]`
 //! (default 60 s; the soak is 600).
 
+use msgs::AidKind;
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
@@ -208,8 +209,9 @@ fn main() {
 
     let node = polarnav_ipc::node(&cfg, "bench").expect("node");
     let imu = TopicPublisher::<ImuSample>::new(&node, &cfg, Topic::Imu).expect("imu");
-    let cns = TopicPublisher::<CnsFix>::new(&node, &cfg, Topic::Cns).expect("cns");
-    let baro = TopicPublisher::<BaroSample>::new(&node, &cfg, Topic::Baro).expect("baro");
+    let cns = TopicPublisher::<CnsFix>::new(&node, &cfg, Topic::Aid(AidKind::Cns)).expect("cns");
+    let baro =
+        TopicPublisher::<BaroSample>::new(&node, &cfg, Topic::Aid(AidKind::Baro)).expect("baro");
     let init_pub = TopicPublisher::<InitState>::new(&node, &cfg, Topic::Init).expect("init");
     let sol = TopicSubscriber::<Solution>::new(&node, &cfg, Topic::Solution).expect("solution");
     let status = TopicSubscriber::<Status>::new(&node, &cfg, Topic::Status).expect("status");

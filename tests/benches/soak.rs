@@ -230,7 +230,7 @@ fn main() {
                     s.cycles,
                     s.overruns,
                     s.overruns_cpu,
-                    s.imu.accepted,
+                    s.imu().accepted,
                     s.cycle_time_max_ns as f64 * 1e-3,
                     stall_max
                 );
@@ -258,7 +258,7 @@ fn main() {
     let st = last.expect("no status from the daemon");
     let play_out = std::fs::read_to_string(dir.join("play.out")).unwrap_or_default();
     // All zero when play printed no summary: the accounting check then fails loudly.
-    let published = sensor_replay::live::Pacing::published_in(&play_out).unwrap_or([0; 5]);
+    let published = sensor_replay::live::Pacing::published_in(&play_out).unwrap_or_default();
 
     let settled: Vec<u64> = rss
         .iter()
@@ -304,7 +304,8 @@ fn main() {
         sensor_replay::campaign::accounting_lines(&published, &st)
     );
     // The replay publishes every sample of every pass: nothing is missing upstream.
-    let accounting = sensor_replay::campaign::check_accounting(published, Some([0; 5]), &st);
+    let accounting =
+        sensor_replay::campaign::check_accounting(published, Some(msgs::PerStream::default()), &st);
     if let Err(m) = &accounting {
         println!("  ACCOUNTING MISMATCH: {m}");
     }

@@ -212,7 +212,7 @@ fn thirty_seed_average_nees_with_the_star_tracker_is_inside_the_95_percent_chi2_
                             assert!(
                                 records
                                     .iter()
-                                    .any(|r| matches!(r, msgs::navlog::Record::Star(_)))
+                                    .any(|r| matches!(r, msgs::navlog::Record::Aid(a) if a.kind() == msgs::AidKind::Star))
                             );
                             nees(&run(&records, &NavigatorConfig::default(), None))
                         })

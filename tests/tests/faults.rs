@@ -108,7 +108,7 @@ fn bad_imu_samples_are_rejected_by_reason() {
             assert!(nav.on_imu(&back).is_err(), "backwards accepted");
         }
     }
-    let c = nav.status().imu;
+    let c = *nav.status().imu();
     assert_eq!(
         (c.received, c.accepted),
         (samples.len() as u64 + 5, samples.len() as u64)
@@ -136,14 +136,8 @@ fn a_navigator_resumed_from_its_checkpoint_continues_identically() {
             Record::Imu(s) if s.t_ns > init.t_ns => {
                 n.on_imu(s).expect("imu");
             }
-            Record::Srs(x) => {
-                let _ = n.on_srs(x);
-            }
-            Record::Cns(x) => {
-                let _ = n.on_cns(x);
-            }
-            Record::Baro(x) => {
-                let _ = n.on_baro(x);
+            Record::Aid(x) => {
+                let _ = n.on_aid(x);
             }
             _ => {}
         };
@@ -197,7 +191,11 @@ fn a_reinitialization_publishes_its_reset_deltas_and_keeps_the_counters() {
     assert!(
         after.reset_delta_pos_e_m[1].abs() < 1e-6 && after.reset_delta_heading_rad.abs() < 1e-9
     );
-    assert_eq!(nav.status().imu.accepted, before.seq, "counters restarted");
+    assert_eq!(
+        nav.status().imu().accepted,
+        before.seq,
+        "counters restarted"
+    );
     assert_eq!(after.seq, before.seq, "sequence restarted");
 }
 
@@ -306,19 +304,14 @@ duration_s = 30.0
                             return true;
                         }
                         let _ = match a {
-                            Record::Srs(x) => nav.on_srs(x).map(|_| ()),
-                            Record::Cns(x) => nav.on_cns(x).map(|_| ()),
-                            Record::Baro(x) => nav.on_baro(x).map(|_| ()),
-                            Record::Star(x) => nav.on_star(x).map(|_| ()),
+                            Record::Aid(x) => nav.on_aid(x).map(|_| ()),
                             _ => Ok(()),
                         };
                         false
                     });
                     out.push(nav.solution());
                 }
-                Record::Srs(_) | Record::Cns(_) | Record::Baro(_) | Record::Star(_) => {
-                    pending.push(r)
-                }
+                Record::Aid(_) => pending.push(r),
                 _ => {}
             }
         }
@@ -330,12 +323,7 @@ duration_s = 30.0
     // delay after an aid's stamp (there only the on-time run has it).
     let stamps: Vec<u64> = records
         .iter()
-        .filter(|r| {
-            matches!(
-                r,
-                Record::Srs(_) | Record::Cns(_) | Record::Baro(_) | Record::Star(_)
-            )
-        })
+        .filter(|r| matches!(r, Record::Aid(_)))
         .filter_map(Record::t_ns)
         .collect();
     let settled = |t: u64| !stamps.iter().any(|&a| t >= a && t < a + late_ns);

@@ -6,6 +6,7 @@
 //! in the cycle before the IMU samples published ahead of it, must change
 //! nothing: every solution equal, bit for bit, and the same accounting.
 
+use msgs::AidKind;
 use msgs::navlog::Record;
 use polarnav::inbox::{Inbox, Received};
 use polarnav::session::{Collect, Input, Session, SessionSettings, Sink};
@@ -16,9 +17,7 @@ fn topic(r: &Record) -> Option<usize> {
     match r {
         Record::Init(_) => Some(0),
         Record::Imu(_) => Some(1),
-        Record::Srs(_) => Some(2),
-        Record::Cns(_) => Some(3),
-        Record::Baro(_) => Some(4),
+        Record::Aid(a) => Some(2 + a.kind() as usize),
         _ => None,
     }
 }
@@ -49,9 +48,7 @@ fn received(r: &Record) -> Received {
     match r {
         Record::Init(x) => Received::Init(*x),
         Record::Imu(x) => Received::Imu(*x),
-        Record::Srs(x) => Received::Srs(**x),
-        Record::Cns(x) => Received::Cns(*x),
-        Record::Baro(x) => Received::Baro(*x),
+        Record::Aid(x) => Received::Aid(**x),
         _ => unreachable!("inputs only"),
     }
 }
@@ -138,12 +135,9 @@ fn however_the_live_loop_groups_its_inputs_its_solutions_are_those_of_batch() {
                 y.r_e_m
             );
         }
-        for (name, a, c) in [
-            ("IMU", l_status.imu, b_status.imu),
-            ("SRS", l_status.srs, b_status.srs),
-            ("CNS", l_status.cns, b_status.cns),
-            ("baro", l_status.baro, b_status.baro),
-        ] {
+        for (name, a, c) in
+            msgs::Stream::ALL.map(|k| (k.name(), *l_status.counters(k), *b_status.counters(k)))
+        {
             assert_eq!(a, c, "seed {seed}: {name} counters");
         }
     }
@@ -156,9 +150,7 @@ fn stalled(records: &[&'static Record], stalls: &[(f64, f64)]) -> Vec<&'static R
     let t = |r: &Record| match r {
         Record::Init(x) => x.t_ns,
         Record::Imu(x) => x.t_ns,
-        Record::Srs(x) => x.t_ns,
-        Record::Cns(x) => x.t_ns,
-        Record::Baro(x) => x.t_ns,
+        Record::Aid(x) => x.t_ns(),
         _ => unreachable!("inputs only"),
     };
     let mut out: Vec<&Record> = records.to_vec();
@@ -200,9 +192,7 @@ fn an_imu_stalled_and_declared_lost_changes_no_solution() {
     for r in &arrival {
         match r {
             Record::Imu(x) if x.t_ns < newest_aid => overtaken += 1,
-            Record::Srs(x) => newest_aid = newest_aid.max(x.t_ns),
-            Record::Cns(x) => newest_aid = newest_aid.max(x.t_ns),
-            Record::Baro(x) => newest_aid = newest_aid.max(x.t_ns),
+            Record::Aid(x) => newest_aid = newest_aid.max(x.t_ns()),
             _ => {}
         }
     }
@@ -218,15 +208,16 @@ fn an_imu_stalled_and_declared_lost_changes_no_solution() {
             .zip(&b.solutions)
             .position(|(x, y)| x != y);
         assert_eq!(differ, None, "seed {seed}: first differing solution");
-        for (name, a, c) in [
-            ("IMU", l_status.imu, b_status.imu),
-            ("SRS", l_status.srs, b_status.srs),
-            ("CNS", l_status.cns, b_status.cns),
-            ("baro", l_status.baro, b_status.baro),
-        ] {
+        for (name, a, c) in
+            msgs::Stream::ALL.map(|k| (k.name(), *l_status.counters(k), *b_status.counters(k)))
+        {
             assert_eq!(a, c, "seed {seed}: {name} counters");
         }
-        assert!(b_status.baro.accepted > 250, "{:?}", b_status.baro);
+        assert!(
+            b_status.aid_counters(AidKind::Baro).accepted > 250,
+            "{:?}",
+            b_status.aid_counters(AidKind::Baro)
+        );
     }
 }
 
@@ -253,9 +244,7 @@ fn the_solution_at_a_fix_epoch_has_fused_that_fix() {
         })
         .expect("init");
     let aid_t = |r: &Record| match r {
-        Record::Srs(x) => Some(x.t_ns),
-        Record::Cns(x) => Some(x.t_ns),
-        Record::Baro(x) => Some(x.t_ns),
+        Record::Aid(x) => Some(x.t_ns()),
         _ => None,
     };
     let mut nav = Navigator::new(&init, &SessionSettings::default().navigator);
@@ -274,11 +263,9 @@ fn the_solution_at_a_fix_epoch_has_fused_that_fix() {
         while next_aid < aids.len() && aid_t(aids[next_aid]).expect("aid") <= s.t_ns {
             // An aid the gate refuses is the session's to refuse too.
             let _ = match aids[next_aid] {
-                Record::Srs(x) => nav.on_srs(x),
-                Record::Cns(x) => nav.on_cns(x),
-                Record::Baro(x) => {
-                    baro_here |= x.t_ns == s.t_ns;
-                    nav.on_baro(x)
+                Record::Aid(x) => {
+                    baro_here |= x.kind() == AidKind::Baro && x.t_ns() == s.t_ns;
+                    nav.on_aid(x)
                 }
                 _ => unreachable!(),
             };

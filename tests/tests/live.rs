@@ -2,6 +2,7 @@
 //! replay → daemon → recorder, each a separate process with its own service
 //! prefix and iceoryx2 root, and a deadline on every wait.
 
+use msgs::AidKind;
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
@@ -95,19 +96,35 @@ fn star_tracker_is_played_fused_live_and_recorded() {
         replay_equals_batch_of("star", 0, "config/scenarios/transpolar-star.toml");
     let recorded = records
         .iter()
-        .filter(|r| matches!(r, Record::Star(_)))
+        .filter(|r| matches!(r, Record::Aid(a) if a.kind() == AidKind::Star))
         .count() as u64;
     eprintln!(
         "star: {recorded} recorded; daemon received {}, fused {}, gate {}, seq gaps {}",
-        last_status.star.received,
-        last_status.star.accepted,
-        last_status.star.rejected_gate,
-        last_status.star.seq_gaps
+        last_status.aid_counters(AidKind::Star).received,
+        last_status.aid_counters(AidKind::Star).accepted,
+        last_status.aid_counters(AidKind::Star).rejected_gate,
+        last_status.aid_counters(AidKind::Star).seq_gaps
     );
     assert_eq!(recorded, 60, "1 Hz over 60 s");
-    assert_eq!(last_status.star.received, 60);
-    assert!(last_status.star.accepted >= 58, "{:?}", last_status.star);
-    assert_eq!(last_status.star_aid.fresh, 1);
+    assert_eq!(last_status.aid_counters(AidKind::Star).received, 60);
+    assert!(
+        last_status.aid_counters(AidKind::Star).accepted >= 58,
+        "{:?}",
+        *last_status.aid_counters(AidKind::Star)
+    );
+    // Fresh in the last status before the replay ended: once the IMU
+    // stops, the daemon reports it lost (by the wall clock, after 5 IMU
+    // periods) and no aid fresh, and a loaded machine may stop the daemon
+    // after that.
+    let last_with_imu = records
+        .iter()
+        .rev()
+        .find_map(|r| match r {
+            Record::Status(s) if s.flags & msgs::solution_flags::IMU_LOST == 0 => Some(**s),
+            _ => None,
+        })
+        .expect("a status while the IMU was arriving");
+    assert_eq!(last_with_imu.aid(AidKind::Star).fresh, 1);
 }
 
 /// The same on a machine kept busy by two CPU-bound processes beside the
@@ -405,13 +422,13 @@ fn soak(tag: &str, scenario: &str, load: &Load) -> Outcome {
         .count() as u64;
     eprintln!(
         "daemon: imu received {} of {imu_in_log}, seq gaps {}, cycles {}, overruns {}",
-        last_status.imu.received,
-        last_status.imu.seq_gaps,
+        last_status.imu().received,
+        last_status.imu().seq_gaps,
         last_status.cycles,
         last_status.overruns
     );
-    assert_eq!(last_status.imu.received, imu_in_log, "IMU samples lost");
-    assert_eq!(last_status.imu.seq_gaps, 0, "IMU sequence gaps");
+    assert_eq!(last_status.imu().received, imu_in_log, "IMU samples lost");
+    assert_eq!(last_status.imu().seq_gaps, 0, "IMU sequence gaps");
 
     // batch on the same log, same configuration: every solution the
     // recorder received equals batch's at the same time, bit for bit; the
@@ -467,13 +484,13 @@ fn soak(tag: &str, scenario: &str, load: &Load) -> Outcome {
         );
     }
     // The daemon fused, refused and set aside exactly what batch did.
-    for (name, a, b) in [
-        ("IMU", last_status.imu, batch_status.imu),
-        ("SRS", last_status.srs, batch_status.srs),
-        ("CNS", last_status.cns, batch_status.cns),
-        ("baro", last_status.baro, batch_status.baro),
-        ("star", last_status.star, batch_status.star),
-    ] {
+    for (name, a, b) in msgs::Stream::ALL.map(|k| {
+        (
+            k.name(),
+            *last_status.counters(k),
+            *batch_status.counters(k),
+        )
+    }) {
         assert_eq!(
             (
                 a.received,
@@ -569,12 +586,12 @@ fn an_imu_stalled_mid_flight_while_aids_arrive_changes_no_solution() {
     let back = o.daemon_log.matches("IMU back").count();
     eprintln!(
         "stall: 'IMU lost' {lost}, 'IMU back' {back}; aids fused SRS {} CNS {} baro {} (batch {} {} {})",
-        o.last_status.srs.accepted,
-        o.last_status.cns.accepted,
-        o.last_status.baro.accepted,
-        o.batch_status.srs.accepted,
-        o.batch_status.cns.accepted,
-        o.batch_status.baro.accepted
+        o.last_status.aid_counters(AidKind::Srs).accepted,
+        o.last_status.aid_counters(AidKind::Cns).accepted,
+        o.last_status.aid_counters(AidKind::Baro).accepted,
+        o.batch_status.aid_counters(AidKind::Srs).accepted,
+        o.batch_status.aid_counters(AidKind::Cns).accepted,
+        o.batch_status.aid_counters(AidKind::Baro).accepted
     );
     // At least once per stall (a machine loaded by parallel tests may add
     // a short loss of its own, and the end of the replay is one).
@@ -586,9 +603,9 @@ fn an_imu_stalled_mid_flight_while_aids_arrive_changes_no_solution() {
         o.daemon_log
     );
     assert!(
-        o.batch_status.baro.accepted > 500,
+        o.batch_status.aid_counters(AidKind::Baro).accepted > 500,
         "{:?}",
-        o.batch_status.baro
+        *o.batch_status.aid_counters(AidKind::Baro)
     );
 }
 
@@ -626,7 +643,7 @@ fn killed_replay_flags_imu_lost_and_stale_aids_then_a_new_replay_resumes() {
     let mut first = play("play1");
     // Running and fusing.
     let running = status_until(&env, Duration::from_secs(20), |s| {
-        s.cns.accepted >= 2 && s.srs_aid.fresh == 1
+        s.aid_counters(AidKind::Cns).accepted >= 2 && s.aid(AidKind::Srs).fresh == 1
     });
     assert_eq!(running.flags & msgs::solution_flags::IMU_LOST, 0);
     first.kill().expect("kill -9 the replay");
@@ -634,9 +651,9 @@ fn killed_replay_flags_imu_lost_and_stale_aids_then_a_new_replay_resumes() {
     // The daemon keeps cycling: IMU lost, every aid stale (timeouts 1-3 s).
     let lost = status_until(&env, Duration::from_secs(15), |s| {
         s.flags & msgs::solution_flags::IMU_LOST != 0
-            && s.srs_aid.fresh == 0
-            && s.cns_aid.fresh == 0
-            && s.baro_aid.fresh == 0
+            && s.aid(AidKind::Srs).fresh == 0
+            && s.aid(AidKind::Cns).fresh == 0
+            && s.aid(AidKind::Baro).fresh == 0
     });
     assert!(lost.cycles > running.cycles, "the cycle stopped");
     let log = std::fs::read_to_string(env.dir.join("daemon.err")).unwrap_or_default();
@@ -647,11 +664,15 @@ fn killed_replay_flags_imu_lost_and_stale_aids_then_a_new_replay_resumes() {
     // A new replay re-initializes and fusing resumes.
     let mut second = play("play2");
     let resumed = status_until(&env, Duration::from_secs(20), |s| {
-        s.reinit_count == 1 && s.flags & msgs::solution_flags::IMU_LOST == 0 && s.cns_aid.fresh == 1
+        s.reinit_count == 1
+            && s.flags & msgs::solution_flags::IMU_LOST == 0
+            && s.aid(AidKind::Cns).fresh == 1
     });
     eprintln!(
         "replay killed: IMU lost flagged, aids stale after {} cycles; new replay: reinit {}, CNS fused {}",
-        lost.cycles, resumed.reinit_count, resumed.cns.accepted
+        lost.cycles,
+        resumed.reinit_count,
+        resumed.aid_counters(AidKind::Cns).accepted
     );
     let _ = second.kill();
     let _ = second.wait();
@@ -664,7 +685,7 @@ fn killed_daemon_restarts_cleanly_over_its_dead_resources() {
     let log = short_log(&env.dir, 120.0);
     let mut daemon = env.start_daemon("daemon1", None);
     let mut play = env.start_play("play", &log, "2");
-    status_until(&env, Duration::from_secs(20), |s| s.imu.accepted > 100);
+    status_until(&env, Duration::from_secs(20), |s| s.imu().accepted > 100);
     daemon.kill().expect("kill -9 the daemon");
     let _ = daemon.wait();
     // The restarted daemon opens the same services (the dead node's resources cleaned)
@@ -672,11 +693,12 @@ fn killed_daemon_restarts_cleanly_over_its_dead_resources() {
     // it cannot navigate: resuming from a checkpoint is the fault-tolerance work.)
     let mut restarted = env.start_daemon("daemon2", None);
     let s = status_until(&env, Duration::from_secs(20), |s| {
-        s.imu.received > 100 && s.cycles > 0
+        s.imu().received > 100 && s.cycles > 0
     });
     eprintln!(
         "restarted daemon: {} IMU samples received, {} cycles",
-        s.imu.received, s.cycles
+        s.imu().received,
+        s.cycles
     );
     let _ = play.kill();
     let _ = play.wait();
@@ -930,8 +952,7 @@ fn python_ctypes_mirror_has_the_rust_layout() {
         exclusions, fused, fresh, made_in_frame, _pad),
     );
     rust.extend(
-        offsets!(Status: t_ns, seq, imu, srs, cns, baro, star, srs_aid, cns_aid, baro_aid,
-        star_aid, cycles, overruns, overruns_cpu, cycle_time_mean_ns, cycle_time_max_ns, last_switch_t_ns, imu_gap_count,
+        offsets!(Status: t_ns, seq, streams, aids, cycles, overruns, overruns_cpu, cycle_time_mean_ns, cycle_time_max_ns, last_switch_t_ns, imu_gap_count,
         coasted_ns, checkpoints_written, reinit_count, switch_count, reset_count, flags, frame,
         resumed, _pad),
     );
@@ -939,6 +960,8 @@ fn python_ctypes_mirror_has_the_rust_layout() {
         offsets!(StarSample: t_ns, seq, q_b_i, boresight_b, sigma_cross_arcsec,
         sigma_boresight_arcsec),
     );
+    // The mirror's aid names, in the declaration's order.
+    rust.extend(AidKind::ALL.map(|k| (format!("aid.{}", k.name()), k as usize)));
     assert_eq!(
         py_layout.len(),
         rust.len(),
@@ -1090,7 +1113,7 @@ fn killed_daemon_resumes_from_its_checkpoint_within_sigma() {
     let mut daemon = env.start_daemon("daemon1", None);
     let mut play = env.start_play("play", &log, "2");
     let before = status_until(&env, Duration::from_secs(30), |s| {
-        s.checkpoints_written >= 5 && s.cns.accepted >= 5
+        s.checkpoints_written >= 5 && s.aid_counters(AidKind::Cns).accepted >= 5
     });
     assert_eq!(before.resumed, 0, "the first daemon started cold");
     // Subscribe before the kill, so that the restarted daemon's very first
@@ -1117,7 +1140,7 @@ fn killed_daemon_resumes_from_its_checkpoint_within_sigma() {
         sub.drain(|s| sols.push(s)).expect("drain");
         std::thread::sleep(Duration::from_millis(5));
     }
-    let after = status_until(&env, Duration::from_secs(10), |s| s.imu.accepted > 0);
+    let after = status_until(&env, Duration::from_secs(10), |s| s.imu().accepted > 0);
     let _ = play.kill();
     let _ = play.wait();
     assert_eq!(terminate(&mut restarted, Duration::from_secs(20)), Some(0));
@@ -1203,8 +1226,7 @@ fn fault_campaign_through_the_live_daemon() {
         let status = status_until(&env, Duration::from_secs(20), |st| {
             campaign::streams(st)
                 .iter()
-                .zip(r.published.iter().zip(upstream))
-                .all(|(c, (p, u))| c.received + c.seq_gaps >= p + u)
+                .all(|(k, c)| c.received + c.seq_gaps >= r.published[k] + upstream[k])
         });
         assert_eq!(terminate(&mut daemon, Duration::from_secs(20)), Some(0));
         assert_eq!(terminate(&mut recorder, Duration::from_secs(20)), Some(0));
@@ -1259,7 +1281,7 @@ fn a_stalled_subscriber_never_blocks_the_daemon() {
         Some(0),
         "play failed"
     );
-    let st = status_until(&env, Duration::from_secs(10), |s| s.imu.received >= 4000);
+    let st = status_until(&env, Duration::from_secs(10), |s| s.imu().received >= 4000);
     // Only now does the stalled subscriber read.
     let mut seqs = Vec::new();
     stalled.drain(|s| seqs.push(s.seq)).expect("drain");
@@ -1272,13 +1294,13 @@ fn a_stalled_subscriber_never_blocks_the_daemon() {
     eprintln!(
         "stalled subscriber: {} of {} solutions kept (seq {:?}..{:?}); daemon: {} IMU accepted, {} overruns",
         seqs.len(),
-        st.imu.accepted,
+        st.imu().accepted,
         seqs.first(),
         seqs.last(),
-        st.imu.accepted,
+        st.imu().accepted,
         st.overruns
     );
-    assert_eq!(st.imu.accepted, 4000, "the daemon lost input");
+    assert_eq!(st.imu().accepted, 4000, "the daemon lost input");
     // (Overruns are a scheduling figure of this shared machine, measured by the benches.)
     assert_eq!(seqs.len(), qos.buffer, "the buffer keeps exactly its size");
     assert_eq!(
@@ -1322,7 +1344,9 @@ fn looped_replay_reinitializes_and_keeps_every_stream_fused_and_accounted() {
         Some(0),
         "play failed"
     );
-    let st = status_until(&env, Duration::from_secs(10), |s| s.imu.received >= 12_000);
+    let st = status_until(&env, Duration::from_secs(10), |s| {
+        s.imu().received >= 12_000
+    });
     assert_eq!(terminate(&mut daemon, Duration::from_secs(20)), Some(0));
     let out = std::fs::read_to_string(env.dir.join("play.out")).unwrap_or_default();
     let published = sensor_replay::live::Pacing::published_in(&out).expect("per-stream counts");
@@ -1330,18 +1354,23 @@ fn looped_replay_reinitializes_and_keeps_every_stream_fused_and_accounted() {
         "{} | daemon: reinits {}, SRS accepted {} of {}, CNS {} of {}",
         out.trim(),
         st.reinit_count,
-        st.srs.accepted,
-        st.srs.received,
-        st.cns.accepted,
-        st.cns.received
+        st.aid_counters(AidKind::Srs).accepted,
+        st.aid_counters(AidKind::Srs).received,
+        st.aid_counters(AidKind::Cns).accepted,
+        st.aid_counters(AidKind::Cns).received
     );
     assert_eq!(
         st.reinit_count, 2,
         "three passes are two re-initializations"
     );
     // 20 SRS per pass; a few may fall to the gate, but never a whole pass.
-    assert!(st.srs.accepted >= 54, "SRS fused {} of 60", st.srs.accepted);
-    sensor_replay::campaign::check_accounting(published, Some([0; 5]), &st).expect("accounting");
+    assert!(
+        st.aid_counters(AidKind::Srs).accepted >= 54,
+        "SRS fused {} of 60",
+        st.aid_counters(AidKind::Srs).accepted
+    );
+    sensor_replay::campaign::check_accounting(published, Some(msgs::PerStream::default()), &st)
+        .expect("accounting");
 }
 
 /// papers/001 §5.1 live: the scenario's header moves the switch to 88°; the
@@ -1526,12 +1555,15 @@ fn second_publisher_is_refused_counted_and_flagged_and_navigation_goes_on() {
     let pub_baro = polarnav_ipc::TopicPublisher::<BaroSample>::new(
         &node,
         &env.cfg,
-        msgs::service::Topic::Baro,
+        msgs::service::Topic::Aid(AidKind::Baro),
     )
     .expect("baro");
-    let pub_cns =
-        polarnav_ipc::TopicPublisher::<CnsFix>::new(&node, &env.cfg, msgs::service::Topic::Cns)
-            .expect("cns");
+    let pub_cns = polarnav_ipc::TopicPublisher::<CnsFix>::new(
+        &node,
+        &env.cfg,
+        msgs::service::Topic::Aid(AidKind::Cns),
+    )
+    .expect("cns");
     let pub_init =
         polarnav_ipc::TopicPublisher::<InitState>::new(&node, &env.cfg, msgs::service::Topic::Init)
             .expect("init");
@@ -1619,7 +1651,9 @@ fn second_publisher_is_refused_counted_and_flagged_and_navigation_goes_on() {
         }
     }
     let st = status_until(&env, Duration::from_secs(10), |s| {
-        s.imu.refused_publisher >= 6 && s.cns.refused_publisher >= 2 && s.baro.refused_publisher > 0
+        s.imu().refused_publisher >= 6
+            && s.aid_counters(AidKind::Cns).refused_publisher >= 2
+            && s.aid_counters(AidKind::Baro).refused_publisher > 0
     });
     let _ = play.kill();
     let _ = play.wait();
@@ -1629,10 +1663,10 @@ fn second_publisher_is_refused_counted_and_flagged_and_navigation_goes_on() {
     let lat_deg = newest.map_or(f64::NAN, |s| s.lat_rad.to_degrees());
     eprintln!(
         "second publisher: WATCHDOG max interval {max_watchdog:?}, STATUS max interval {max_status:?}, {after_attack} solutions after the attack ({flagged} flagged), last latitude {lat_deg:.4}°; refused imu {} cns {} baro {}; imu {:?}; reinit_count {}",
-        st.imu.refused_publisher,
-        st.cns.refused_publisher,
-        st.baro.refused_publisher,
-        st.imu,
+        st.imu().refused_publisher,
+        st.aid_counters(AidKind::Cns).refused_publisher,
+        st.aid_counters(AidKind::Baro).refused_publisher,
+        *st.imu(),
         st.reinit_count
     );
     assert!(attacked, "the replay never produced a solution");
@@ -1651,7 +1685,11 @@ fn second_publisher_is_refused_counted_and_flagged_and_navigation_goes_on() {
     );
     assert_eq!(st.reinit_count, 0, "the stray init was applied");
     assert!(lat_deg < 89.0, "latitude {lat_deg}°");
-    for c in [st.imu, st.cns, st.baro] {
+    for c in [
+        *st.imu(),
+        *st.aid_counters(AidKind::Cns),
+        *st.aid_counters(AidKind::Baro),
+    ] {
         assert_eq!(
             c.received,
             c.accepted + c.rejected_invalid + c.rejected_time + c.rejected_gate + c.not_used,
@@ -1660,12 +1698,12 @@ fn second_publisher_is_refused_counted_and_flagged_and_navigation_goes_on() {
     }
     // Every sample of the second publisher that arrived was refused before
     // the session: none counted as received, rejected or not used.
-    assert_eq!(st.imu.refused_publisher, injected, "{:?}", st.imu);
+    assert_eq!(st.imu().refused_publisher, injected, "{:?}", *st.imu());
     assert_eq!(
-        st.imu.rejected_invalid + st.imu.rejected_time + st.imu.not_used,
+        st.imu().rejected_invalid + st.imu().rejected_time + st.imu().not_used,
         0,
         "{:?}",
-        st.imu
+        *st.imu()
     );
     assert!(flagged > 0, "no solution flagged SECOND_PUBLISHER");
 }

@@ -51,7 +51,7 @@ fn batch_mcap_has_one_solution_per_csv_row_with_equal_values_and_every_schema() 
     assert_eq!(b.switches.len(), 1);
 
     // Every channel of the mapping is in the file.
-    let summary = check_mcap(&mcap, Some(&csv), &polarnav_foxglove::TOPICS);
+    let summary = check_mcap(&mcap, Some(&csv), &polarnav_foxglove::topics());
     let counts = &summary["counts"];
     assert_eq!(summary["solutions_checked"].as_u64(), Some(a.rows));
     // The display channels: one solution per 50 ms of sensor time and the
@@ -84,12 +84,8 @@ fn batch_mcap_has_one_solution_per_csv_row_with_equal_values_and_every_schema() 
     assert_eq!(counts["/events/switch"].as_u64(), Some(1));
     // Every aid sample that reached the gate has its update: fused + gate-rejected.
     let st = &b.status;
-    for (topic, c) in [
-        ("/aid/srs", &st.srs),
-        ("/aid/cns", &st.cns),
-        ("/aid/baro", &st.baro),
-        ("/aid/star", &st.star),
-    ] {
+    for (k, c, _) in st.each_aid() {
+        let topic = k.decl().update_topic;
         assert_eq!(
             counts[topic].as_u64(),
             Some(c.accepted + c.rejected_gate),

@@ -4,6 +4,7 @@
 //! (effective settings from the log header and the command line) with the
 //! right preset and with the navigation-grade one.
 
+use msgs::AidKind;
 use msgs::navlog::Record;
 use msgs::{Solution, TruthRecord};
 use nalgebra::Vector3;
@@ -232,11 +233,9 @@ fn a_persistent_step_fault_is_rejected_throughout_and_never_resets() {
         );
         let records = simulate_records(&text, 1);
         let f = fly(&records, None, None);
-        let st = if stream == "cns" {
-            f.status.cns
-        } else {
-            f.status.baro
-        };
+        let st = *f
+            .status
+            .aid_counters(AidKind::from_name(stream).expect("an aid"));
         eprintln!(
             "{stream} step of {magnitude} m for 120 s: {} rejected at the gate, {} resets, horizontal RMSE {:.2} m",
             st.rejected_gate,

@@ -5,6 +5,7 @@
 
 use std::collections::HashMap;
 
+use msgs::AidSample;
 use msgs::navlog::Record;
 use msgs::{Solution, TruthRecord};
 use nalgebra::Vector3;
@@ -441,23 +442,23 @@ fn where_nothing_can_be_learned_smoothed_equals_forward() {
     let bad: Vec<Record> = records
         .iter()
         .map(|x| match x {
-            Record::Cns(c) => {
-                let mut c = *c;
-                c.lat_rad += 0.1;
-                Record::Cns(c)
-            }
-            Record::Srs(s) => {
-                let mut s = s.clone();
-                for l in s.lines.iter_mut() {
-                    l.measured_wavelength_m *= 1.0 + 100.0 / 299_792_458.0;
+            Record::Aid(a) => match **a {
+                AidSample::Cns(mut c) => {
+                    c.lat_rad += 0.1;
+                    Record::aid(c)
                 }
-                Record::Srs(s)
-            }
-            Record::Baro(b) => {
-                let mut b = *b;
-                b.pressure_pa *= 0.3;
-                Record::Baro(b)
-            }
+                AidSample::Srs(mut s) => {
+                    for l in s.lines.iter_mut() {
+                        l.measured_wavelength_m *= 1.0 + 100.0 / 299_792_458.0;
+                    }
+                    Record::aid(s)
+                }
+                AidSample::Baro(mut b) => {
+                    b.pressure_pa *= 0.3;
+                    Record::aid(b)
+                }
+                _ => x.clone(),
+            },
             other => other.clone(),
         })
         .collect();

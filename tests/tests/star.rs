@@ -11,6 +11,7 @@
 //!   heading by less than 3σ, and σ comes back down;
 //! - the simulated stream against the truth, with C_e^i built here.
 
+use msgs::AidKind;
 use msgs::navlog::Record;
 use nalgebra::{Rotation3, UnitQuaternion, Vector3};
 use polarnav::navigator::NavigatorConfig;
@@ -40,10 +41,7 @@ fn scenario(file: &str) -> String {
 
 fn without_star() -> NavigatorConfig {
     NavigatorConfig {
-        aids: AidSet {
-            star: false,
-            ..AidSet::default()
-        },
+        aids: AidSet::default().with(AidKind::Star, false),
         ..Default::default()
     }
 }
@@ -91,7 +89,7 @@ fn transpolar_with_a_star_tracker_holds_heading_and_tilt_within_a_tenth_of_an_ar
     let records = simulate_records(&scenario("config/scenarios/transpolar-star.toml"), 1);
     let stars = records
         .iter()
-        .filter(|r| matches!(r, Record::Star(_)))
+        .filter(|r| matches!(r, Record::Aid(a) if a.kind() == AidKind::Star))
         .count();
     assert_eq!(stars, 4480, "1 Hz over 4480 s");
     accept("transpolar-star", &records);
@@ -111,7 +109,7 @@ fn star_tracker_lost_for_ten_minutes_over_the_pole_recovers_without_a_jump() {
     let records = simulate_records(&text, 1);
     let lost = records
         .iter()
-        .filter(|r| matches!(r, Record::Star(s) if (s.t_ns as f64 * 1e-9) >= OUTAGE.0 && (s.t_ns as f64 * 1e-9) < OUTAGE.1))
+        .filter(|r| matches!(r, Record::Aid(a) if matches!(**a, msgs::AidSample::Star(s) if (s.t_ns as f64 * 1e-9) >= OUTAGE.0 && (s.t_ns as f64 * 1e-9) < OUTAGE.1)))
         .count();
     assert_eq!(lost, 0, "the outage removes the star samples");
     let with = accept("transpolar-star, 10 min outage over the pole", &records);
@@ -195,7 +193,10 @@ fn simulated_star_samples_are_the_truth_in_the_inertial_frame() {
             .collect();
         let mut errs = Vec::new();
         for r in &records {
-            let Record::Star(x) = r else { continue };
+            let Record::Aid(a) = r else { continue };
+            let msgs::AidSample::Star(x) = **a else {
+                continue;
+            };
             let t = x.t_ns as f64 * 1e-9;
             let c_e_i = Rotation3::from_axis_angle(&Vector3::z_axis(), 7.292_115_146_7e-5 * t);
             let expected = UnitQuaternion::from_rotation_matrix(&c_e_i) * truth[&x.t_ns];

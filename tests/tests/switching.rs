@@ -5,6 +5,7 @@
 //! (target ≤ 0.01′ / 1 mm/s / 0.05 m, far below papers/002's 0.08′ /
 //! 0.0013 m/s / 0.15 m); without it a transient must be visible.
 
+use msgs::AidKind;
 use msgs::navlog::Record;
 use polarnav::align::AlignmentAccumulator;
 use polarnav::frame_select::FramePolicy;
@@ -67,7 +68,9 @@ fn experiment(
         // With the star tracker on, heading is measured directly, so the
         // unconverted φ is corrected within a few fixes and only the
         // position transient is required to show.
-        let star = records.iter().any(|r| matches!(r, Record::Star(_)));
+        let star = records
+            .iter()
+            .any(|r| matches!(r, Record::Aid(a) if a.kind() == AidKind::Star));
         assert!(
             (star || n.0 > 10.0 * w.0.max(1e-3)) && n.2 > 10.0 * w.2.max(1e-3),
             "{name}: no visible effect without conversion {n:?}"
@@ -106,7 +109,11 @@ fn paper_sim_switch_at_88n_with_the_star_tracker_on_leaves_no_transient() {
     let text = std::fs::read_to_string(repo("config/scenarios/paper-sim.toml")).expect("scenario");
     let text = format!("{text}\n{STAR}");
     let records = simulate_records(&text, 1);
-    assert!(records.iter().any(|r| matches!(r, Record::Star(_))));
+    assert!(
+        records
+            .iter()
+            .any(|r| matches!(r, Record::Aid(a) if a.kind() == AidKind::Star))
+    );
     let policy = FramePolicy::Latitude(polarnav::frame_select::SwitchLatitudes {
         enter_rad: 88f64.to_radians(),
         leave_rad: 87.5f64.to_radians(),

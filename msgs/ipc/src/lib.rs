@@ -24,6 +24,7 @@ use iceoryx2::port::publisher::Publisher;
 use iceoryx2::port::subscriber::Subscriber;
 use iceoryx2::prelude::*;
 use msgs::service::Topic;
+use msgs::{AidKind, AidPayload, AidSample, PerAid};
 
 /// Where and under which names the services live.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -211,7 +212,7 @@ pub fn qos(topic: Topic) -> Qos {
             history: 0,
             safe_overflow: false,
         },
-        Topic::Srs | Topic::Cns | Topic::Baro | Topic::Star => Qos {
+        Topic::Aid(_) => Qos {
             buffer: samples_for(INPUT_BUFFER_S, MAX_AID_RATE_HZ),
             history: 0,
             safe_overflow: false,
@@ -530,6 +531,109 @@ impl<T: Debug + ZeroCopySend + Copy + 'static> TopicSubscriber<T> {
     }
 }
 
+/// A subscriber of one aid's service, whatever the aid's payload.
+pub trait AidSubscriber: Debug {
+    /// Takes every received sample, oldest first, into `f` with the id of
+    /// the publisher that sent it ([`TopicSubscriber::drain_with_origin`]).
+    fn drain_samples(&self, f: &mut dyn FnMut(u128, AidSample)) -> Result<usize, TransportError>;
+    /// [`TopicSubscriber::has_publisher`].
+    fn has_publisher(&self, id: u128) -> bool;
+    /// [`TopicSubscriber::publishers`].
+    fn publishers(&self) -> usize;
+    /// [`TopicSubscriber::clear_events`].
+    fn clear_events(&self);
+    /// [`TopicSubscriber::listener`].
+    fn listener(&self) -> &Listener<ipc::Service>;
+}
+
+impl<P: AidPayload + Debug + ZeroCopySend + 'static> AidSubscriber for TopicSubscriber<P> {
+    fn drain_samples(&self, f: &mut dyn FnMut(u128, AidSample)) -> Result<usize, TransportError> {
+        self.drain_with_origin(|id, x| f(id, x.into()))
+    }
+    fn has_publisher(&self, id: u128) -> bool {
+        TopicSubscriber::has_publisher(self, id)
+    }
+    fn publishers(&self) -> usize {
+        TopicSubscriber::publishers(self)
+    }
+    fn clear_events(&self) {
+        TopicSubscriber::clear_events(self);
+    }
+    fn listener(&self) -> &Listener<ipc::Service> {
+        TopicSubscriber::listener(self)
+    }
+}
+
+/// A subscriber for every aid's service.
+pub fn aid_subscribers(
+    node: &Node<ipc::Service>,
+    cfg: &TransportConfig,
+) -> Result<PerAid<Box<dyn AidSubscriber>>, TransportError> {
+    let mut subs = Vec::with_capacity(AidKind::ALL.len());
+    for k in AidKind::ALL {
+        let s: Box<dyn AidSubscriber> = msgs::match_aid_kind!(k, P => {
+            Box::new(TopicSubscriber::<P>::new(node, cfg, Topic::Aid(k))?)
+        });
+        subs.push(s);
+    }
+    Ok(PerAid(subs.try_into().expect("one subscriber per aid")))
+}
+
+/// A publisher of one aid's service, whatever the aid's payload.
+pub trait AidPublisher: Debug {
+    /// Publishes `sample` ([`TopicPublisher::publish`]); a sample of
+    /// another aid is refused (the caller picked the wrong publisher).
+    fn publish_sample(&self, sample: &AidSample) -> Result<usize, TransportError>;
+    /// [`TopicPublisher::lost`].
+    fn lost(&self) -> u64;
+    /// [`TopicPublisher::waits`].
+    fn waits(&self) -> (u64, Duration);
+    /// [`TopicPublisher::update_connections`].
+    fn update_connections(&self) -> Result<(), TransportError>;
+}
+
+impl<P: AidPayload + Debug + ZeroCopySend + 'static> AidPublisher for TopicPublisher<P> {
+    fn publish_sample(&self, sample: &AidSample) -> Result<usize, TransportError> {
+        match P::of(sample) {
+            Some(x) => self.publish(x),
+            None => Err(TransportError::Iceoryx {
+                what: "publish",
+                service: self.name.clone(),
+                detail: format!(
+                    "a {} sample offered to the {} publisher",
+                    sample.kind().name(),
+                    P::KIND.name()
+                ),
+            }),
+        }
+    }
+    fn lost(&self) -> u64 {
+        TopicPublisher::lost(self)
+    }
+    fn waits(&self) -> (u64, Duration) {
+        TopicPublisher::waits(self)
+    }
+    fn update_connections(&self) -> Result<(), TransportError> {
+        TopicPublisher::update_connections(self)
+    }
+}
+
+/// A publisher for every aid's service, each with `delivery`.
+pub fn aid_publishers(
+    node: &Node<ipc::Service>,
+    cfg: &TransportConfig,
+    delivery: Delivery,
+) -> Result<PerAid<Box<dyn AidPublisher>>, TransportError> {
+    let mut pubs = Vec::with_capacity(AidKind::ALL.len());
+    for k in AidKind::ALL {
+        let p: Box<dyn AidPublisher> = msgs::match_aid_kind!(k, P => {
+            Box::new(TopicPublisher::<P>::with_delivery(node, cfg, Topic::Aid(k), delivery)?)
+        });
+        pubs.push(p);
+    }
+    Ok(PerAid(pubs.try_into().expect("one publisher per aid")))
+}
+
 /// Removes what an isolated (test) configuration left: its iceoryx2 root
 /// directory and its shared-memory files (global management segments stay
 /// after the last node). Call after every node of `cfg` is dropped.
@@ -632,9 +736,9 @@ mod tests {
             ..Default::default()
         };
         srs.lines[0].rest_wavelength_m = 656e-9;
-        round_trip(Topic::Srs, srs);
+        round_trip(Topic::Aid(AidKind::Srs), srs);
         round_trip(
-            Topic::Cns,
+            Topic::Aid(AidKind::Cns),
             CnsFix {
                 t_ns: 7,
                 seq: 2,
@@ -644,7 +748,7 @@ mod tests {
             },
         );
         round_trip(
-            Topic::Baro,
+            Topic::Aid(AidKind::Baro),
             BaroSample {
                 t_ns: 8,
                 seq: 3,
@@ -654,7 +758,7 @@ mod tests {
             },
         );
         round_trip(
-            Topic::Star,
+            Topic::Aid(AidKind::Star),
             StarSample {
                 t_ns: 9,
                 seq: 4,

@@ -15,7 +15,10 @@ pub mod polarnav {
     include!(concat!(env!("OUT_DIR"), "/polarnav.rs"));
 }
 
+pub mod aids;
 mod solution;
+
+pub use aids::AidMessage;
 
 pub use polarnav::*;
 
@@ -36,9 +39,9 @@ macro_rules! names {
     };
 }
 
+// The messages that are not an aid's (each aid names its own in `aids`).
 names!(
-    Solution, ImuSample, SrsSample, CnsFix, BaroSample, StarSample, InitState, AidUpdate, Status,
-    SwitchNote, Truth, TruthBias,
+    Solution, ImuSample, InitState, AidUpdate, Status, SwitchNote, Truth, TruthBias,
 );
 
 #[cfg(test)]
@@ -131,17 +134,16 @@ mod tests {
         for n in [
             super::Solution::NAME,
             super::ImuSample::NAME,
-            super::SrsSample::NAME,
-            super::CnsFix::NAME,
-            super::BaroSample::NAME,
-            super::StarSample::NAME,
             super::InitState::NAME,
             super::AidUpdate::NAME,
             super::Status::NAME,
             super::SwitchNote::NAME,
             super::Truth::NAME,
             super::TruthBias::NAME,
-        ] {
+        ]
+        .into_iter()
+        .chain(msgs::AidKind::ALL.map(super::aids::message_name))
+        {
             assert!(names.iter().any(|x| x == n), "{n} not in {names:?}");
         }
     }

@@ -20,6 +20,7 @@
 //!
 //! `cargo bench -p polarnav-core --bench push_worst`
 
+use msgs::AidKind;
 use std::collections::HashMap;
 use std::time::Instant;
 
@@ -50,19 +51,19 @@ impl Owned {
                 "IMU t_ns={} seq={} dt_s={:e} d_theta={:?} d_v={:?}",
                 s.t_ns, s.seq, s.dt_s, s.d_theta_rad, s.d_v_mps
             ),
-            Owned::Srs(s) => format!(
+            Owned::Aid(msgs::AidSample::Srs(s)) => format!(
                 "SRS t_ns={} seq={} count={} sigma0={:e} meas0={:e}",
                 s.t_ns, s.seq, s.count, s.lines[0].sigma_mps, s.lines[0].measured_wavelength_m
             ),
-            Owned::Cns(c) => format!(
+            Owned::Aid(msgs::AidSample::Cns(c)) => format!(
                 "CNS t_ns={} seq={} lat={:e} lon={:e} sigma_h_m={:e}",
                 c.t_ns, c.seq, c.lat_rad, c.lon_rad, c.sigma_h_m
             ),
-            Owned::Baro(b) => format!(
+            Owned::Aid(msgs::AidSample::Baro(b)) => format!(
                 "baro t_ns={} seq={} p={:e} T={:e} sigma_m={:e}",
                 b.t_ns, b.seq, b.pressure_pa, b.temperature_k, b.sigma_m
             ),
-            Owned::Star(s) => format!(
+            Owned::Aid(msgs::AidSample::Star(s)) => format!(
                 "star t_ns={} seq={} q={:?} boresight={:?} sigma={:e}/{:e}",
                 s.t_ns,
                 s.seq,
@@ -249,7 +250,9 @@ impl Bench {
         let w0 = self.session.navigator().map_or(0, |n| n.work());
         let aids = |s: &Session| {
             let st = s.status();
-            st.srs.received + st.cns.received + st.baro.received
+            st.aid_counters(AidKind::Srs).received
+                + st.aid_counters(AidKind::Cns).received
+                + st.aid_counters(AidKind::Baro).received
         };
         let aids0 = aids(&self.session);
         let t0 = Instant::now();
@@ -277,7 +280,14 @@ impl Bench {
         if (self.first_run && ns > DESCRIBE_ABOVE_NS) || (w > 0 && self.max_work.1 == self.n) {
             let offered = aids(&self.session).saturating_sub(aids0);
             let mut d = o.describe();
-            if offered > 0 && !matches!(o, Owned::Srs(_) | Owned::Cns(_) | Owned::Baro(_)) {
+            if offered > 0
+                && !matches!(
+                    o,
+                    Owned::Aid(msgs::AidSample::Srs(_))
+                        | Owned::Aid(msgs::AidSample::Cns(_))
+                        | Owned::Aid(msgs::AidSample::Baro(_))
+                )
+            {
                 d += &format!(" (aids it drained: {offered})");
             }
             if self.crafted {
@@ -312,15 +322,18 @@ impl Bench {
                 Kind::ImuGenuine,
             );
             if k % 10 == 0 {
-                self.push(Owned::Baro(self.truth.baro_at(t + off, k, t)), Kind::Aid);
+                self.push(
+                    Owned::Aid(msgs::AidSample::Baro(self.truth.baro_at(t + off, k, t))),
+                    Kind::Aid,
+                );
             }
             if k % 40 == 0 {
                 let c = self.truth.cns_at(t + off - 2 * DT_NS, k, t);
-                self.push(Owned::Cns(c), Kind::Aid);
+                self.push(Owned::Aid(msgs::AidSample::Cns(c)), Kind::Aid);
             }
             if k % 40 == 20 {
                 let s = self.truth.srs8(t + off - DT_NS, k, t, None);
-                self.push(Owned::Srs(s), Kind::Aid);
+                self.push(Owned::Aid(msgs::AidSample::Srs(s)), Kind::Aid);
             }
         }
     }
@@ -393,7 +406,7 @@ impl Bench {
                 c.lat_rad = field(r, c.lat_rad);
                 c.lon_rad = field(r, c.lon_rad);
                 c.sigma_h_m = sigma_field(r, c.sigma_h_m);
-                Owned::Cns(c)
+                Owned::Aid(msgs::AidSample::Cns(c))
             }
             1 => {
                 let mut b = self.truth.baro_at(t, seq, tg);
@@ -401,7 +414,7 @@ impl Bench {
                 b.pressure_pa = field(r, b.pressure_pa);
                 b.temperature_k = field(r, b.temperature_k);
                 b.sigma_m = sigma_field(r, b.sigma_m);
-                Owned::Baro(b)
+                Owned::Aid(msgs::AidSample::Baro(b))
             }
             _ => {
                 let bad = self.rng.gen_bool(0.3).then(|| self.rng.gen_range(0..8));
@@ -425,7 +438,7 @@ impl Bench {
                 l.measured_wavelength_m = field(r, l.measured_wavelength_m);
                 l.los_i[j % 3] = field(r, l.los_i[j % 3]);
                 l.body_vel_i_mps[j % 3] = field(r, l.body_vel_i_mps[j % 3]);
-                Owned::Srs(s)
+                Owned::Aid(msgs::AidSample::Srs(s))
             }
         }
     }
@@ -496,7 +509,7 @@ impl Bench {
             let s = self
                 .truth
                 .srs_errs(base + 1 + j, 9_000_000 + j, self.t_gen, &errs);
-            self.push(Owned::Srs(s), Kind::Aid);
+            self.push(Owned::Aid(msgs::AidSample::Srs(s)), Kind::Aid);
         }
         self.genuine(2);
     }

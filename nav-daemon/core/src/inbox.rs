@@ -1,11 +1,12 @@
 //! The live loop's inbox: what a cycle received, put into navlog order
 //! before the session sees it, so that live equals `batch` bit for bit.
 //!
-//! A live cycle drains its topics one after the other — init, IMU, SRS,
-//! CNS, baro, star — while the publishers go on. Two things would otherwise make
+//! A live cycle drains its topics one after the other — init, IMU, then
+//! each aid — while the publishers go on. Two things would otherwise make
 //! the session see the inputs in another order than a navlog has them:
 //! - within a cycle, topics arrive grouped, not interleaved: the inbox
-//!   sorts a cycle by (time, init < IMU < SRS < CNS < baro < star), as a navlog is;
+//!   sorts a cycle by (time, init < IMU < the aids in their declared
+//!   order), as a navlog is;
 //! - an input drained after the IMU topic may be stamped after IMU samples
 //!   that were published before it but after the IMU topic was drained:
 //!   the inbox keeps it (at most [`CARRY_MAX`] inputs) until an IMU sample
@@ -20,7 +21,7 @@
 //! busy machine changes no solution. The buffer is allocated once; a cycle
 //! moves inputs without allocating.
 
-use msgs::{BaroSample, CnsFix, ImuSample, InitState, SrsSample, StarSample};
+use msgs::{AidSample, ImuSample, InitState};
 
 use crate::session::{Event, Input, Session, Sink};
 
@@ -39,10 +40,7 @@ pub const CARRY_MAX: usize = 256;
 pub enum Received {
     Init(InitState),
     Imu(ImuSample),
-    Srs(SrsSample),
-    Cns(CnsFix),
-    Baro(BaroSample),
-    Star(StarSample),
+    Aid(AidSample),
 }
 
 impl Received {
@@ -51,10 +49,7 @@ impl Received {
         match self {
             Received::Init(x) => (x.t_ns, 0),
             Received::Imu(x) => (x.t_ns, 1),
-            Received::Srs(x) => (x.t_ns, 2),
-            Received::Cns(x) => (x.t_ns, 3),
-            Received::Baro(x) => (x.t_ns, 4),
-            Received::Star(x) => (x.t_ns, 5),
+            Received::Aid(x) => (x.t_ns(), 2 + x.kind() as u8),
         }
     }
 
@@ -62,10 +57,7 @@ impl Received {
         match self {
             Received::Init(x) => Input::Init(x),
             Received::Imu(x) => Input::Imu(x),
-            Received::Srs(x) => Input::Srs(x),
-            Received::Cns(x) => Input::Cns(x),
-            Received::Baro(x) => Input::Baro(x),
-            Received::Star(x) => Input::Star(x),
+            Received::Aid(x) => Input::Aid(x),
         }
     }
 }
@@ -156,13 +148,13 @@ mod tests {
     }
 
     fn baro(t_ns: u64, seq: u64) -> Received {
-        Received::Baro(BaroSample {
+        Received::Aid(AidSample::Baro(msgs::BaroSample {
             t_ns,
             seq,
             pressure_pa: 7500.0,
             temperature_k: 216.65,
             sigma_m: 10.0,
-        })
+        }))
     }
 
     #[test]
@@ -196,9 +188,9 @@ mod tests {
         s.imu_lost(&mut sink);
         inbox.deliver(&mut s, &mut sink);
         assert_eq!(inbox.waiting(), 1);
-        assert_eq!(s.status().baro.received, 2);
+        assert_eq!(s.status().aid_counters(msgs::AidKind::Baro).received, 2);
         inbox.deliver_all(&mut s, &mut sink);
-        assert_eq!(s.status().baro.received, 3);
+        assert_eq!(s.status().aid_counters(msgs::AidKind::Baro).received, 3);
     }
 
     #[test]
@@ -215,6 +207,9 @@ mod tests {
         inbox.deliver_all(&mut s, &mut sink);
         assert_eq!(inbox.waiting(), 0);
         let st = s.status();
-        assert_eq!(st.baro.received, CARRY_MAX as u64 + 10);
+        assert_eq!(
+            st.aid_counters(msgs::AidKind::Baro).received,
+            CARRY_MAX as u64 + 10
+        );
     }
 }

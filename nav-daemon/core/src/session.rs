@@ -46,15 +46,12 @@
 //! Nothing is logged here: decisions are reported as [`Event`]s to the
 //! driver's [`Sink`], which logs them as it sees fit.
 
-use msgs::{
-    AidStatus, BaroSample, CnsFix, ImuSample, InitState, Solution, SrsSample, StarSample, Status,
-    StreamCounters,
-};
+use msgs::{AidSample, AidStatus, ImuSample, InitState, Solution, Status, StreamCounters};
 
 use crate::align::{AlignError, Alignment, AlignmentAccumulator, aligned_init};
 use crate::checkpoint::{Checkpoint, CheckpointError};
 use crate::navigator::{
-    AidOutcome, IMU_DT_RANGE_S, InputRejection, Navigator, NavigatorConfig, SwitchEvent, check_init,
+    IMU_DT_RANGE_S, InputRejection, Navigator, NavigatorConfig, SwitchEvent, check_init,
 };
 use crate::settings::InitSettings;
 
@@ -69,75 +66,15 @@ pub const AID_QUEUE: usize = 16;
 /// the IMU reached it, it would be refused as late anyway.
 pub const MAX_AID_LEAD_NS: u64 = 1_000_000_000;
 
-/// The sensor streams a session counts.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Hash)]
-pub enum Stream {
-    Imu,
-    Srs,
-    Cns,
-    Baro,
-    Star,
-}
-
-impl Stream {
-    pub const ALL: [Stream; 5] = [
-        Stream::Imu,
-        Stream::Srs,
-        Stream::Cns,
-        Stream::Baro,
-        Stream::Star,
-    ];
-
-    pub fn name(self) -> &'static str {
-        match self {
-            Stream::Imu => "imu",
-            Stream::Srs => "srs",
-            Stream::Cns => "cns",
-            Stream::Baro => "baro",
-            Stream::Star => "star",
-        }
-    }
-}
-
-/// One value per stream.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
-pub struct PerStream<T> {
-    pub imu: T,
-    pub srs: T,
-    pub cns: T,
-    pub baro: T,
-    pub star: T,
-}
-
-impl<T> PerStream<T> {
-    pub fn get(&self, s: Stream) -> &T {
-        match s {
-            Stream::Imu => &self.imu,
-            Stream::Srs => &self.srs,
-            Stream::Cns => &self.cns,
-            Stream::Baro => &self.baro,
-            Stream::Star => &self.star,
-        }
-    }
-    pub fn get_mut(&mut self, s: Stream) -> &mut T {
-        match s {
-            Stream::Imu => &mut self.imu,
-            Stream::Srs => &mut self.srs,
-            Stream::Cns => &mut self.cns,
-            Stream::Baro => &mut self.baro,
-            Stream::Star => &mut self.star,
-        }
-    }
-}
+/// The sensor streams a session counts: the IMU and the aids of the
+/// declaration (`msgs::aids`), one value each in a [`PerStream`].
+pub use msgs::{PerStream, Stream};
 
 /// A decoded input.
 #[derive(Debug, Clone, Copy)]
 pub enum Input<'a> {
     Imu(&'a ImuSample),
-    Srs(&'a SrsSample),
-    Cns(&'a CnsFix),
-    Baro(&'a BaroSample),
-    Star(&'a StarSample),
+    Aid(&'a AidSample),
     Init(&'a InitState),
 }
 
@@ -147,10 +84,7 @@ impl<'a> Input<'a> {
         use msgs::navlog::Record;
         match r {
             Record::Imu(x) => Some(Input::Imu(x)),
-            Record::Srs(x) => Some(Input::Srs(x)),
-            Record::Cns(x) => Some(Input::Cns(x)),
-            Record::Baro(x) => Some(Input::Baro(x)),
-            Record::Star(x) => Some(Input::Star(x)),
+            Record::Aid(x) => Some(Input::Aid(x)),
             Record::Init(x) => Some(Input::Init(x)),
             Record::Header(_)
             | Record::Truth(_)
@@ -163,65 +97,21 @@ impl<'a> Input<'a> {
     pub fn t_ns(&self) -> u64 {
         match self {
             Input::Imu(x) => x.t_ns,
-            Input::Srs(x) => x.t_ns,
-            Input::Cns(x) => x.t_ns,
-            Input::Baro(x) => x.t_ns,
-            Input::Star(x) => x.t_ns,
+            Input::Aid(x) => x.t_ns(),
             Input::Init(x) => x.t_ns,
         }
     }
 }
 
-/// An aid held by value (in the wait queue). Not boxed on purpose: boxing
-/// the SRS variant would allocate on the hot path.
-#[allow(clippy::large_enum_variant)]
-#[derive(Debug, Clone, Copy)]
-enum Aid {
-    Srs(SrsSample),
-    Cns(CnsFix),
-    Baro(BaroSample),
-    Star(StarSample),
-}
-
-impl Aid {
-    fn t_ns(&self) -> u64 {
-        match self {
-            Aid::Srs(x) => x.t_ns,
-            Aid::Cns(x) => x.t_ns,
-            Aid::Baro(x) => x.t_ns,
-            Aid::Star(x) => x.t_ns,
-        }
-    }
-    fn stream(&self) -> Stream {
-        match self {
-            Aid::Srs(_) => Stream::Srs,
-            Aid::Cns(_) => Stream::Cns,
-            Aid::Baro(_) => Stream::Baro,
-            Aid::Star(_) => Stream::Star,
-        }
-    }
-    fn seq(&self) -> u64 {
-        match self {
-            Aid::Srs(x) => x.seq,
-            Aid::Cns(x) => x.seq,
-            Aid::Baro(x) => x.seq,
-            Aid::Star(x) => x.seq,
-        }
-    }
-    fn offer(&self, nav: &mut Navigator) -> Result<AidOutcome, InputRejection> {
-        match self {
-            Aid::Srs(x) => nav.on_srs(x),
-            Aid::Cns(x) => nav.on_cns(x),
-            Aid::Baro(x) => nav.on_baro(x),
-            Aid::Star(x) => nav.on_star(x),
-        }
-    }
+/// The stream of an aid sample.
+fn stream_of(a: &AidSample) -> Stream {
+    Stream::Aid(a.kind())
 }
 
 /// Aids ahead of the IMU, ordered by (time, stream), fixed capacity.
 #[derive(Debug, Clone)]
 struct AidQueue {
-    items: [Option<Aid>; AID_QUEUE],
+    items: [Option<AidSample>; AID_QUEUE],
     len: usize,
 }
 
@@ -233,13 +123,13 @@ impl AidQueue {
         }
     }
 
-    fn key(a: &Aid) -> (u64, Stream) {
-        (a.t_ns(), a.stream())
+    fn key(a: &AidSample) -> (u64, Stream) {
+        (a.t_ns(), stream_of(a))
     }
 
     /// Inserts in order (after equal keys); when full, the oldest is
     /// returned to make room.
-    fn insert(&mut self, a: Aid) -> Option<Aid> {
+    fn insert(&mut self, a: AidSample) -> Option<AidSample> {
         let evicted = if self.len == AID_QUEUE {
             self.pop_front()
         } else {
@@ -260,7 +150,7 @@ impl AidQueue {
         self.items[0].filter(|_| self.len > 0).map(|a| a.t_ns())
     }
 
-    fn pop_front(&mut self) -> Option<Aid> {
+    fn pop_front(&mut self) -> Option<AidSample> {
         if self.len == 0 {
             return None;
         }
@@ -616,10 +506,7 @@ impl Session {
     pub fn arrived(&mut self, input: &Input<'_>) -> Option<Event> {
         let (stream, seq) = match input {
             Input::Imu(x) => (Stream::Imu, x.seq),
-            Input::Srs(x) => (Stream::Srs, x.seq),
-            Input::Cns(x) => (Stream::Cns, x.seq),
-            Input::Baro(x) => (Stream::Baro, x.seq),
-            Input::Star(x) => (Stream::Star, x.seq),
+            Input::Aid(x) => (stream_of(x), x.seq()),
             Input::Init(_) => return None,
         };
         self.seq
@@ -636,10 +523,7 @@ impl Session {
     pub fn handle(&mut self, input: Input<'_>, sink: &mut impl Sink) {
         match input {
             Input::Imu(s) => self.push_imu(s, sink),
-            Input::Srs(x) => self.push_aid(Aid::Srs(*x), sink),
-            Input::Cns(x) => self.push_aid(Aid::Cns(*x), sink),
-            Input::Baro(x) => self.push_aid(Aid::Baro(*x), sink),
-            Input::Star(x) => self.push_aid(Aid::Star(*x), sink),
+            Input::Aid(x) => self.push_aid(*x, sink),
             Input::Init(i) => self.push_init(i, sink),
         }
     }
@@ -711,13 +595,8 @@ impl Session {
     /// (loop timing is the live driver's).
     pub fn status(&self) -> Status {
         let mut s = self.nav.as_ref().map(Navigator::status).unwrap_or_default();
-        for (c, k) in [
-            (&mut s.imu, Stream::Imu),
-            (&mut s.srs, Stream::Srs),
-            (&mut s.cns, Stream::Cns),
-            (&mut s.baro, Stream::Baro),
-            (&mut s.star, Stream::Star),
-        ] {
+        for k in Stream::ALL {
+            let c = s.counters_mut(k);
             let o = self.outside.get(k);
             c.received += o.received;
             c.rejected_invalid += o.rejected_invalid;
@@ -728,15 +607,11 @@ impl Session {
         // Candidates held for a time-jump decision and aids waiting for the
         // IMU are received but not yet decided: counted as not used until
         // they are.
-        s.imu.received += self.n_candidates as u64;
-        s.imu.not_used += self.n_candidates as u64;
+        let imu = s.counters_mut(Stream::Imu);
+        imu.received += self.n_candidates as u64;
+        imu.not_used += self.n_candidates as u64;
         for a in self.queue.items[..self.queue.len].iter().flatten() {
-            let c = match a.stream() {
-                Stream::Srs => &mut s.srs,
-                Stream::Cns => &mut s.cns,
-                Stream::Star => &mut s.star,
-                _ => &mut s.baro,
-            };
+            let c = s.counters_mut(stream_of(a));
             c.received += 1;
             c.not_used += 1;
         }
@@ -745,13 +620,8 @@ impl Session {
         if self.imu_lost {
             use msgs::solution_flags as f;
             s.flags |= f::IMU_LOST;
-            s.flags &= !(f::SRS_FRESH | f::CNS_FRESH | f::BARO_FRESH | f::STAR_FRESH);
-            for a in [
-                &mut s.srs_aid,
-                &mut s.cns_aid,
-                &mut s.baro_aid,
-                &mut s.star_aid,
-            ] {
+            s.flags &= !msgs::AidKind::all_fresh_flags();
+            for a in &mut s.aids {
                 a.fresh = 0;
             }
         }
@@ -1189,16 +1059,16 @@ impl Session {
 
     // ---- aids --------------------------------------------------------
 
-    fn push_aid(&mut self, a: Aid, sink: &mut impl Sink) {
+    fn push_aid(&mut self, a: AidSample, sink: &mut impl Sink) {
         let Some(n) = self.nav.as_ref().filter(|_| self.aligning.is_none()) else {
-            self.count_outside(a.stream(), |c| c.not_used += 1);
+            self.count_outside(stream_of(&a), |c| c.not_used += 1);
             return;
         };
         let now = n.t_ns();
         if a.t_ns().saturating_sub(now) > MAX_AID_LEAD_NS {
-            self.count_outside(a.stream(), |c| c.rejected_time += 1);
+            self.count_outside(stream_of(&a), |c| c.rejected_time += 1);
             sink.event(&Event::Rejected {
-                stream: a.stream(),
+                stream: stream_of(&a),
                 t_ns: a.t_ns(),
                 seq: a.seq(),
                 reason: InputRejection::AheadOfImu {
@@ -1215,27 +1085,21 @@ impl Session {
         }
     }
 
-    fn offer(&mut self, a: &Aid, sink: &mut impl Sink) {
+    fn offer(&mut self, a: &AidSample, sink: &mut impl Sink) {
         let Some(n) = self.nav.as_mut() else {
-            self.count_outside(a.stream(), |c| c.not_used += 1);
+            self.count_outside(stream_of(a), |c| c.not_used += 1);
             return;
         };
         let resets = n.aid_resets();
-        match a.offer(n) {
+        match n.on_aid(a) {
             // Not used (the aid disabled) or undone as invalid: counted in
             // the status, but no update to report.
             Ok(o) if !o.gated => {}
             Ok(_) => {
-                let [srs, cns, baro, star] = n.aid_statuses();
-                let status = match a {
-                    Aid::Srs(_) => srs,
-                    Aid::Cns(_) => cns,
-                    Aid::Baro(_) => baro,
-                    Aid::Star(_) => star,
-                };
+                let status = n.aid_status(a.kind());
                 let geo = n.state().geodetic();
                 sink.event(&Event::AidUpdate {
-                    stream: a.stream(),
+                    stream: stream_of(a),
                     t_ns: a.t_ns(),
                     status,
                     lat_rad: geo.lat_rad,
@@ -1243,7 +1107,7 @@ impl Session {
                 });
             }
             Err(reason) => sink.event(&Event::Rejected {
-                stream: a.stream(),
+                stream: stream_of(a),
                 t_ns: a.t_ns(),
                 seq: a.seq(),
                 reason,
@@ -1253,7 +1117,7 @@ impl Session {
             && let Some(verdict) = n.last_aid_reset()
         {
             sink.event(&Event::AidReset {
-                stream: a.stream(),
+                stream: stream_of(a),
                 reset: *n.last_reset(),
                 verdict: *verdict,
                 widened: n.last_aid_reset_widened().copied(),

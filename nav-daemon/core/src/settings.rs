@@ -4,6 +4,9 @@
 
 use serde::{Deserialize, Serialize};
 
+use msgs::{AID_COUNT, AidKind, PerAid};
+
+use crate::aids::OwnAidSettings;
 use crate::frame_select::{FramePolicy, SwitchLatitudes};
 
 /// A settings value out of range: names where it came from and the key.
@@ -29,52 +32,47 @@ pub enum Conversion {
     None,
 }
 
-/// Which aids to fuse.
+/// Which aids to fuse: one flag per aid, written as the list of the names
+/// of those on (`srs,cns,baro,star`) or `none`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Deserialize, Serialize)]
 #[serde(try_from = "String", into = "String")]
-pub struct AidSet {
-    pub srs: bool,
-    pub cns: bool,
-    pub baro: bool,
-    /// The star tracker's attitude (fused whenever a log or the transport
-    /// has it: a flight without a star tracker simply has no samples).
-    pub star: bool,
-}
+pub struct AidSet(pub PerAid<bool>);
 
 impl Default for AidSet {
+    /// Every aid: a log or a live system that has an aid's stream fuses
+    /// it, and one without it simply has no samples.
     fn default() -> Self {
-        Self {
-            srs: true,
-            cns: true,
-            baro: true,
-            star: true,
-        }
+        Self(PerAid([true; AID_COUNT]))
     }
 }
 
 impl AidSet {
-    pub const NONE: AidSet = AidSet {
-        srs: false,
-        cns: false,
-        baro: false,
-        star: false,
-    };
+    pub const NONE: AidSet = AidSet(PerAid([false; AID_COUNT]));
 
-    /// Parses `srs,cns,baro,star` (any subset) or `none`.
+    /// Whether aid `k` is on.
+    pub fn has(&self, k: AidKind) -> bool {
+        self.0[k]
+    }
+
+    /// This set with aid `k` on or off.
+    pub fn with(mut self, k: AidKind, on: bool) -> Self {
+        self.0[k] = on;
+        self
+    }
+
+    /// Parses a comma-separated list of aid names (any subset) or `none`.
     pub fn parse(s: &str) -> Result<Self, String> {
         if s.trim() == "none" {
             return Ok(Self::NONE);
         }
         let mut a = Self::NONE;
         for part in s.split(',').map(str::trim) {
-            match part {
-                "srs" => a.srs = true,
-                "cns" => a.cns = true,
-                "baro" => a.baro = true,
-                "star" => a.star = true,
-                other => {
+            match AidKind::from_name(part) {
+                Some(k) => a.0[k] = true,
+                None => {
                     return Err(format!(
-                        "unknown aid {other:?}: expected a list of srs, cns, baro, star, or none"
+                        "unknown aid {part:?}: expected a list of {}, or none",
+                        AidKind::names()
                     ));
                 }
             }
@@ -98,15 +96,11 @@ impl From<AidSet> for String {
 
 impl std::fmt::Display for AidSet {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        let names: Vec<&str> = [
-            (self.srs, "srs"),
-            (self.cns, "cns"),
-            (self.baro, "baro"),
-            (self.star, "star"),
-        ]
-        .into_iter()
-        .filter_map(|(on, n)| on.then_some(n))
-        .collect();
+        let names: Vec<&str> = self
+            .0
+            .iter()
+            .filter_map(|(k, on)| on.then_some(k.name()))
+            .collect();
         if names.is_empty() {
             f.write_str("none")
         } else {
@@ -452,45 +446,119 @@ impl Default for FilterSettings {
 }
 
 /// `[aids]`: χ² gates (thresholds on the normalized innovation squared),
-/// timeouts after which an aid is stale, and the latest an aid may arrive.
-#[derive(Debug, Clone, Deserialize, Serialize, PartialEq)]
-#[serde(deny_unknown_fields, default)]
+/// timeouts after which an aid is stale, the latest an aid may arrive, and
+/// each aid's own settings. Written with one key per aid for its gate and
+/// timeout (`srs_gate`, `srs_timeout_s`, ..., the names of the aid
+/// declaration) and a table `[aids.NAME]` for an aid that has settings of
+/// its own.
+#[derive(Debug, Clone, PartialEq)]
 pub struct AidSettings {
-    pub srs_gate: f64,
-    pub cns_gate: f64,
-    pub baro_gate: f64,
-    pub star_gate: f64,
-    pub srs_timeout_s: f64,
-    pub cns_timeout_s: f64,
-    pub baro_timeout_s: f64,
-    pub star_timeout_s: f64,
+    /// Per aid: the χ² threshold of its innovation (`NAME_gate`).
+    pub gate: PerAid<f64>,
+    /// Per aid: stale after this long without a fused sample (`NAME_timeout_s`, s).
+    pub timeout_s: PerAid<f64>,
     /// Aids older than this relative to the newest IMU sample are rejected as late (s).
     pub max_latency_s: f64,
-    /// The aids to fuse: a list of `srs`, `cns`, `baro`, `star`, or `none`
-    /// (received samples of the others are counted as not used).
+    /// The aids to fuse: a list of aid names, or `none` (received samples
+    /// of the others are counted as not used).
     pub fuse: AidSet,
     /// An aid rejected at the gate continuously for this long (s) while its
     /// own innovations agree with each other and with its last fused sample
     /// resets the states it observes to it (0 = never).
     pub reset_after_s: f64,
+    /// Each aid's own settings.
+    pub own: OwnAidSettings,
 }
 
 impl Default for AidSettings {
     fn default() -> Self {
-        // 99.9 % χ² quantiles for 3, 2 and 1 degrees of freedom.
+        // The declarations' defaults: 99.9 % χ² quantiles for the aid's
+        // degrees of freedom, and its timeout.
         Self {
-            srs_gate: 16.266,
-            cns_gate: 13.816,
-            baro_gate: 10.828,
-            star_gate: 16.266,
-            srs_timeout_s: 3.0,
-            cns_timeout_s: 3.0,
-            baro_timeout_s: 1.0,
-            star_timeout_s: 3.0,
+            gate: PerAid::from_fn(|k| k.decl().gate),
+            timeout_s: PerAid::from_fn(|k| k.decl().timeout_s),
             max_latency_s: 0.1,
             fuse: AidSet::default(),
             reset_after_s: 5.0,
+            own: OwnAidSettings::default(),
         }
+    }
+}
+
+/// The keys of `[aids]` besides each aid's: in the order they are written.
+const AID_TABLE_KEYS: [&str; 3] = ["max_latency_s", "fuse", "reset_after_s"];
+
+macro_rules! aid_keys {
+    ([$(($K:ident, $n:ident, $P:ident, $d:tt)),* $(,)?]) => {
+        /// `NAME_gate` of each aid.
+        const GATE_KEYS: [&str; AID_COUNT] = [$(concat!(stringify!($n), "_gate")),*];
+        /// `NAME_timeout_s` of each aid.
+        const TIMEOUT_KEYS: [&str; AID_COUNT] = [$(concat!(stringify!($n), "_timeout_s")),*];
+        /// Every key `[aids]` takes (for the unknown-key message).
+        const ALL_AID_KEYS: &[&str] = &[
+            $(concat!(stringify!($n), "_gate"),)*
+            $(concat!(stringify!($n), "_timeout_s"),)*
+            "max_latency_s",
+            "fuse",
+            "reset_after_s",
+            $(stringify!($n),)*
+        ];
+    };
+}
+msgs::for_each_aid!(aid_keys);
+
+impl Serialize for AidSettings {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        use serde::ser::SerializeStruct;
+        let mut t = s.serialize_struct("AidSettings", ALL_AID_KEYS.len())?;
+        for (k, v) in GATE_KEYS.iter().zip(&self.gate.0) {
+            t.serialize_field(k, v)?;
+        }
+        for (k, v) in TIMEOUT_KEYS.iter().zip(&self.timeout_s.0) {
+            t.serialize_field(k, v)?;
+        }
+        t.serialize_field(AID_TABLE_KEYS[0], &self.max_latency_s)?;
+        t.serialize_field(AID_TABLE_KEYS[1], &self.fuse)?;
+        t.serialize_field(AID_TABLE_KEYS[2], &self.reset_after_s)?;
+        self.own.serialize_into(&mut t)?;
+        t.end()
+    }
+}
+
+impl<'de> Deserialize<'de> for AidSettings {
+    /// Every key optional (its default when absent), unknown keys refused.
+    fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        use serde::de::{Error, MapAccess, Visitor};
+        struct V;
+        impl<'de> Visitor<'de> for V {
+            type Value = AidSettings;
+            fn expecting(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+                f.write_str("struct AidSettings")
+            }
+            fn visit_map<A: MapAccess<'de>>(self, mut map: A) -> Result<AidSettings, A::Error> {
+                let mut a = AidSettings::default();
+                while let Some(key) = map.next_key::<String>()? {
+                    let key = key.as_str();
+                    if let Some(k) = GATE_KEYS.iter().position(|g| *g == key) {
+                        a.gate.0[k] = map.next_value()?;
+                    } else if let Some(k) = TIMEOUT_KEYS.iter().position(|g| *g == key) {
+                        a.timeout_s.0[k] = map.next_value()?;
+                    } else if key == AID_TABLE_KEYS[0] {
+                        a.max_latency_s = map.next_value()?;
+                    } else if key == AID_TABLE_KEYS[1] {
+                        a.fuse = map.next_value()?;
+                    } else if key == AID_TABLE_KEYS[2] {
+                        a.reset_after_s = map.next_value()?;
+                    } else if let Some(k) = AidKind::from_name(key) {
+                        a.own.deserialize_from(k, &mut map)?;
+                    } else {
+                        return Err(A::Error::unknown_field(key, ALL_AID_KEYS));
+                    }
+                }
+                Ok(a)
+            }
+        }
+        d.deserialize_struct("AidSettings", ALL_AID_KEYS, V)
     }
 }
 
@@ -787,31 +855,20 @@ impl FilterSettings {
 impl AidSettings {
     pub fn validate(&self, origin: &str) -> Result<(), SettingsError> {
         // A gate is a threshold on a χ² variable with as many degrees of
-        // freedom as the aid has components (SRS velocity 3, CNS
-        // latitude/longitude 2, baro 1, star attitude 3); its mean is that
-        // number.
-        for (k, v, dof) in [
-            ("aids.srs_gate", self.srs_gate, 3.0),
-            ("aids.cns_gate", self.cns_gate, 2.0),
-            ("aids.baro_gate", self.baro_gate, 1.0),
-            ("aids.star_gate", self.star_gate, 3.0),
-        ] {
+        // freedom as the aid has components (its declaration's); its mean
+        // is that number.
+        for (k, v) in self.gate.iter() {
             Bound {
-                lo: dof,
+                lo: k.decl().dof() as f64,
                 hi: 1e4,
                 unit: "(χ²)",
                 below: "below the mean of the χ² of a consistent innovation (its degrees of \
                         freedom) most good samples of the aid would be refused",
                 above: "beyond a 100-σ innovation the gate refuses nothing, not even a fault",
             }
-            .check(origin, k, v)?;
+            .check(origin, &format!("aids.{}", GATE_KEYS[k as usize]), *v)?;
         }
-        for (k, v) in [
-            ("aids.srs_timeout_s", self.srs_timeout_s),
-            ("aids.cns_timeout_s", self.cns_timeout_s),
-            ("aids.baro_timeout_s", self.baro_timeout_s),
-            ("aids.star_timeout_s", self.star_timeout_s),
-        ] {
+        for (k, v) in self.timeout_s.iter() {
             Bound {
                 lo: 0.02,
                 hi: MAX_FLIGHT_S,
@@ -821,7 +878,7 @@ impl AidSettings {
                 above: "longer than any flight (1e7 s, 116 days): a dead aid would never be \
                         reported",
             }
-            .check(origin, k, v)?;
+            .check(origin, &format!("aids.{}", TIMEOUT_KEYS[k as usize]), *v)?;
         }
         Bound {
             lo: MIN_IMU_PERIOD_S,
@@ -842,7 +899,7 @@ impl AidSettings {
             "0 (never) or a time in [5, 3600] s (a shorter streak cannot tell a drifting \
              filter from an aid fault; after an hour of refusals the state is lost anyway)",
         )?;
-        Ok(())
+        self.own.validate(origin)
     }
 }
 

@@ -88,13 +88,13 @@ fn solution_bias_sigma_is_the_root_of_the_covariance_bias_diagonal() {
         };
         nav.on_imu(&s).expect("imu sample");
         if k % 100 == 0 {
-            nav.on_cns(&CnsFix {
+            nav.on_aid(&msgs::AidSample::Cns(CnsFix {
                 t_ns,
                 seq: k / 100,
                 lat_rad: lat,
                 lon_rad: lon,
                 sigma_h_m: 10.0,
-            })
+            }))
             .expect("cns fix");
         }
         if k % 500 == 0 {

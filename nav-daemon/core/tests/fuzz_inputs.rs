@@ -92,11 +92,11 @@ proptest! {
                     sent[0] += 1;
                 }
                 Input::Cns { back_ns, lat, lon, sigma } => {
-                    let _ = nav.on_cns(&CnsFix { t_ns: nav.t_ns().saturating_sub(*back_ns), seq: k as u64, lat_rad: *lat, lon_rad: *lon, sigma_h_m: *sigma });
+                    let _ = nav.on_aid(&msgs::AidSample::Cns(CnsFix { t_ns: nav.t_ns().saturating_sub(*back_ns), seq: k as u64, lat_rad: *lat, lon_rad: *lon, sigma_h_m: *sigma }));
                     sent[2] += 1;
                 }
                 Input::Baro { back_ns, p, sigma } => {
-                    let _ = nav.on_baro(&BaroSample { t_ns: nav.t_ns().saturating_sub(*back_ns), seq: k as u64, pressure_pa: *p, temperature_k: 216.65, sigma_m: *sigma });
+                    let _ = nav.on_aid(&msgs::AidSample::Baro(BaroSample { t_ns: nav.t_ns().saturating_sub(*back_ns), seq: k as u64, pressure_pa: *p, temperature_k: 216.65, sigma_m: *sigma }));
                     sent[3] += 1;
                 }
                 Input::Srs { back_ns, count, lam, sigma } => {
@@ -113,7 +113,7 @@ proptest! {
                             _pad: 0,
                         };
                     }
-                    let _ = nav.on_srs(&s);
+                    let _ = nav.on_aid(&s.into());
                     sent[1] += 1;
                 }
             }
@@ -122,7 +122,7 @@ proptest! {
             prop_assert!(finite, "non-finite solution after input {}: {:?}", k, i);
         }
         let st = nav.status();
-        for (c, n) in [st.imu, st.srs, st.cns, st.baro].iter().zip(sent) {
+        for (c, n) in st.streams[..4].iter().zip(sent) {
             prop_assert_eq!(c.received, n);
             prop_assert_eq!(c.received, c.accepted + c.rejected_invalid + c.rejected_time + c.rejected_gate + c.not_used);
         }

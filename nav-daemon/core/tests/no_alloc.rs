@@ -6,6 +6,7 @@
 //! own thread count (the harness's threads may allocate at any time).
 #![allow(unsafe_code)] // a GlobalAlloc implementation is unsafe by definition
 
+use msgs::AidKind;
 use std::alloc::{GlobalAlloc, Layout, System};
 use std::cell::Cell;
 
@@ -148,24 +149,24 @@ fn steady_state_loop_does_not_allocate() {
             })
             .expect("imu");
             if k % 20 == 0 {
-                let _ = nav.on_baro(&BaroSample {
+                let _ = nav.on_aid(&msgs::AidSample::Baro(BaroSample {
                     t_ns,
                     seq: k,
                     pressure_pa: p,
                     temperature_k: 250.0,
                     sigma_m: 10.0,
-                });
+                }));
             }
             if k % 200 == 0 {
-                let _ = nav.on_cns(&CnsFix {
+                let _ = nav.on_aid(&msgs::AidSample::Cns(CnsFix {
                     t_ns,
                     seq: k,
                     lat_rad: geo.lat_rad,
                     lon_rad: geo.lon_rad,
                     sigma_h_m: 20.0,
-                });
-                let _ = nav.on_srs(&srs_at(t_ns));
-                let _ = nav.on_star(&star_at(t_ns));
+                }));
+                let _ = nav.on_aid(&msgs::AidSample::Srs(srs_at(t_ns)));
+                let _ = nav.on_aid(&msgs::AidSample::Star(star_at(t_ns)));
             }
             checksum += nav.solution().h_m;
             if k % 200 == 0 {
@@ -188,15 +189,15 @@ fn steady_state_loop_does_not_allocate() {
     // Every aid path ran and fused inside the counted window.
     let st = nav.status();
     assert!(
-        st.srs.accepted >= 50
-            && st.cns.accepted >= 50
-            && st.baro.accepted >= 500
-            && st.star.accepted >= 50,
+        st.aid_counters(AidKind::Srs).accepted >= 50
+            && st.aid_counters(AidKind::Cns).accepted >= 50
+            && st.aid_counters(AidKind::Baro).accepted >= 500
+            && st.aid_counters(AidKind::Star).accepted >= 50,
         "srs {} cns {} baro {} star {}",
-        st.srs.accepted,
-        st.cns.accepted,
-        st.baro.accepted,
-        st.star.accepted
+        st.aid_counters(AidKind::Srs).accepted,
+        st.aid_counters(AidKind::Cns).accepted,
+        st.aid_counters(AidKind::Baro).accepted,
+        st.aid_counters(AidKind::Star).accepted
     );
     assert_eq!(
         allocations, 0,
@@ -224,7 +225,7 @@ fn steady_state_loop_does_not_allocate() {
                 sigma_m: 10.0,
             };
             if k % 20 == 0 {
-                inbox.receive(session, Received::Baro(baro));
+                inbox.receive(session, Received::Aid(msgs::AidSample::Baro(baro)));
             }
             let imu = ImuSample {
                 t_ns,
@@ -242,9 +243,9 @@ fn steady_state_loop_does_not_allocate() {
                     lon_rad: geo.lon_rad,
                     sigma_h_m: 20.0,
                 };
-                inbox.receive(session, Received::Cns(cns));
-                inbox.receive(session, Received::Srs(srs_at(t_ns)));
-                inbox.receive(session, Received::Star(star_at(t_ns)));
+                inbox.receive(session, Received::Aid(msgs::AidSample::Cns(cns)));
+                inbox.receive(session, Received::Aid(msgs::AidSample::Srs(srs_at(t_ns))));
+                inbox.receive(session, Received::Aid(msgs::AidSample::Star(star_at(t_ns))));
                 checksum += session.status().cycles as f64;
             }
             inbox.deliver(session, &mut Discard);
@@ -256,17 +257,17 @@ fn steady_state_loop_does_not_allocate() {
     let (checksum, allocations) = counted(|| session_run(2_000, 12_000, &mut session, &mut inbox));
     assert!(checksum.is_finite());
     let st = session.status();
-    assert!(st.imu.accepted >= 11_999, "{:?}", st.imu);
+    assert!(st.imu().accepted >= 11_999, "{:?}", st.imu());
     assert!(
-        st.srs.accepted >= 50
-            && st.cns.accepted >= 50
-            && st.baro.accepted >= 500
-            && st.star.accepted >= 50,
+        st.aid_counters(AidKind::Srs).accepted >= 50
+            && st.aid_counters(AidKind::Cns).accepted >= 50
+            && st.aid_counters(AidKind::Baro).accepted >= 500
+            && st.aid_counters(AidKind::Star).accepted >= 50,
         "srs {} cns {} baro {} star {}",
-        st.srs.accepted,
-        st.cns.accepted,
-        st.baro.accepted,
-        st.star.accepted
+        st.aid_counters(AidKind::Srs).accepted,
+        st.aid_counters(AidKind::Cns).accepted,
+        st.aid_counters(AidKind::Baro).accepted,
+        st.aid_counters(AidKind::Star).accepted
     );
     assert_eq!(
         allocations, 0,

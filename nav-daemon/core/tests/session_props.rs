@@ -24,6 +24,7 @@
 //! (2048 cases; measured with `SESSION_PROPS_TOLERATE_KNOWN=1`, below).
 //! `SESSION_PROPS_CASES=n` changes the number of cases.
 
+use msgs::AidKind;
 use msgs::{ImuSample, InitState, Solution, StarSample};
 use nalgebra::{UnitQuaternion, Vector3};
 use polarnav::earth::{self, Geodetic};
@@ -58,7 +59,7 @@ impl Owned {
     /// A short description for failure messages (no 8 SRS lines).
     fn describe(&self) -> String {
         match self {
-            Owned::Srs(s) => format!(
+            Owned::Aid(msgs::AidSample::Srs(s)) => format!(
                 "Srs {{ t_ns: {}, seq: {}, count: {}, line0: {:?} }}",
                 s.t_ns, s.seq, s.count, s.lines[0]
             ),
@@ -160,8 +161,8 @@ struct Harness {
     session: Session,
     sink: Checker,
     truth: Truth,
-    /// Inputs pushed per stream: imu, srs, cns, baro, star.
-    pushed: [u64; 5],
+    /// Inputs pushed per stream (`Stream::index`).
+    pushed: [u64; msgs::STREAM_COUNT],
     inits: u64,
     /// Newest genuine IMU time and the count of genuine samples.
     t_gen: u64,
@@ -190,7 +191,7 @@ impl Harness {
             session: Session::new(settings),
             sink: Checker::default(),
             truth,
-            pushed: [0; 5],
+            pushed: [0; msgs::STREAM_COUNT],
             inits: 0,
             t_gen: T0_NS,
             stamp_offset: 0,
@@ -211,10 +212,7 @@ impl Harness {
         self.pushes += 1;
         match o {
             Owned::Imu(_) => self.pushed[0] += 1,
-            Owned::Srs(_) => self.pushed[1] += 1,
-            Owned::Cns(_) => self.pushed[2] += 1,
-            Owned::Baro(_) => self.pushed[3] += 1,
-            Owned::Star(_) => self.pushed[4] += 1,
+            Owned::Aid(a) => self.pushed[Stream::Aid(a.kind()).index()] += 1,
             Owned::Init(_) => self.inits += 1,
         }
         self.last = Some(o);
@@ -231,15 +229,10 @@ impl Harness {
         }
         // (b)
         let st = self.session.status();
-        for ((name, c), n) in [
-            ("imu", st.imu),
-            ("srs", st.srs),
-            ("cns", st.cns),
-            ("baro", st.baro),
-            ("star", st.star),
-        ]
-        .iter()
-        .zip(self.pushed)
+        for ((name, c), n) in Stream::ALL
+            .map(|k| (k.name(), *st.counters(k)))
+            .iter()
+            .zip(self.pushed)
         {
             let sum =
                 c.accepted + c.rejected_invalid + c.rejected_time + c.rejected_gate + c.not_used;
@@ -261,12 +254,7 @@ impl Harness {
                 ));
             }
         }
-        for (stream, c) in [
-            (Stream::Srs, st.srs),
-            (Stream::Cns, st.cns),
-            (Stream::Baro, st.baro),
-            (Stream::Star, st.star),
-        ] {
+        for (stream, c) in AidKind::ALL.map(|k| (Stream::Aid(k), *st.aid_counters(k))) {
             let reported = self
                 .sink
                 .events
@@ -385,27 +373,31 @@ impl Harness {
             if k % 10 == 0 {
                 let mut b = self.truth.baro(t, k);
                 b.t_ns += off;
-                self.push(Owned::Baro(b))?;
+                self.push(Owned::Aid(msgs::AidSample::Baro(b)))?;
             }
             if k % 40 == 0 {
                 let mut c = self.truth.cns(t - 2 * DT_NS, k);
                 c.t_ns += off;
-                self.push(Owned::Cns(c))?;
+                self.push(Owned::Aid(msgs::AidSample::Cns(c)))?;
             }
             if k % 40 == 20 {
-                self.push(Owned::Srs(self.truth.srs_at(t - DT_NS + off, k, t - DT_NS)))?;
+                self.push(Owned::Aid(msgs::AidSample::Srs(self.truth.srs_at(
+                    t - DT_NS + off,
+                    k,
+                    t - DT_NS,
+                ))))?;
             }
             if k % 40 == 30 {
                 let mut s = self.truth.star(t - DT_NS, k);
                 s.t_ns += off;
-                self.push(Owned::Star(s))?;
+                self.push(Owned::Aid(msgs::AidSample::Star(s)))?;
             }
         }
         Ok(())
     }
 
     fn imu_accepted(&self) -> u64 {
-        self.session.status().imu.accepted
+        self.session.status().imu().accepted
     }
 }
 
@@ -792,7 +784,7 @@ impl Harness {
                 x.lat_rad = or(s.lat, x.lat_rad);
                 x.lon_rad = or(s.lon, x.lon_rad);
                 x.sigma_h_m = or(s.sigma, x.sigma_h_m);
-                Owned::Cns(x)
+                Owned::Aid(msgs::AidSample::Cns(x))
             }
             InputOp::Baro(s) => {
                 let mut x = tr.baro(tg, s.seq.unwrap_or(k));
@@ -800,7 +792,7 @@ impl Harness {
                 x.pressure_pa = or(s.p, x.pressure_pa);
                 x.temperature_k = or(s.temp, x.temperature_k);
                 x.sigma_m = or(s.sigma, x.sigma_m);
-                Owned::Baro(x)
+                Owned::Aid(msgs::AidSample::Baro(x))
             }
             InputOp::Star(s) => {
                 let mut x = tr.star(tg, s.seq.unwrap_or(k));
@@ -811,7 +803,7 @@ impl Harness {
                 x.boresight_b[2] = or(s.boresight, x.boresight_b[2]);
                 x.sigma_cross_arcsec = or(s.sigma_cross, x.sigma_cross_arcsec);
                 x.sigma_boresight_arcsec = or(s.sigma_boresight, x.sigma_boresight_arcsec);
-                Owned::Star(x)
+                Owned::Aid(msgs::AidSample::Star(x))
             }
             InputOp::Srs(s) => {
                 let mut x = tr.srs(tg, s.seq.unwrap_or(k));
@@ -826,7 +818,7 @@ impl Harness {
                 l.measured_wavelength_m = or(s.measured, l.measured_wavelength_m);
                 l.los_i[s.line % 3] = or(s.los, l.los_i[s.line % 3]);
                 l.body_vel_i_mps[s.line % 3] = or(s.body_vel, l.body_vel_i_mps[s.line % 3]);
-                Owned::Srs(x)
+                Owned::Aid(msgs::AidSample::Srs(x))
             }
             InputOp::Init(s) => {
                 let mut x = tr.init(tg, s.seq.unwrap_or(k));
@@ -1127,7 +1119,7 @@ fn imu_stamped_1e18_costs_only_itself() {
         "every genuine sample accepted"
     );
     ok(h.finish());
-    assert_eq!(h.session.status().imu.rejected_time, 1);
+    assert_eq!(h.session.status().imu().rejected_time, 1);
     assert_eq!(h.session.time_resyncs(), 0);
 }
 
@@ -1159,7 +1151,7 @@ fn two_samples_with_dt_1e_10() {
         s.dt_s = 1e-10;
         ok(h.push(Owned::Imu(s)));
     }
-    assert_eq!(h.session.status().imu.rejected_invalid, 2);
+    assert_eq!(h.session.status().imu().rejected_invalid, 2);
     ok(h.genuine(400));
     assert_eq!(h.imu_accepted() - before, 400);
     ok(h.finish());
@@ -1215,17 +1207,29 @@ fn aid_with_sigma_1e160_is_rejected() {
     }
     let mut star = h.truth.star(t, 1);
     star.sigma_cross_arcsec = 1e160;
-    ok(h.push(Owned::Star(star)));
-    ok(h.push(Owned::Cns(c)));
-    ok(h.push(Owned::Baro(b)));
-    ok(h.push(Owned::Srs(s)));
+    ok(h.push(Owned::Aid(msgs::AidSample::Star(star))));
+    ok(h.push(Owned::Aid(msgs::AidSample::Cns(c))));
+    ok(h.push(Owned::Aid(msgs::AidSample::Baro(b))));
+    ok(h.push(Owned::Aid(msgs::AidSample::Srs(s))));
     // Aids are fused (or refused) before the next IMU sample or at a flush.
     h.session.flush(&mut h.sink);
     let st = h.session.status();
-    assert_eq!(st.cns.rejected_invalid, st0.cns.rejected_invalid + 1);
-    assert_eq!(st.baro.rejected_invalid, st0.baro.rejected_invalid + 1);
-    assert_eq!(st.srs.rejected_invalid, st0.srs.rejected_invalid + 1);
-    assert_eq!(st.star.rejected_invalid, st0.star.rejected_invalid + 1);
+    assert_eq!(
+        st.aid_counters(AidKind::Cns).rejected_invalid,
+        st0.aid_counters(AidKind::Cns).rejected_invalid + 1
+    );
+    assert_eq!(
+        st.aid_counters(AidKind::Baro).rejected_invalid,
+        st0.aid_counters(AidKind::Baro).rejected_invalid + 1
+    );
+    assert_eq!(
+        st.aid_counters(AidKind::Srs).rejected_invalid,
+        st0.aid_counters(AidKind::Srs).rejected_invalid + 1
+    );
+    assert_eq!(
+        st.aid_counters(AidKind::Star).rejected_invalid,
+        st0.aid_counters(AidKind::Star).rejected_invalid + 1
+    );
     let n = h.session.navigator().expect("navigating");
     assert!(n.covariance().iter().all(|x| x.is_finite()));
     assert!((0..15).all(|i| n.covariance()[(i, i)] > 0.0));
@@ -1288,20 +1292,26 @@ fn star_tracker_impossible_content_is_refused_and_counted() {
         },
     ];
     for b in bad {
-        ok(h.push(Owned::Star(b)));
+        ok(h.push(Owned::Aid(msgs::AidSample::Star(b))));
     }
     h.session.flush(&mut h.sink);
     let st = h.session.status();
     assert_eq!(
-        st.star.rejected_invalid,
-        st0.star.rejected_invalid + bad.len() as u64,
+        st.aid_counters(AidKind::Star).rejected_invalid,
+        st0.aid_counters(AidKind::Star).rejected_invalid + bad.len() as u64,
         "{:?}",
-        st.star
+        st.aid_counters(AidKind::Star)
     );
-    assert_eq!(st.star.accepted, st0.star.accepted);
-    ok(h.push(Owned::Star(good)));
+    assert_eq!(
+        st.aid_counters(AidKind::Star).accepted,
+        st0.aid_counters(AidKind::Star).accepted
+    );
+    ok(h.push(Owned::Aid(msgs::AidSample::Star(good))));
     h.session.flush(&mut h.sink);
-    assert_eq!(h.session.status().star.accepted, st0.star.accepted + 1);
+    assert_eq!(
+        h.session.status().aid_counters(AidKind::Star).accepted,
+        st0.aid_counters(AidKind::Star).accepted + 1
+    );
     let n = h.session.navigator().expect("navigating");
     assert!(n.covariance().iter().all(|x| x.is_finite()));
     ok(h.genuine(40));
@@ -1313,21 +1323,28 @@ fn future_aids_do_not_block_genuine_ones() {
     let mut h = started(0.0);
     let far = 1_000_000_000_000_000_000;
     let st0 = h.session.status();
-    ok(h.push(Owned::Srs(h.truth.srs(far, 1))));
-    ok(h.push(Owned::Cns(h.truth.cns(far, 1))));
-    ok(h.push(Owned::Baro(h.truth.baro(far, 1))));
+    ok(h.push(Owned::Aid(msgs::AidSample::Srs(h.truth.srs(far, 1)))));
+    ok(h.push(Owned::Aid(msgs::AidSample::Cns(h.truth.cns(far, 1)))));
+    ok(h.push(Owned::Aid(msgs::AidSample::Baro(h.truth.baro(far, 1)))));
     ok(h.genuine(400));
     let st = h.session.status();
-    assert_eq!(st.srs.rejected_time, st0.srs.rejected_time + 1);
+    assert_eq!(
+        st.aid_counters(AidKind::Srs).rejected_time,
+        st0.aid_counters(AidKind::Srs).rejected_time + 1
+    );
     assert!(
-        st.srs.accepted >= st0.srs.accepted + 9,
+        st.aid_counters(AidKind::Srs).accepted >= st0.aid_counters(AidKind::Srs).accepted + 9,
         "srs {st0:?} -> {st:?}"
     );
-    assert!(st.cns.accepted >= st0.cns.accepted + 9, "cns {:?}", st.cns);
     assert!(
-        st.baro.accepted >= st0.baro.accepted + 39,
+        st.aid_counters(AidKind::Cns).accepted >= st0.aid_counters(AidKind::Cns).accepted + 9,
+        "cns {:?}",
+        st.aid_counters(AidKind::Cns)
+    );
+    assert!(
+        st.aid_counters(AidKind::Baro).accepted >= st0.aid_counters(AidKind::Baro).accepted + 39,
         "baro {:?}",
-        st.baro
+        st.aid_counters(AidKind::Baro)
     );
     ok(h.finish());
 }
@@ -1359,9 +1376,9 @@ fn flood_of_10000_aids_half_a_second_ahead() {
     let st0 = h.session.status();
     for j in 0..10_000u64 {
         let o = match j % 3 {
-            0 => Owned::Baro(h.truth.baro(t + j, j)),
-            1 => Owned::Cns(h.truth.cns(t + j, j)),
-            _ => Owned::Srs(h.truth.srs(t + j, j)),
+            0 => Owned::Aid(msgs::AidSample::Baro(h.truth.baro(t + j, j))),
+            1 => Owned::Aid(msgs::AidSample::Cns(h.truth.cns(t + j, j))),
+            _ => Owned::Aid(msgs::AidSample::Srs(h.truth.srs(t + j, j))),
         };
         ok(h.push(o));
     }
@@ -1370,9 +1387,16 @@ fn flood_of_10000_aids_half_a_second_ahead() {
     let st = h.session.status();
     let grown = |a: u64, b: u64| a - b;
     assert_eq!(
-        grown(st.srs.received, st0.srs.received)
-            + grown(st.cns.received, st0.cns.received)
-            + grown(st.baro.received, st0.baro.received),
+        grown(
+            st.aid_counters(AidKind::Srs).received,
+            st0.aid_counters(AidKind::Srs).received
+        ) + grown(
+            st.aid_counters(AidKind::Cns).received,
+            st0.aid_counters(AidKind::Cns).received
+        ) + grown(
+            st.aid_counters(AidKind::Baro).received,
+            st0.aid_counters(AidKind::Baro).received
+        ),
         10_000 + 20 + 5 + 5
     );
     assert!(h.max_work_step <= WORK_BOUND);
@@ -1388,14 +1412,22 @@ fn flood_of_10000_aids_half_a_second_ahead() {
 #[test]
 fn a_disabled_aid_reports_no_update() {
     let mut settings = SessionSettings::default();
-    settings.navigator.aids.cns = false;
-    settings.navigator.aids.star = false;
+    settings.navigator.aids = settings.navigator.aids.with(AidKind::Cns, false);
+    settings.navigator.aids = settings.navigator.aids.with(AidKind::Star, false);
     let mut h = Harness::with_settings(Truth { speed_mps: 200.0 }, settings);
     h.genuine(2000).expect("genuine flight");
     h.finish().expect("finish");
     let st = h.session.status();
-    assert!(st.cns.not_used >= 40 && st.star.not_used >= 40, "{st:?}");
-    assert!(st.baro.accepted >= 150, "{:?}", st.baro);
+    assert!(
+        st.aid_counters(AidKind::Cns).not_used >= 40
+            && st.aid_counters(AidKind::Star).not_used >= 40,
+        "{st:?}"
+    );
+    assert!(
+        st.aid_counters(AidKind::Baro).accepted >= 150,
+        "{:?}",
+        st.aid_counters(AidKind::Baro)
+    );
     let updates = |stream| {
         h.sink
             .events
@@ -1403,25 +1435,31 @@ fn a_disabled_aid_reports_no_update() {
             .filter(|e| matches!(e, Event::AidUpdate { stream: s, .. } if *s == stream))
             .count()
     };
-    assert_eq!((updates(Stream::Cns), updates(Stream::Star)), (0, 0));
     assert_eq!(
-        updates(Stream::Baro) as u64,
-        st.baro.accepted + st.baro.rejected_gate
+        (
+            updates(Stream::Aid(AidKind::Cns)),
+            updates(Stream::Aid(AidKind::Star))
+        ),
+        (0, 0)
+    );
+    assert_eq!(
+        updates(Stream::Aid(AidKind::Baro)) as u64,
+        st.aid_counters(AidKind::Baro).accepted + st.aid_counters(AidKind::Baro).rejected_gate
     );
 }
 
 #[test]
 fn queued_aid_is_counted_as_received() {
     let mut h = started(0.0);
-    let before = h.session.status().baro;
+    let before = *h.session.status().aid_counters(AidKind::Baro);
     // Half a second ahead of the IMU: it waits in the queue.
     let b = h.truth.baro(h.t_gen + 100 * DT_NS, 1);
-    h.session.push(Input::Baro(&b), &mut h.sink);
-    let after = h.session.status().baro;
+    h.session.push(Input::Aid(&b.into()), &mut h.sink);
+    let after = *h.session.status().aid_counters(AidKind::Baro);
     assert_eq!(
         after.received,
         before.received + 1,
-        "a baro sample waiting in the queue is missing from status().baro.received: \
+        "a baro sample waiting in the queue is missing from status().aid_counters(AidKind::Baro).received: \
          {before:?} -> {after:?}"
     );
 }
@@ -1548,9 +1586,9 @@ fn aid_arrival_order_within_an_epoch_does_not_change_the_solution() {
             let imu = Owned::Imu(truth.imu_at(t, k, t));
             let epoch = [
                 Some(imu),
-                (k % 200 == 0).then(|| Owned::Srs(truth.srs(t, k))),
-                (k % 200 == 0).then(|| Owned::Cns(truth.cns(t, k))),
-                (k % 20 == 0).then(|| Owned::Baro(truth.baro(t, k))),
+                (k % 200 == 0).then(|| Owned::Aid(msgs::AidSample::Srs(truth.srs(t, k)))),
+                (k % 200 == 0).then(|| Owned::Aid(msgs::AidSample::Cns(truth.cns(t, k)))),
+                (k % 20 == 0).then(|| Owned::Aid(msgs::AidSample::Baro(truth.baro(t, k)))),
             ];
             for &i in arrangement {
                 if let Some(x) = &epoch[i] {
@@ -1564,7 +1602,11 @@ fn aid_arrival_order_within_an_epoch_does_not_change_the_solution() {
         }
         session.finish(&mut sink);
         let st = session.status();
-        assert!(st.srs.accepted >= 9 && st.cns.accepted >= 9 && st.baro.accepted >= 90);
+        assert!(
+            st.aid_counters(AidKind::Srs).accepted >= 9
+                && st.aid_counters(AidKind::Cns).accepted >= 9
+                && st.aid_counters(AidKind::Baro).accepted >= 90
+        );
         runs.push(sink.solutions);
     }
     for (k, r) in runs.iter().enumerate().skip(1) {

@@ -3,22 +3,10 @@
 //! degrees as in the solution CSV, and each aid's innovation in one
 //! physical unit whatever the navigation frame.
 
-use msgs::{AidStatus, Solution, Status, StreamCounters, TruthRecord};
+use msgs::aids::Unit;
+use msgs::{AidKind, AidStatus, PerAid, Solution, Status, StreamCounters, TruthRecord};
 use polarnav::earth::{self, Geodetic};
 use polarnav_proto as pb;
-
-/// An aid, for the unit of its innovation.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum Aid {
-    /// Spectral-redshift velocity: m/s, navigation-frame axes.
-    Srs,
-    /// Celestial position: m (north, east in g; grid x, y in G).
-    Cns,
-    /// Barometric height: m.
-    Baro,
-    /// Star tracker attitude: rad, navigation-frame axes.
-    Star,
-}
 
 /// Where an update was made: the navigation frame ([`msgs::WireFrame`] as
 /// u8) and the position, which turn a CNS innovation in g (Δlatitude,
@@ -37,29 +25,16 @@ fn nav_frame(frame: u8) -> i32 {
     i32::from(frame)
 }
 
-/// An aid's update in its physical unit. The innovation is as the wire
-/// reports it (`AidStatus::innovation`, its variance the diagonal of S);
-/// only a CNS innovation in g is rescaled, from rad to m, with
-/// [`earth::metres_per_radian`] at `at`. The update has the aid's dimension (baro 1,
-/// CNS 2, SRS and star 3); a component without a positive finite variance
-/// gets a zero or NaN σ.
-pub fn aid_update(t_ns: u64, aid: Aid, a: &AidStatus, at: UpdateAt) -> pb::AidUpdate {
-    let dim = match aid {
-        Aid::Baro => 1,
-        Aid::Cns => 2,
-        Aid::Srs | Aid::Star => 3,
-    };
-    let scale = match aid {
-        Aid::Cns if at.frame == msgs::WireFrame::Geographic as u8 => {
-            let [n, e] = earth::metres_per_radian(at.lat_rad, at.h_m);
-            [n, e, 1.0]
-        }
-        _ => [1.0; 3],
-    };
-    let v: Vec<f64> = (0..dim).map(|k| a.innovation[k] * scale[k]).collect();
-    let s: Vec<f64> = (0..dim)
-        .map(|k| a.innovation_var[k].sqrt() * scale[k])
-        .collect();
+/// An aid's update in its physical units, from its declaration's
+/// components (`msgs::aids`). The innovation is as the wire reports it
+/// (`AidStatus::innovation`, its variance the diagonal of S); only a
+/// geographic-frame horizontal position component ([`Unit::LatitudeInG`],
+/// [`Unit::LongitudeInG`], the CNS innovation in g) is rescaled, from rad
+/// to m, with [`earth::metres_per_radian`] at `at`. Each component goes to
+/// the pair of fields of its unit (metres, metres per second, radians); a
+/// component without a positive finite variance gets a zero or NaN σ.
+pub fn aid_update(t_ns: u64, aid: AidKind, a: &AidStatus, at: UpdateAt) -> pb::AidUpdate {
+    let geographic = at.frame == msgs::WireFrame::Geographic as u8;
     let mut u = pb::AidUpdate {
         t_ns,
         frame: nav_frame(at.frame),
@@ -69,10 +44,24 @@ pub fn aid_update(t_ns: u64, aid: Aid, a: &AidStatus, at: UpdateAt) -> pb::AidUp
         exclusions: a.exclusions,
         ..Default::default()
     };
-    match aid {
-        Aid::Srs => (u.innovation_mps, u.innovation_sigma_mps) = (v, s),
-        Aid::Cns | Aid::Baro => (u.innovation_m, u.innovation_sigma_m) = (v, s),
-        Aid::Star => (u.innovation_rad, u.innovation_sigma_rad) = (v, s),
+    for (k, c) in aid.decl().components.iter().enumerate() {
+        let Some((v, var)) = a.innovation.get(k).zip(a.innovation_var.get(k)) else {
+            break;
+        };
+        let scale = match c.unit {
+            Unit::LatitudeInG if geographic => earth::metres_per_radian(at.lat_rad, at.h_m)[0],
+            Unit::LongitudeInG if geographic => earth::metres_per_radian(at.lat_rad, at.h_m)[1],
+            _ => 1.0,
+        };
+        let (values, sigmas) = match c.unit {
+            Unit::M | Unit::LatitudeInG | Unit::LongitudeInG => {
+                (&mut u.innovation_m, &mut u.innovation_sigma_m)
+            }
+            Unit::Mps => (&mut u.innovation_mps, &mut u.innovation_sigma_mps),
+            Unit::Rad => (&mut u.innovation_rad, &mut u.innovation_sigma_rad),
+        };
+        values.push(v * scale);
+        sigmas.push(var.sqrt() * scale);
     }
     u
 }
@@ -94,73 +83,6 @@ pub fn imu(x: &msgs::ImuSample) -> pb::ImuSample {
         dv_x_mps: x.d_v_mps[0],
         dv_y_mps: x.d_v_mps[1],
         dv_z_mps: x.d_v_mps[2],
-    }
-}
-
-/// An SRS sample: its `count` lines (at most the wire's capacity).
-pub fn srs(x: &msgs::SrsSample) -> pb::SrsSample {
-    let n = usize::try_from(x.count)
-        .unwrap_or(usize::MAX)
-        .min(x.lines.len());
-    pb::SrsSample {
-        t_ns: x.t_ns,
-        seq: x.seq,
-        lines: x.lines[..n]
-            .iter()
-            .map(|l| pb::SrsLine {
-                los_x: l.los_i[0],
-                los_y: l.los_i[1],
-                los_z: l.los_i[2],
-                body_vx_mps: l.body_vel_i_mps[0],
-                body_vy_mps: l.body_vel_i_mps[1],
-                body_vz_mps: l.body_vel_i_mps[2],
-                rest_wavelength_m: l.rest_wavelength_m,
-                measured_wavelength_m: l.measured_wavelength_m,
-                sigma_mps: l.sigma_mps,
-                body_id: l.body_id,
-            })
-            .collect(),
-    }
-}
-
-/// A CNS fix.
-pub fn cns(x: &msgs::CnsFix) -> pb::CnsFix {
-    pb::CnsFix {
-        t_ns: x.t_ns,
-        seq: x.seq,
-        lat_rad: x.lat_rad,
-        lon_rad: x.lon_rad,
-        sigma_h_m: x.sigma_h_m,
-    }
-}
-
-/// A barometric sample.
-pub fn baro(x: &msgs::BaroSample) -> pb::BaroSample {
-    pb::BaroSample {
-        t_ns: x.t_ns,
-        seq: x.seq,
-        pressure_pa: x.pressure_pa,
-        temperature_k: x.temperature_k,
-        sigma_m: x.sigma_m,
-    }
-}
-
-/// A star tracker sample.
-pub fn star(x: &msgs::StarSample) -> pb::StarSample {
-    let [q_b_i_w, q_b_i_x, q_b_i_y, q_b_i_z] = x.q_b_i;
-    let [boresight_x, boresight_y, boresight_z] = x.boresight_b;
-    pb::StarSample {
-        t_ns: x.t_ns,
-        seq: x.seq,
-        q_b_i_w,
-        q_b_i_x,
-        q_b_i_y,
-        q_b_i_z,
-        boresight_x,
-        boresight_y,
-        boresight_z,
-        sigma_cross_arcsec: x.sigma_cross_arcsec,
-        sigma_boresight_arcsec: x.sigma_boresight_arcsec,
     }
 }
 
@@ -206,26 +128,28 @@ fn counters(c: &StreamCounters) -> pb::StreamCounters {
 }
 
 /// A status record; each aid's last update in its unit, a CNS one in g
-/// rescaled where that update was made (`made`: SRS, CNS, baro, star; see
-/// `FlightChannels::status`).
-pub fn status(st: &Status, made: [UpdateAt; 4]) -> pb::Status {
-    let aid = |kind: Aid, a: &AidStatus| pb::AidStatus {
-        last: Some(aid_update(st.t_ns, kind, a, made[kind as usize])),
-        last_fuse_t_ns: a.last_fuse_t_ns,
-        fresh: a.fresh != 0,
+/// rescaled where that update was made (`made`; see
+/// `FlightChannels::status`). The message's per-aid fields are those of
+/// the four aids it was written for (`polarnav.Status`' fields 4 to 11).
+pub fn status(st: &Status, made: &PerAid<UpdateAt>) -> pb::Status {
+    let aid = |kind: AidKind| pb::AidStatus {
+        last: Some(aid_update(st.t_ns, kind, st.aid(kind), made[kind])),
+        last_fuse_t_ns: st.aid(kind).last_fuse_t_ns,
+        fresh: st.aid(kind).fresh != 0,
     };
+    let c = |kind: AidKind| Some(counters(st.aid_counters(kind)));
     pb::Status {
         t_ns: st.t_ns,
         seq: st.seq,
-        imu: Some(counters(&st.imu)),
-        srs: Some(counters(&st.srs)),
-        cns: Some(counters(&st.cns)),
-        baro: Some(counters(&st.baro)),
-        star: Some(counters(&st.star)),
-        srs_aid: Some(aid(Aid::Srs, &st.srs_aid)),
-        cns_aid: Some(aid(Aid::Cns, &st.cns_aid)),
-        baro_aid: Some(aid(Aid::Baro, &st.baro_aid)),
-        star_aid: Some(aid(Aid::Star, &st.star_aid)),
+        imu: Some(counters(st.imu())),
+        srs: c(AidKind::Srs),
+        cns: c(AidKind::Cns),
+        baro: c(AidKind::Baro),
+        star: c(AidKind::Star),
+        srs_aid: Some(aid(AidKind::Srs)),
+        cns_aid: Some(aid(AidKind::Cns)),
+        baro_aid: Some(aid(AidKind::Baro)),
+        star_aid: Some(aid(AidKind::Star)),
         cycles: st.cycles,
         overruns: st.overruns,
         overruns_cpu: st.overruns_cpu,
@@ -309,7 +233,7 @@ mod tests {
             };
             let u = aid_update(
                 1,
-                Aid::Cns,
+                AidKind::Cns,
                 &a,
                 UpdateAt {
                     frame: 0,
@@ -359,7 +283,7 @@ mod tests {
         };
         let u = aid_update(
             1,
-            Aid::Cns,
+            AidKind::Cns,
             &a,
             UpdateAt {
                 frame: 1,
@@ -443,13 +367,8 @@ mod tests {
             ]
         }
 
-        fn aid() -> impl Strategy<Value = Aid> {
-            prop_oneof![
-                Just(Aid::Srs),
-                Just(Aid::Cns),
-                Just(Aid::Baro),
-                Just(Aid::Star)
-            ]
+        fn aid() -> impl Strategy<Value = AidKind> {
+            proptest::sample::select(AidKind::ALL.to_vec())
         }
 
         proptest! {
@@ -480,18 +399,42 @@ mod tests {
                     ..Default::default()
                 };
                 let u = aid_update(7, kind, &a, UpdateAt { frame, lat_rad: lat, h_m: h });
-                let dim = match kind { Aid::Baro => 1, Aid::Cns => 2, _ => 3 };
-                let (val, sig, others) = match kind {
-                    Aid::Srs => (&u.innovation_mps, &u.innovation_sigma_mps,
-                        [&u.innovation_m, &u.innovation_sigma_m, &u.innovation_rad, &u.innovation_sigma_rad]),
-                    Aid::Cns | Aid::Baro => (&u.innovation_m, &u.innovation_sigma_m,
-                        [&u.innovation_mps, &u.innovation_sigma_mps, &u.innovation_rad, &u.innovation_sigma_rad]),
-                    Aid::Star => (&u.innovation_rad, &u.innovation_sigma_rad,
-                        [&u.innovation_m, &u.innovation_sigma_m, &u.innovation_mps, &u.innovation_sigma_mps]),
+                // The field pair of each unit; an aid's components fill
+                // the pairs of their units in order, and no other.
+                let pairs = [
+                    (Unit::M, &u.innovation_m, &u.innovation_sigma_m),
+                    (Unit::Mps, &u.innovation_mps, &u.innovation_sigma_mps),
+                    (Unit::Rad, &u.innovation_rad, &u.innovation_sigma_rad),
+                ];
+                let shown = |c: Unit| match c {
+                    Unit::LatitudeInG | Unit::LongitudeInG => Unit::M,
+                    other => other,
                 };
-                prop_assert_eq!(val.len(), dim);
-                prop_assert_eq!(sig.len(), dim);
-                prop_assert!(others.iter().all(|o| o.is_empty()));
+                let comps = kind.decl().components;
+                let dim = comps.len().min(3);
+                // The dimensions of the aids the status was written for.
+                let written_for = match kind {
+                    AidKind::Baro => Some(1),
+                    AidKind::Cns => Some(2),
+                    AidKind::Srs | AidKind::Star => Some(3),
+                    #[allow(unreachable_patterns)]
+                    _ => None,
+                };
+                if let Some(d) = written_for {
+                    prop_assert_eq!(dim, d);
+                }
+                for (unit, values, sigmas) in pairs {
+                    let n = comps[..dim].iter().filter(|c| shown(c.unit) == unit).count();
+                    prop_assert_eq!(values.len(), n);
+                    prop_assert_eq!(sigmas.len(), n);
+                }
+                // Component k's value and σ, wherever its unit put it.
+                let at = |k: usize| {
+                    let unit = shown(comps[k].unit);
+                    let j = comps[..k].iter().filter(|c| shown(c.unit) == unit).count();
+                    let (_, values, sigmas) = pairs.iter().find(|p| p.0 == unit).expect("a pair");
+                    (values[j], sigmas[j])
+                };
                 prop_assert_eq!(u.fused, fused != 0);
                 prop_assert_eq!(u.test_ratio.to_bits(), ratio.to_bits());
                 prop_assert_eq!(u.t_ns, 7);
@@ -500,10 +443,11 @@ mod tests {
                     let sound = v[k].is_finite() && v[k].abs() < 1e150
                         && var[k].is_finite() && var[k] > 1e-290 && var[k] < 1e290;
                     if sound && real_place {
-                        prop_assert!(val[k].is_finite(), "{:?}", u);
-                        prop_assert!(sig[k].is_finite() && sig[k] > 0.0, "{:?}", u);
+                        let (val, sig) = at(k);
+                        prop_assert!(val.is_finite(), "{:?}", u);
+                        prop_assert!(sig.is_finite() && sig > 0.0, "{:?}", u);
                         let raw = v[k] / var[k].sqrt();
-                        let got = val[k] / sig[k];
+                        let got = val / sig;
                         prop_assert!((got - raw).abs() <= 1e-12 * raw.abs().max(1e-300), "{} vs {}", got, raw);
                     }
                 }

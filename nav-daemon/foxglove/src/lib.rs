@@ -11,7 +11,7 @@
 //!
 //! | topic | schema | from |
 //! |---|---|---|
-//! | `/imu`, `/srs`, `/cns`, `/baro`, `/star`, `/init` | `polarnav.ImuSample`, ... (the wire payload) | input records |
+//! | `/imu`, `/NAME` of each aid (`/srs`, `/cns`, ...), `/init` | `polarnav.ImuSample`, the aid's message (`polarnav_proto::AidMessage`), ... (the wire payload) | input records |
 //! | `/solution` | `polarnav.Solution`: the solution CSV's columns and units, and more | solutions |
 //! | `/solution/fix` | `foxglove.LocationFix` (ENU covariance from σ) | solutions |
 //! | `/solution/pose` | `foxglove.FrameTransform` `polar_north|south` → `body` | solutions |
@@ -19,7 +19,7 @@
 //! | `/tf/polar` | `foxglove.FrameTransform` `ecef` → `polar_north`, `polar_south` | every 5 s |
 //! | `/track` | `foxglove.SceneUpdate`: poles, switch latitudes, solution and truth tracks | 1 point/s |
 //! | `/status` | `polarnav.Status` | status records |
-//! | `/aid/srs`, `/aid/cns`, `/aid/baro`, `/aid/star` | `polarnav.AidUpdate` (innovation in the aid's one unit) | each gated update (batch), each new one a status reports (recording, export, live view) |
+//! | `/aid/NAME` of each aid | `polarnav.AidUpdate` (innovation in the aid's units) | each gated update (batch), each new one a status reports (recording, export, live view) |
 //! | `/events/switch` | `polarnav.SwitchNote` | a frame change between solutions |
 //! | `/events` | `foxglove.Log` | the same switch as a line for Foxglove's Log panel |
 //! | `/truth`, `/truth/fix` | `polarnav.Truth` with geodetic position; `foxglove.LocationFix` | truth records |
@@ -56,8 +56,8 @@ use std::time::{Duration, Instant};
 use foxglove::messages::{FrameTransform, LocationFix, Log, SceneUpdate, Timestamp, Vector3};
 use foxglove::{Context, Encode, PartialMetadata, RawChannel, Schema};
 use msgs::navlog::{Header, Record};
-use msgs::{AidStatus, Solution, Status, TruthRecord, WireFrame};
-use polarnav_proto::{self as pb, FILE_DESCRIPTOR_SET, ProtoName};
+use msgs::{AidKind, AidSample, AidStatus, PerAid, Solution, Status, TruthRecord, WireFrame};
+use polarnav_proto::{self as pb, AidMessage, FILE_DESCRIPTOR_SET, ProtoName};
 
 pub mod convert;
 pub mod file;
@@ -72,31 +72,6 @@ pub enum AidSource {
     Updates,
     /// The last update each status record reports (1 Hz): recordings, the live view.
     Status,
-}
-
-/// An aid channel of this mapping.
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub enum AidTopic {
-    /// `/aid/srs`
-    Srs,
-    /// `/aid/cns`
-    Cns,
-    /// `/aid/baro`
-    Baro,
-    /// `/aid/star`
-    Star,
-}
-
-impl AidTopic {
-    /// The aid, for its innovation's unit.
-    pub fn aid(self) -> convert::Aid {
-        match self {
-            AidTopic::Srs => convert::Aid::Srs,
-            AidTopic::Cns => convert::Aid::Cns,
-            AidTopic::Baro => convert::Aid::Baro,
-            AidTopic::Star => convert::Aid::Star,
-        }
-    }
 }
 
 /// Why writing an MCAP file failed.
@@ -192,10 +167,6 @@ macro_rules! proto_msg {
 }
 proto_msg!(
     pb::ImuSample,
-    pb::SrsSample,
-    pb::CnsFix,
-    pb::BaroSample,
-    pb::StarSample,
     pb::InitState,
     pb::Solution,
     pb::Status,
@@ -204,6 +175,77 @@ proto_msg!(
     pb::Truth,
     pb::TruthBias
 );
+
+/// An aid's sample as its protobuf message (`polarnav_proto::AidMessage`).
+#[derive(Debug)]
+struct AidMsg<M>(M);
+
+impl<M: prost::Message + ProtoName> Msg for AidMsg<M> {
+    fn schema() -> Option<Schema> {
+        Some(proto_schema::<M>())
+    }
+    fn encoding() -> String {
+        "protobuf".into()
+    }
+    fn encode_into(&self, buf: &mut Vec<u8>) -> bool {
+        prost::Message::encode(&self.0, buf).is_ok()
+    }
+}
+
+/// An aid's input channel (`/NAME`), whatever the aid's message.
+trait AidInput: AnyChannel + std::fmt::Debug {
+    /// Logs `sample` (of this channel's aid) at log time `log_ns`.
+    fn log_sample(&mut self, out: &mut Out, log_ns: u64, sample: &AidSample);
+    fn as_channel(&self) -> &dyn AnyChannel;
+    fn as_channel_mut(&mut self) -> &mut dyn AnyChannel;
+}
+
+/// The channel of aid `P`'s samples.
+#[derive(Debug)]
+struct AidInputChan<P: AidMessage> {
+    chan: Chan<AidMsg<P::Proto>>,
+}
+
+impl<P: AidMessage> AnyChannel for AidInputChan<P> {
+    fn lazy_topic(&self) -> &'static str {
+        self.chan.lazy_topic()
+    }
+    fn is_open(&self) -> bool {
+        self.chan.is_open()
+    }
+    fn dropped(&self) -> u64 {
+        self.chan.dropped()
+    }
+    fn open_in(&mut self, out: &mut Out) {
+        self.chan.open_in(out);
+    }
+}
+
+impl<P: AidMessage + std::fmt::Debug> AidInput for AidInputChan<P>
+where
+    P::Proto: std::fmt::Debug,
+{
+    fn log_sample(&mut self, out: &mut Out, log_ns: u64, sample: &AidSample) {
+        if let Some(x) = P::of(sample) {
+            self.chan.log(out, log_ns, || AidMsg(x.to_proto()));
+        }
+    }
+    fn as_channel(&self) -> &dyn AnyChannel {
+        self
+    }
+    fn as_channel_mut(&mut self) -> &mut dyn AnyChannel {
+        self
+    }
+}
+
+/// The input channel of aid `k`.
+fn aid_input(k: AidKind, gate: RateGate) -> Box<dyn AidInput> {
+    msgs::match_aid_kind!(k, P => {
+        Box::new(AidInputChan::<P> {
+            chan: Chan::new(k.decl().topic, gate),
+        })
+    })
+}
 
 /// Foxglove's well-known messages.
 macro_rules! wkt_msg {
@@ -348,14 +390,13 @@ impl<M: Msg> AnyChannel for Chan<M> {
 pub struct FlightChannels {
     out: Out,
     imu: Chan<pb::ImuSample>,
-    srs: Chan<pb::SrsSample>,
-    cns: Chan<pb::CnsFix>,
-    baro: Chan<pb::BaroSample>,
-    star: Chan<pb::StarSample>,
+    /// Each aid's samples, `/NAME`.
+    inputs: PerAid<Box<dyn AidInput>>,
     init: Chan<pb::InitState>,
     solution: Chan<pb::Solution>,
     status: Chan<pb::Status>,
-    aid: [Chan<pb::AidUpdate>; 4],
+    /// Each aid's updates, `/aid/NAME`.
+    aid: PerAid<Chan<pb::AidUpdate>>,
     switch: Chan<pb::SwitchNote>,
     truth: Chan<pb::Truth>,
     truth_bias: Chan<pb::TruthBias>,
@@ -371,14 +412,14 @@ pub struct FlightChannels {
     last_frame: Option<u8>,
     /// Where the last solution was (frame, latitude, height).
     last_at: UpdateAt,
-    /// Per aid (SRS, CNS, baro, star): which update the last status
+    /// Per aid: which update the last status
     /// reported (its gated count, accepted + rejected at the gate, and its
     /// innovation) and where that innovation was made. A status repeats
     /// the last update until the next one (ten times for a 0.1 Hz aid and
     /// 1 Hz status), which a frame switch does not clear: it goes on the
     /// `/aid/*` channel once, and is turned into metres in the frame and at
     /// the position of the update, not of the status.
-    aid_made: [(UpdateKey, Option<UpdateAt>); 4],
+    aid_made: PerAid<(UpdateKey, Option<UpdateAt>)>,
     /// Added to every `t_ns` to make a log time (the UTC epoch of sensor time 0, or 0).
     epoch_ns: u64,
     /// Sensor time of the last solution drawn on the display channels
@@ -405,31 +446,33 @@ pub enum Feed {
     Status,
 }
 
-/// Every topic this mapping writes, in a fixed order.
-pub const TOPICS: [&str; 22] = [
-    "/imu",
-    "/srs",
-    "/cns",
-    "/baro",
-    "/star",
-    "/init",
-    "/solution",
-    "/solution/fix",
-    "/solution/pose",
-    "/solution/nav_frame",
-    "/tf/polar",
-    "/track",
-    "/status",
-    "/aid/srs",
-    "/aid/cns",
-    "/aid/baro",
-    "/aid/star",
-    "/events/switch",
-    "/events",
-    "/truth",
-    "/truth/fix",
-    "/truth/bias",
-];
+/// Every topic this mapping writes, in a fixed order (the order an MCAP
+/// file lists its channels in): the IMU, each aid's samples, init, the
+/// solution and its display channels, the polar frames and track, status,
+/// each aid's updates, the events and the truth.
+pub fn topics() -> Vec<&'static str> {
+    let mut t = vec!["/imu"];
+    t.extend(AidKind::ALL.map(|k| k.decl().topic));
+    t.extend([
+        "/init",
+        "/solution",
+        "/solution/fix",
+        "/solution/pose",
+        "/solution/nav_frame",
+        "/tf/polar",
+        "/track",
+        "/status",
+    ]);
+    t.extend(AidKind::ALL.map(|k| k.decl().update_topic));
+    t.extend([
+        "/events/switch",
+        "/events",
+        "/truth",
+        "/truth/fix",
+        "/truth/bias",
+    ]);
+    t
+}
 
 /// A well-known message's time stamp (seconds saturate at `u32::MAX`, year 2106).
 fn stamp(t_ns: u64) -> Timestamp {
@@ -490,19 +533,11 @@ impl FlightChannels {
         Self {
             out,
             imu: Chan::new("/imu", g),
-            srs: Chan::new("/srs", g),
-            cns: Chan::new("/cns", g),
-            baro: Chan::new("/baro", g),
-            star: Chan::new("/star", g),
+            inputs: PerAid::from_fn(|k| aid_input(k, g)),
             init: Chan::new("/init", g),
             solution: Chan::new("/solution", g),
             status: Chan::new("/status", g),
-            aid: [
-                Chan::new("/aid/srs", g),
-                Chan::new("/aid/cns", g),
-                Chan::new("/aid/baro", g),
-                Chan::new("/aid/star", g),
-            ],
+            aid: PerAid::from_fn(|k| Chan::new(k.decl().update_topic, g)),
             switch: Chan::new("/events/switch", g),
             truth: Chan::new("/truth", g),
             truth_bias: Chan::new("/truth/bias", g),
@@ -523,19 +558,16 @@ impl FlightChannels {
             },
             epoch_ns: 0,
             last_display_ns: None,
-            aid_made: [(UpdateKey::default(), None); 4],
+            aid_made: PerAid::default(),
         }
     }
 
-    /// Every channel, in [`TOPICS`]' order.
-    fn channels(&self) -> [&dyn AnyChannel; 22] {
-        [
-            &self.imu,
-            &self.srs,
-            &self.cns,
-            &self.baro,
-            &self.star,
-            &self.init,
+    /// Every channel, in [`topics`]' order.
+    fn channels(&self) -> Vec<&dyn AnyChannel> {
+        let mut c: Vec<&dyn AnyChannel> = vec![&self.imu];
+        c.extend(self.inputs.0.iter().map(|x| x.as_channel()));
+        c.extend([
+            &self.init as &dyn AnyChannel,
             &self.solution,
             &self.fix,
             &self.pose,
@@ -543,49 +575,42 @@ impl FlightChannels {
             &self.tf,
             &self.track,
             &self.status,
-            &self.aid[0],
-            &self.aid[1],
-            &self.aid[2],
-            &self.aid[3],
-            &self.switch,
+        ]);
+        c.extend(self.aid.0.iter().map(|x| x as &dyn AnyChannel));
+        c.extend([
+            &self.switch as &dyn AnyChannel,
             &self.log,
             &self.truth,
             &self.truth_fix,
             &self.truth_bias,
-        ]
+        ]);
+        c
     }
 
-    /// Where the channels go, and every channel in [`TOPICS`]' order,
+    /// Where the channels go, and every channel in [`topics`]' order,
     /// borrowed apart so that each can be opened in it.
-    fn out_and_channels(&mut self) -> (&mut Out, [&mut dyn AnyChannel; 22]) {
-        let [a0, a1, a2, a3] = &mut self.aid;
-        (
-            &mut self.out,
-            [
-                &mut self.imu,
-                &mut self.srs,
-                &mut self.cns,
-                &mut self.baro,
-                &mut self.star,
-                &mut self.init,
-                &mut self.solution,
-                &mut self.fix,
-                &mut self.pose,
-                &mut self.nav_frame,
-                &mut self.tf,
-                &mut self.track,
-                &mut self.status,
-                a0,
-                a1,
-                a2,
-                a3,
-                &mut self.switch,
-                &mut self.log,
-                &mut self.truth,
-                &mut self.truth_fix,
-                &mut self.truth_bias,
-            ],
-        )
+    fn out_and_channels(&mut self) -> (&mut Out, Vec<&mut dyn AnyChannel>) {
+        let mut c: Vec<&mut dyn AnyChannel> = vec![&mut self.imu];
+        c.extend(self.inputs.0.iter_mut().map(|x| x.as_channel_mut()));
+        c.extend([
+            &mut self.init as &mut dyn AnyChannel,
+            &mut self.solution,
+            &mut self.fix,
+            &mut self.pose,
+            &mut self.nav_frame,
+            &mut self.tf,
+            &mut self.track,
+            &mut self.status,
+        ]);
+        c.extend(self.aid.0.iter_mut().map(|x| x as &mut dyn AnyChannel));
+        c.extend([
+            &mut self.switch as &mut dyn AnyChannel,
+            &mut self.log,
+            &mut self.truth,
+            &mut self.truth_fix,
+            &mut self.truth_bias,
+        ]);
+        (&mut self.out, c)
     }
 
     /// Log times from now on are `epoch_ns + t_ns`: `epoch_ns` is the UTC
@@ -629,8 +654,8 @@ impl FlightChannels {
                 self.status.close();
                 // A daemon that comes back counts from 0 again: nothing of
                 // the old one's updates is carried over to its statuses.
-                self.aid_made = [(UpdateKey::default(), None); 4];
-                for a in &mut self.aid {
+                self.aid_made = PerAid::default();
+                for (_, a) in self.aid.iter_mut() {
                     a.close();
                 }
             }
@@ -670,10 +695,7 @@ impl FlightChannels {
             Record::Header(_) => {}
             Record::Init(x) => self.init.log(ctx, at(e, x.t_ns), || convert::init(x)),
             Record::Imu(x) => self.imu.log(ctx, at(e, x.t_ns), || convert::imu(x)),
-            Record::Srs(x) => self.srs.log(ctx, at(e, x.t_ns), || convert::srs(x)),
-            Record::Cns(x) => self.cns.log(ctx, at(e, x.t_ns), || convert::cns(x)),
-            Record::Baro(x) => self.baro.log(ctx, at(e, x.t_ns), || convert::baro(x)),
-            Record::Star(x) => self.star.log(ctx, at(e, x.t_ns), || convert::star(x)),
+            Record::Aid(x) => self.inputs[x.kind()].log_sample(ctx, at(e, x.t_ns()), x),
             Record::Truth(x) => self.truth(x),
             Record::Solution(x) => self.solution(x),
             Record::Status(x) => self.status(x),
@@ -791,19 +813,12 @@ impl FlightChannels {
         let at = at(self.epoch_ns, st.t_ns);
         let (made, new) = self.aids_made(st);
         let ctx = &mut self.out;
-        self.status.log(ctx, at, || convert::status(st, made));
+        self.status.log(ctx, at, || convert::status(st, &made));
         if self.aid_source == AidSource::Status {
-            for (topic, a, c) in [
-                (AidTopic::Srs, &st.srs_aid, &st.srs),
-                (AidTopic::Cns, &st.cns_aid, &st.cns),
-                (AidTopic::Baro, &st.baro_aid, &st.baro),
-                (AidTopic::Star, &st.star_aid, &st.star),
-            ] {
-                if c.accepted + c.rejected_gate > 0 && new[topic as usize] {
-                    let where_ = made[topic as usize];
-                    self.aid[topic as usize].log(ctx, at, || {
-                        convert::aid_update(st.t_ns, topic.aid(), a, where_)
-                    });
+            for (k, c, a) in st.each_aid() {
+                if c.accepted + c.rejected_gate > 0 && new[k] {
+                    let where_ = made[k];
+                    self.aid[k].log(ctx, at, || convert::aid_update(st.t_ns, k, a, where_));
                 }
             }
         }
@@ -811,20 +826,14 @@ impl FlightChannels {
 
     /// Where each aid's innovation in `st` was made, and whether it is an
     /// update the previous status did not report (see [`Self::status`]).
-    fn aids_made(&mut self, st: &Status) -> ([UpdateAt; 4], [bool; 4]) {
-        let aids = [
-            (&st.srs, &st.srs_aid),
-            (&st.cns, &st.cns_aid),
-            (&st.baro, &st.baro_aid),
-            (&st.star, &st.star_aid),
-        ];
+    fn aids_made(&mut self, st: &Status) -> (PerAid<UpdateAt>, PerAid<bool>) {
         let here = UpdateAt {
             frame: st.frame,
             ..self.last_at
         };
-        let mut made = [here; 4];
-        let mut new = [false; 4];
-        for (k, (c, a)) in aids.iter().enumerate() {
+        let mut made = PerAid([here; msgs::AID_COUNT]);
+        let mut new = PerAid([false; msgs::AID_COUNT]);
+        for (k, c, a) in st.each_aid() {
             let key = UpdateKey(c.accepted + c.rejected_gate, a.innovation.map(f64::to_bits));
             let slot = &mut self.aid_made[k];
             let exact = self.aid_source == AidSource::Updates && slot.1.is_some();
@@ -843,23 +852,16 @@ impl FlightChannels {
     /// the frame its status names (`AidStatus::made_in_frame`; from a
     /// sender that does not say, the last solution's) with the navigator
     /// at `lat_rad`, `h_m` after it.
-    pub fn aid_update(
-        &mut self,
-        topic: AidTopic,
-        t_ns: u64,
-        a: &AidStatus,
-        lat_rad: f64,
-        h_m: f64,
-    ) {
+    pub fn aid_update(&mut self, aid: AidKind, t_ns: u64, a: &AidStatus, lat_rad: f64, h_m: f64) {
         let where_ = UpdateAt {
             frame: a.made_in().map_or(self.last_at.frame, |f| f as u8),
             lat_rad,
             h_m,
         };
         let at = at(self.epoch_ns, t_ns);
-        self.aid_made[topic as usize].1 = Some(where_);
-        self.aid[topic as usize].log(&mut self.out, at, || {
-            convert::aid_update(t_ns, topic.aid(), a, where_)
+        self.aid_made[aid].1 = Some(where_);
+        self.aid[aid].log(&mut self.out, at, || {
+            convert::aid_update(t_ns, aid, a, where_)
         });
     }
 
@@ -972,15 +974,19 @@ mod tests {
     fn live_channels_exist_only_with_data_or_a_publisher() {
         let ctx = Context::new();
         let all = FlightChannels::new(&ctx, AidSource::Updates);
-        for t in TOPICS {
+        for t in topics() {
             assert!(ctx.get_channel_by_topic(t).is_some(), "{t} missing");
         }
-        assert_eq!(all.open_topics().len(), TOPICS.len());
+        assert_eq!(all.open_topics().len(), topics().len());
 
         let ctx = Context::new();
         let mut live = FlightChannels::new_live(&ctx, AidSource::Status, None);
         assert!(live.open_topics().is_empty());
-        assert!(TOPICS.iter().all(|t| ctx.get_channel_by_topic(t).is_none()));
+        assert!(
+            topics()
+                .iter()
+                .all(|t| ctx.get_channel_by_topic(t).is_none())
+        );
         live.advertise(Feed::Status);
         assert_eq!(live.open_topics(), ["/status"]);
         live.solution(&solution(1));
@@ -1075,10 +1081,10 @@ mod tests {
                 t_ns: k * 1_000_000_000,
                 ..Status::default()
             };
-            st.star.accepted = star;
-            st.star_aid.innovation = [innovation, 0.0, 0.0];
-            st.star_aid.innovation_var = [1.0; 3];
-            st.star_aid.fused = 1;
+            st.aid_counters_mut(AidKind::Star).accepted = star;
+            st.aid_mut(AidKind::Star).innovation = [innovation, 0.0, 0.0];
+            st.aid_mut(AidKind::Star).innovation_var = [1.0; 3];
+            st.aid_mut(AidKind::Star).fused = 1;
             st
         };
         // A 0.1 Hz star tracker under 1 Hz status, then a restart whose
@@ -1129,34 +1135,35 @@ mod tests {
                 frame,
                 ..Default::default()
             };
-            st.cns.accepted = cns;
+            st.aid_counters_mut(AidKind::Cns).accepted = cns;
             st
         };
         c.solution(&sol(0, 1.2));
-        let m = c.aids_made(&status(0, 5)).0[1];
+        let m = c.aids_made(&status(0, 5)).0[AidKind::Cns];
         assert_eq!((m.frame, m.lat_rad), (0, 1.2));
         // Switched to G at 1.25 rad; no CNS update since: still g at 1.2.
         c.solution(&sol(1, 1.25));
-        let m = c.aids_made(&status(1, 5)).0[1];
+        let m = c.aids_made(&status(1, 5)).0[AidKind::Cns];
         assert_eq!((m.frame, m.lat_rad), (0, 1.2));
         // A new CNS update: made in G, here.
-        let m = c.aids_made(&status(1, 6)).0[1];
+        let m = c.aids_made(&status(1, 6)).0[AidKind::Cns];
         assert_eq!((m.frame, m.lat_rad), (1, 1.25));
         // An update the daemon says it made in g, reported by a status in
         // G (the switch came between them): converted in g.
         let mut said = status(1, 7);
-        said.cns_aid.made_in_frame = AidStatus::made_in_frame_of(WireFrame::Geographic);
-        let m = c.aids_made(&said).0[1];
+        said.aid_mut(AidKind::Cns).made_in_frame =
+            AidStatus::made_in_frame_of(WireFrame::Geographic);
+        let m = c.aids_made(&said).0[AidKind::Cns];
         assert_eq!((m.frame, m.lat_rad), (0, 1.25));
-        said.cns.accepted = 8;
-        said.cns_aid.made_in_frame = AidStatus::made_in_frame_of(WireFrame::Grid);
-        assert_eq!(c.aids_made(&said).0[1].frame, 1);
+        said.aid_counters_mut(AidKind::Cns).accepted = 8;
+        said.aid_mut(AidKind::Cns).made_in_frame = AidStatus::made_in_frame_of(WireFrame::Grid);
+        assert_eq!(c.aids_made(&said).0[AidKind::Cns].frame, 1);
         // The daemon goes away and a new one comes at 1.3 rad whose first
         // status has the old one's count by chance: its update is placed
         // where it now is, not where the old one's was.
         c.withdraw(Feed::Status);
         c.solution(&sol(1, 1.3));
-        let m = c.aids_made(&status(1, 8)).0[1];
+        let m = c.aids_made(&status(1, 8)).0[AidKind::Cns];
         assert_eq!((m.frame, m.lat_rad), (1, 1.3));
 
         let ctx = Context::new();
@@ -1167,16 +1174,16 @@ mod tests {
             made_in_frame: AidStatus::made_in_frame_of(WireFrame::Geographic),
             ..AidStatus::default()
         };
-        b.aid_update(AidTopic::Cns, 1, &in_g, 1.1, 5.0);
+        b.aid_update(AidKind::Cns, 1, &in_g, 1.1, 5.0);
         let at = UpdateAt {
             frame: 0,
             lat_rad: 1.1,
             h_m: 5.0,
         };
-        assert_eq!(b.aids_made(&status(1, 9)).0[1], at);
+        assert_eq!(b.aids_made(&status(1, 9)).0[AidKind::Cns], at);
         // One whose status does not say: in the last solution's frame (G).
-        b.aid_update(AidTopic::Cns, 2, &AidStatus::default(), 1.2, 5.0);
-        assert_eq!(b.aids_made(&status(1, 10)).0[1].frame, 1);
+        b.aid_update(AidKind::Cns, 2, &AidStatus::default(), 1.2, 5.0);
+        assert_eq!(b.aids_made(&status(1, 10)).0[AidKind::Cns].frame, 1);
     }
 
     /// A 100 Hz limit passes at most one message per 10 ms and counts the

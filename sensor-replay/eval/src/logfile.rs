@@ -5,9 +5,51 @@ use std::io::BufReader;
 use std::path::Path;
 
 use msgs::navlog::{Header, NavlogReader, ReadReport, Record, TruthBias};
-use msgs::{
-    BaroSample, CnsFix, ImuSample, InitState, Solution, SrsSample, StarSample, Status, TruthRecord,
-};
+use msgs::{AidKind, AidSample, ImuSample, InitState, Solution, Status, TruthRecord};
+
+/// Each aid's samples, each in a vector of its own payload type (compact:
+/// a barometer sample takes its 40 bytes, not an SRS sample's 720).
+macro_rules! aid_records {
+    ([$(($K:ident, $n:ident, $P:ident, $d:tt)),* $(,)?]) => {
+        /// Each aid's samples, in log order.
+        #[derive(Debug, Default, Clone)]
+        pub struct AidRecords {
+            $(pub $n: Vec<msgs::$P>,)*
+        }
+
+        impl AidRecords {
+            /// Appends `x`; returns its index among its aid's samples.
+            pub fn push(&mut self, x: AidSample) -> usize {
+                match x {
+                    $(AidSample::$K(x) => {
+                        self.$n.push(x);
+                        self.$n.len() - 1
+                    })*
+                }
+            }
+
+            /// Sample `i` of aid `k`.
+            pub fn get(&self, k: AidKind, i: usize) -> Option<AidSample> {
+                match k {
+                    $(AidKind::$K => self.$n.get(i).map(|x| AidSample::$K(*x)),)*
+                }
+            }
+
+            /// The number of samples of aid `k`.
+            pub fn len(&self, k: AidKind) -> usize {
+                match k {
+                    $(AidKind::$K => self.$n.len(),)*
+                }
+            }
+
+            /// True when no aid has a sample.
+            pub fn is_empty(&self) -> bool {
+                AidKind::ALL.iter().all(|k| self.len(*k) == 0)
+            }
+        }
+    };
+}
+msgs::for_each_aid!(aid_records);
 
 /// Every intact record of a log, grouped by kind.
 #[derive(Debug, Default, Clone)]
@@ -15,10 +57,7 @@ pub struct LogContents {
     pub header: Option<Header>,
     pub init: Vec<InitState>,
     pub imu: Vec<ImuSample>,
-    pub srs: Vec<SrsSample>,
-    pub cns: Vec<CnsFix>,
-    pub baro: Vec<BaroSample>,
-    pub star: Vec<StarSample>,
+    pub aids: AidRecords,
     pub truth: Vec<TruthRecord>,
     /// The simulated IMU bias at the truth epochs (simulated logs only).
     pub truth_bias: Vec<TruthBias>,
@@ -35,10 +74,7 @@ pub struct LogContents {
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum SensorRef {
     Imu(usize),
-    Srs(usize),
-    Cns(usize),
-    Baro(usize),
-    Star(usize),
+    Aid(AidKind, usize),
 }
 
 /// Errors that stop loading (damage inside the file does not).
@@ -76,21 +112,10 @@ pub fn load(path: &Path) -> Result<LogContents, LoadError> {
                 c.order.push(SensorRef::Imu(c.imu.len()));
                 c.imu.push(x);
             }
-            Record::Srs(x) => {
-                c.order.push(SensorRef::Srs(c.srs.len()));
-                c.srs.push(*x);
-            }
-            Record::Cns(x) => {
-                c.order.push(SensorRef::Cns(c.cns.len()));
-                c.cns.push(x);
-            }
-            Record::Baro(x) => {
-                c.order.push(SensorRef::Baro(c.baro.len()));
-                c.baro.push(x);
-            }
-            Record::Star(x) => {
-                c.order.push(SensorRef::Star(c.star.len()));
-                c.star.push(x);
+            Record::Aid(x) => {
+                let k = x.kind();
+                let i = c.aids.push(*x);
+                c.order.push(SensorRef::Aid(k, i));
             }
             Record::Truth(x) => c.truth.push(x),
             Record::Solution(x) => c.solution.push(*x),

@@ -43,7 +43,7 @@ pub struct Inputs<'a> {
 #[derive(Debug, Clone, PartialEq)]
 pub struct Figure {
     pub path: PathBuf,
-    pub what: &'static str,
+    pub what: String,
 }
 
 /// Output format chosen from font availability.
@@ -185,7 +185,10 @@ pub fn write_all(dir: &Path, inp: &Inputs<'_>) -> Result<Vec<Figure>, PlotError>
             ),
         }
         .map_err(|e| err(&path, e))?;
-        out.push(Figure { path, what });
+        out.push(Figure {
+            path,
+            what: what.into(),
+        });
     }
     Ok(out)
 }
@@ -866,14 +869,23 @@ fn innovations<DB: DrawingBackend>(
         "Aid innovations normalized by √(innovation variance), and test ratios against the gate",
     )?;
     let tm = t_max(inp);
-    let mut set: Vec<(&str, &[AidPoint], &[&str])> = vec![
-        ("SRS velocity", &aids.srs, &["x", "y", "z"]),
-        ("CNS position", &aids.cns, &["lat / grid x", "lon / grid y"]),
-        ("baro height", &aids.baro, &["h"]),
-    ];
-    // The star tracker's row only when the run had one.
-    if !aids.star.is_empty() {
-        set.push(("star attitude", &aids.star, &["x", "y", "z"]));
+    // A row per aid that had updates in this run.
+    let set: Vec<(&str, &[AidPoint], Vec<&str>)> = aids
+        .iter()
+        .filter(|(_, pts)| !pts.is_empty())
+        .map(|(k, pts)| {
+            let comps = k
+                .decl()
+                .components
+                .iter()
+                .take(3)
+                .map(|c| c.label)
+                .collect();
+            (k.decl().title, pts.as_slice(), comps)
+        })
+        .collect();
+    if set.is_empty() {
+        return Ok(());
     }
     let cells = main.split_evenly((set.len(), 2));
     const CLIP: f64 = 6.0;

@@ -15,7 +15,8 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
-use msgs::{Status, TruthRecord, solution_flags};
+use msgs::aids::Unit;
+use msgs::{AidKind, PerAid, Status, TruthRecord, solution_flags};
 use plotters::coord::Shift;
 use plotters::prelude::*;
 use polarnav::solution_csv::Row;
@@ -165,15 +166,6 @@ pub fn nis_test(nis: &[(f64, bool)], dim: usize) -> Option<NisTest> {
 /// One update: (t, innovation per component, σ per component, accepted, NIS).
 type AidSample = (f64, [f64; 3], [f64; 3], bool, f64);
 
-/// An aid's name, figure file, unit, component names and updates.
-type AidSet<'a> = (
-    &'static str,
-    &'static str,
-    &'static str,
-    [&'static str; 3],
-    &'a [AidPoint],
-);
-
 /// A figure's two halves: the panels and the legend strip.
 type Halves<DB> = (DrawingArea<DB, Shift>, DrawingArea<DB, Shift>);
 
@@ -184,12 +176,50 @@ type DrawSvg<'a> = &'a dyn Fn(&DrawingArea<SVGBackend<'_>, Shift>) -> Result<(),
 /// One aid's updates in physical units.
 #[derive(Debug, Clone)]
 struct AidSeries {
+    kind: AidKind,
+    /// Its short name (`SRS`, `baro`).
     name: &'static str,
-    file: &'static str,
-    unit: &'static str,
+    /// Its figure's file name, `aid_NAME`.
+    file: String,
+    /// The unit each component is drawn in.
+    units: [&'static str; 3],
     comps: [&'static str; 3],
     points: Vec<AidSample>,
     dim: usize,
+}
+
+impl AidSeries {
+    /// The units of its components, distinct, in order ("m/s", "m, m/s").
+    fn unit(&self) -> String {
+        let mut u: Vec<&str> = Vec::new();
+        for x in &self.units[..self.dim.clamp(1, 3)] {
+            if !u.contains(x) {
+                u.push(x);
+            }
+        }
+        u.join(", ")
+    }
+
+    /// Whether a component is a horizontal position in g given in radians
+    /// on the wire (and so converted to metres here).
+    fn converts_geographic(&self) -> bool {
+        self.kind
+            .decl()
+            .components
+            .iter()
+            .any(|c| matches!(c.unit, Unit::LatitudeInG | Unit::LongitudeInG))
+    }
+}
+
+/// The unit a component is drawn in, and the factor from the wire's unit
+/// to it (attitude in arcsec; a geographic-frame angle of position is
+/// converted where it was made, see [`aid_series`]).
+fn drawn(unit: Unit) -> (&'static str, f64) {
+    match unit {
+        Unit::M | Unit::LatitudeInG | Unit::LongitudeInG => ("m", 1.0),
+        Unit::Mps => ("m/s", 1.0),
+        Unit::Rad => ("arcsec", 180.0 / std::f64::consts::PI * 3600.0),
+    }
 }
 
 /// Where the solution was in time: thinned (t, frame, lat rad, h) for the
@@ -219,47 +249,45 @@ impl Where {
 }
 
 fn aid_series(aids: &Aids, at: &Where) -> Vec<AidSeries> {
-    let arcsec = 180.0 / std::f64::consts::PI * 3600.0;
     let mut out = Vec::new();
-    let sets: [AidSet<'_>; 4] = [
-        ("SRS", "aid_srs", "m/s", ["x", "y", "z"], &aids.srs),
-        (
-            "CNS",
-            "aid_cns",
-            "m",
-            ["north / grid x", "east / grid y", ""],
-            &aids.cns,
-        ),
-        ("baro", "aid_baro", "m", ["height", "", ""], &aids.baro),
-        ("star", "aid_star", "arcsec", ["x", "y", "z"], &aids.star),
-    ];
-    for (name, file, unit, comps, pts) in sets {
+    for (kind, pts) in aids.iter() {
         if pts.is_empty() {
             continue;
+        }
+        let decl = kind.decl();
+        let mut units = [""; 3];
+        let mut comps = [""; 3];
+        let mut factor = [1.0; 3];
+        for (k, c) in decl.components.iter().take(3).enumerate() {
+            (units[k], factor[k]) = drawn(c.unit);
+            comps[k] = c.label;
         }
         let mut dim = 0;
         let points = pts
             .iter()
             .map(|a| {
                 let t = a.t_ns as f64 * 1e-9;
-                // Scale of each component to the physical unit.
-                let scale: [f64; 3] = match name {
-                    "star" => [arcsec; 3],
-                    "CNS" if a.physical => [1.0; 3],
-                    "CNS" => match at.get(t).map(|(frame, lat, h)| {
-                        // The frame the daemon says it was made in, else the solution's then.
+                // Scale of each component to the physical unit: a
+                // geographic-frame angle of position into metres, in the
+                // frame the daemon says it was made in, else the
+                // solution's then.
+                let mut scale = factor;
+                if !a.physical
+                    && let Some(('g', lat, h)) = at.get(t).map(|(frame, lat, h)| {
                         let made = msgs::WireFrame::from_made_in(a.made_in_frame)
                             .map_or(frame, msgs::WireFrame::letter);
                         (made, lat, h)
-                    }) {
-                        Some(('g', lat, h)) => {
-                            let [n, e] = polarnav::earth::metres_per_radian(lat, h);
-                            [n, e, 1.0]
+                    })
+                {
+                    let [n, e] = polarnav::earth::metres_per_radian(lat, h);
+                    for (k, c) in decl.components.iter().take(3).enumerate() {
+                        match c.unit {
+                            Unit::LatitudeInG => scale[k] = n,
+                            Unit::LongitudeInG => scale[k] = e,
+                            _ => {}
                         }
-                        _ => [1.0; 3],
-                    },
-                    _ => [1.0; 3],
-                };
+                    }
+                }
                 let mut nis = 0.0;
                 let mut m = 0;
                 let mut v = [f64::NAN; 3];
@@ -278,9 +306,10 @@ fn aid_series(aids: &Aids, at: &Where) -> Vec<AidSeries> {
             })
             .collect();
         out.push(AidSeries {
-            name,
-            file,
-            unit,
+            kind,
+            name: decl.label,
+            file: format!("aid_{}", decl.name),
+            units,
             comps,
             points,
             dim,
@@ -293,17 +322,9 @@ fn aid_series(aids: &Aids, at: &Where) -> Vec<AidSeries> {
 /// (a live recording: one per status, 1 Hz), one point per new update.
 pub fn aids_from_status(status: &[Status]) -> Option<Aids> {
     let mut a = Aids::default();
-    let mut last: [Option<(u64, [u64; 3])>; 4] = [None; 4];
+    let mut last: PerAid<Option<(u64, [u64; 3])>> = PerAid::default();
     for st in status {
-        for (k, (s, c, v)) in [
-            (&st.srs_aid, &st.srs, &mut a.srs),
-            (&st.cns_aid, &st.cns, &mut a.cns),
-            (&st.baro_aid, &st.baro, &mut a.baro),
-            (&st.star_aid, &st.star, &mut a.star),
-        ]
-        .into_iter()
-        .enumerate()
-        {
+        for (k, c, s) in st.each_aid() {
             if c.accepted + c.rejected_gate == 0 {
                 continue;
             }
@@ -312,7 +333,7 @@ pub fn aids_from_status(status: &[Status]) -> Option<Aids> {
                 continue;
             }
             last[k] = Some(key);
-            v.push(AidPoint {
+            a[k].push(AidPoint {
                 t_ns: st.t_ns,
                 innovation: s.innovation,
                 innovation_var: s.innovation_var,
@@ -323,7 +344,7 @@ pub fn aids_from_status(status: &[Status]) -> Option<Aids> {
             });
         }
     }
-    let any = !(a.srs.is_empty() && a.cns.is_empty() && a.baro.is_empty() && a.star.is_empty());
+    let any = a.iter().any(|(_, v)| !v.is_empty());
     any.then_some(a)
 }
 
@@ -868,7 +889,7 @@ pub fn review(log: &LogContents, opts: &Options<'_>) -> Result<Review, String> {
         std::fs::create_dir_all(dir).map_err(|e| format!("{}: {e}", dir.display()))?;
         let mut fig = |name: &str,
                        size: (u32, u32),
-                       what: &'static str,
+                       what: &str,
                        f: DrawPng<'_>,
                        g: DrawSvg<'_>|
          -> Result<(), String> {
@@ -887,29 +908,25 @@ pub fn review(log: &LogContents, opts: &Options<'_>) -> Result<Review, String> {
                     root.present().map_err(plots::s)?;
                 }
             }
-            figures.push(Figure { path, what });
+            figures.push(Figure {
+                path,
+                what: what.into(),
+            });
             Ok(())
         };
         let sw = &pass.switches;
         for s in &series {
             let h = 330 * (s.dim as u32 + 1) + 80;
+            let what = format!(
+                "{} innovations ({}) with ±1σ/±3σ, accepted and rejected, and NIS against χ²({})",
+                s.kind.decl().title,
+                s.unit(),
+                s.kind.decl().dof()
+            );
             fig(
-                s.file,
+                &s.file,
                 (1700, h),
-                match s.name {
-                    "SRS" => {
-                        "SRS innovations (m/s) with ±1σ/±3σ, accepted and rejected, and NIS against χ²(3)"
-                    }
-                    "CNS" => {
-                        "CNS innovations (m) with ±1σ/±3σ, accepted and rejected, and NIS against χ²(2)"
-                    }
-                    "baro" => {
-                        "baro innovations (m) with ±1σ/±3σ, accepted and rejected, and NIS against χ²(1)"
-                    }
-                    _ => {
-                        "star tracker innovations (arcsec) with ±1σ/±3σ, accepted and rejected, and NIS against χ²(3)"
-                    }
-                },
+                &what,
                 &|r| aid_figure(r, s, sw, x),
                 &|r| aid_figure(r, s, sw, x),
             )?;
@@ -1109,7 +1126,7 @@ fn aid_figure<DB: DrawingBackend>(
 ) -> Result<(), String> {
     let (main, side) = split_title(
         root,
-        &format!("{} innovations ({}) and NIS", s.name, s.unit),
+        &format!("{} innovations ({}) and NIS", s.name, s.unit()),
     )?;
     let cells = main.split_evenly((s.dim + 1, 1));
     let tm = x.map_or(1.0, |r| r.1);
@@ -1128,7 +1145,7 @@ fn aid_figure<DB: DrawingBackend>(
             sig.push(p.0, &[p.2[k]]);
         }
         let panel = Panel {
-            title: format!("{} {} ({})", s.name, s.comps[k], s.unit),
+            title: format!("{} {} ({})", s.name, s.comps[k], s.units[k]),
             bands: vec![
                 (sig.symmetric_band(0, 3.0), GREY),
                 (sig.symmetric_band(0, 1.0), BLUE),
@@ -1138,7 +1155,7 @@ fn aid_figure<DB: DrawingBackend>(
             hlines: vec![(0.0, GREY)],
             symmetric: true,
             x,
-            y_desc: Some(format!("innovation ({})", s.unit)),
+            y_desc: Some(format!("innovation ({})", s.units[k])),
             ..Default::default()
         };
         time_panel(&cells[k], &panel, tm, sw)?;
@@ -1206,11 +1223,11 @@ fn aid_figure<DB: DrawingBackend>(
         ),
         "points: min and max of each time column (long flights read as an envelope)".to_owned(),
     ];
-    if s.name == "CNS" {
-        notes.push(
-            "CNS in g: Δlatitude, Δlongitude converted to metres north, east; in G: grid x, y (m)"
-                .into(),
-        );
+    if s.converts_geographic() {
+        notes.push(format!(
+            "{} in g: Δlatitude, Δlongitude converted to metres north, east; in G: grid x, y (m)",
+            s.name
+        ));
     }
     notes.extend(plots::switch_notes(sw));
     legend(
@@ -1741,21 +1758,26 @@ mod tests {
         let mut st = Status::default();
         assert!(aids_from_status(&[st]).is_none());
         st.t_ns = 1_000_000_000;
-        st.baro.accepted = 1;
-        st.baro_aid.innovation = [2.0, 0.0, 0.0];
-        st.baro_aid.innovation_var = [4.0, 0.0, 0.0];
-        st.baro_aid.fused = 1;
+        st.aid_counters_mut(AidKind::Baro).accepted = 1;
+        st.aid_mut(AidKind::Baro).innovation = [2.0, 0.0, 0.0];
+        st.aid_mut(AidKind::Baro).innovation_var = [4.0, 0.0, 0.0];
+        st.aid_mut(AidKind::Baro).fused = 1;
         let mut later = st;
         later.t_ns = 2_000_000_000;
         let mut next = later;
         next.t_ns = 3_000_000_000;
-        next.baro.rejected_gate = 1;
-        next.baro_aid.innovation = [40.0, 0.0, 0.0];
-        next.baro_aid.fused = 0;
+        next.aid_counters_mut(AidKind::Baro).rejected_gate = 1;
+        next.aid_mut(AidKind::Baro).innovation = [40.0, 0.0, 0.0];
+        next.aid_mut(AidKind::Baro).fused = 0;
         let a = aids_from_status(&[st, later, next]).expect("aids");
-        assert!(a.srs.is_empty() && a.cns.is_empty() && a.star.is_empty());
-        assert_eq!(a.baro.len(), 2);
-        assert_eq!((a.baro[0].fused, a.baro[1].fused), (1, 0));
+        assert!(
+            a[AidKind::Srs].is_empty() && a[AidKind::Cns].is_empty() && a[AidKind::Star].is_empty()
+        );
+        assert_eq!(a[AidKind::Baro].len(), 2);
+        assert_eq!(
+            (a[AidKind::Baro][0].fused, a[AidKind::Baro][1].fused),
+            (1, 0)
+        );
         let s = aid_series(&a, &Where::default());
         assert_eq!(s[0].dim, 1);
         // NIS = ν²/S: 4/4 and 1600/4.
@@ -1780,15 +1802,15 @@ mod tests {
             frame: 1,
             ..Status::default()
         };
-        st.cns.accepted = 1;
-        st.cns_aid.innovation = [1e-6, -2e-6, 0.0];
-        st.cns_aid.innovation_var = [1e-12, 1e-12, 0.0];
-        st.cns_aid.fused = 1;
+        st.aid_counters_mut(AidKind::Cns).accepted = 1;
+        st.aid_mut(AidKind::Cns).innovation = [1e-6, -2e-6, 0.0];
+        st.aid_mut(AidKind::Cns).innovation_var = [1e-12, 1e-12, 0.0];
+        st.aid_mut(AidKind::Cns).fused = 1;
         let [n, e] = polarnav::earth::metres_per_radian(lat, h);
         for (made_in_frame, scale) in [(1u8, [n, e]), (2, [1.0, 1.0]), (0, [1.0, 1.0])] {
-            st.cns_aid.made_in_frame = made_in_frame;
+            st.aid_mut(AidKind::Cns).made_in_frame = made_in_frame;
             let a = aids_from_status(&[st]).expect("aids");
-            assert_eq!(a.cns[0].made_in_frame, made_in_frame);
+            assert_eq!(a[AidKind::Cns][0].made_in_frame, made_in_frame);
             let v = aid_series(&a, &at)[0].points[0].1;
             assert!(
                 (v[0] - 1e-6 * scale[0]).abs() <= 1e-12 * scale[0]

@@ -12,13 +12,15 @@ use mcap::records::Record;
 use mcap::sans_io::linear_reader::{LinearReadEvent, LinearReader, LinearReaderOptions};
 
 use msgs::Solution;
+use msgs::aids::Unit;
+use msgs::{AidKind, PerAid};
 use polarnav::solution_csv::{self, Row};
 use polarnav_proto as pb;
 use prost::Message as _;
 use serde::Deserialize;
 
-/// One gated aid update, as `/aid/srs`, `/aid/cns`, `/aid/baro`, `/aid/star`
-/// carry it or as a status record reports it.
+/// One gated aid update, as an aid's `/aid/NAME` channel carries it or as
+/// a status record reports it.
 #[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
 pub struct AidPoint {
     pub t_ns: u64,
@@ -58,47 +60,45 @@ impl AidPoint {
         bits(self) == bits(other)
     }
 
-    /// The update a protobuf `polarnav.AidUpdate` of channel `topic`
-    /// carries. Its innovation must be in the pair of fields of that aid's
-    /// unit (`/aid/srs` in m/s, `/aid/cns` and `/aid/baro` in m, `/aid/star`
-    /// in rad), at most 3 components, each with its σ; anything else is
-    /// refused, saying what the message holds.
-    pub fn from_proto(u: &pb::AidUpdate, topic: &str) -> Result<Self, String> {
+    /// The update a protobuf `polarnav.AidUpdate` of aid `aid`'s channel
+    /// carries. The components of the aid's innovation (its declaration's,
+    /// at most 3) are in the pair of fields of their units, in order, each
+    /// with its σ: a pair may hold fewer (the last ones read as unused) but
+    /// not more, and the pairs of units the aid has none of must be empty;
+    /// anything else is refused, saying what the message holds.
+    pub fn from_proto(u: &pb::AidUpdate, aid: AidKind) -> Result<Self, String> {
+        let topic = aid.decl().update_topic;
         let pairs = [
-            ("mps", &u.innovation_mps, &u.innovation_sigma_mps),
-            ("m", &u.innovation_m, &u.innovation_sigma_m),
-            ("rad", &u.innovation_rad, &u.innovation_sigma_rad),
+            (Unit::Mps, "mps", &u.innovation_mps, &u.innovation_sigma_mps),
+            (Unit::M, "m", &u.innovation_m, &u.innovation_sigma_m),
+            (Unit::Rad, "rad", &u.innovation_rad, &u.innovation_sigma_rad),
         ];
-        let unit = match topic {
-            "/aid/srs" => "mps",
-            "/aid/cns" | "/aid/baro" => "m",
-            "/aid/star" => "rad",
-            _ => return Err(format!("{topic} is not an aid channel")),
+        let shown = |c: Unit| match c {
+            Unit::LatitudeInG | Unit::LongitudeInG => Unit::M,
+            other => other,
         };
-        for (name, v, s) in pairs {
-            let filled = !v.is_empty() || !s.is_empty();
-            if filled && name != unit {
+        let comps = aid.decl().components;
+        let mut next = [0usize; 3];
+        let mut innovation = [0.0; 3];
+        let mut innovation_var = [0.0; 3];
+        for (unit, name, v, sd) in pairs {
+            let want = comps.iter().filter(|c| shown(c.unit) == unit).count();
+            if v.len() != sd.len() || v.len() > want {
                 return Err(format!(
-                    "innovation in _{name}, but {topic} carries it in _{unit}"
-                ));
-            }
-            if name == unit && (v.len() != s.len() || v.len() > 3) {
-                return Err(format!(
-                    "{} innovation components with {} σ (at most 3, one σ each)",
+                    "{} innovation components in _{name} with {} σ, but {topic} carries at most {want} there, one σ each",
                     v.len(),
-                    s.len()
+                    sd.len()
                 ));
             }
         }
-        let (_, v, s) = pairs
-            .into_iter()
-            .find(|(name, _, _)| *name == unit)
-            .unwrap_or(pairs[1]);
-        let mut innovation = [0.0; 3];
-        let mut innovation_var = [0.0; 3];
-        for (k, (x, sd)) in v.iter().zip(s.iter()).enumerate() {
-            innovation[k] = *x;
-            innovation_var[k] = sd * sd;
+        for (k, c) in comps.iter().take(3).enumerate() {
+            let p = pairs.iter().position(|p| p.0 == shown(c.unit)).unwrap_or(1);
+            let (_, _, v, sd) = pairs[p];
+            if let (Some(x), Some(d)) = (v.get(next[p]), sd.get(next[p])) {
+                innovation[k] = *x;
+                innovation_var[k] = d * d;
+            }
+            next[p] += 1;
         }
         Ok(Self {
             t_ns: u.t_ns,
@@ -139,13 +139,7 @@ fn row_of_proto(s: &pb::Solution) -> Row {
 }
 
 /// The aid updates of a run, per aid.
-#[derive(Debug, Clone, Default, PartialEq)]
-pub struct Aids {
-    pub srs: Vec<AidPoint>,
-    pub cns: Vec<AidPoint>,
-    pub baro: Vec<AidPoint>,
-    pub star: Vec<AidPoint>,
-}
+pub type Aids = PerAid<Vec<AidPoint>>;
 
 /// A loaded solution.
 #[derive(Debug, Clone, Default)]
@@ -228,10 +222,10 @@ pub fn load(path: &Path) -> Result<Loaded, String> {
             )
         };
         let json = m.encoding == "json";
-        let wanted = matches!(
-            m.topic,
-            "/solution" | "/aid/srs" | "/aid/cns" | "/aid/baro" | "/aid/star"
-        );
+        let aid_of = AidKind::ALL
+            .into_iter()
+            .find(|k| k.decl().update_topic == m.topic);
+        let wanted = m.topic == "/solution" || aid_of.is_some();
         if wanted && !json && m.encoding != "protobuf" {
             return Err(bad(
                 &"not protobuf (polarnav.proto) nor JSON: cannot read it",
@@ -258,20 +252,16 @@ pub fn load(path: &Path) -> Result<Loaded, String> {
                 bias_sigma.push(sig);
                 return Ok(());
             }
-            "/aid/srs" => &mut aids.srs,
-            "/aid/cns" => &mut aids.cns,
-            "/aid/baro" => &mut aids.baro,
-            "/aid/star" => &mut aids.star,
-            _ => return Ok(()),
+            _ => match aid_of {
+                Some(k) => k,
+                None => return Ok(()),
+            },
         };
-        aid.push(if json {
+        aids[aid].push(if json {
             serde_json::from_slice(m.data).map_err(|e| bad(&e))?
         } else {
-            AidPoint::from_proto(
-                &pb::AidUpdate::decode(m.data).map_err(|e| bad(&e))?,
-                m.topic,
-            )
-            .map_err(|e| bad(&e))?
+            AidPoint::from_proto(&pb::AidUpdate::decode(m.data).map_err(|e| bad(&e))?, aid)
+                .map_err(|e| bad(&e))?
         });
         Ok(())
     })?;
@@ -284,7 +274,7 @@ pub fn load(path: &Path) -> Result<Loaded, String> {
     let mut both: Vec<(Row, Option<[f64; 6]>)> = rows.into_iter().zip(bias_sigma).collect();
     both.sort_by(|a, b| a.0.t_s.total_cmp(&b.0.t_s));
     let (rows, bias_sigma) = both.into_iter().unzip();
-    for v in [&mut aids.srs, &mut aids.cns, &mut aids.baro, &mut aids.star] {
+    for (_, v) in aids.iter_mut() {
         v.sort_by_key(|a| a.t_ns);
         // Recordings' MCAP files written before each update went on its
         // channel once repeat the last update at every status (1 Hz) until
@@ -891,7 +881,7 @@ mod tests {
             ],
         );
         let l = load(&p).expect("load");
-        let star = l.aids.expect("aids").star;
+        let star = l.aids.expect("aids")[AidKind::Star].clone();
         let t: Vec<u64> = star.iter().map(|a| a.t_ns).collect();
         assert_eq!(t, [0, 10_000_000_000, 20_000_000_000]);
         let _ = std::fs::remove_file(&p);
@@ -951,9 +941,8 @@ mod tests {
     }
 
     /// An aid update is read from the pair of fields of its channel's
-    /// unit; a pair of another unit, a σ missing or extra, more than 3
-    /// components, or a channel that is no aid are refused with what the
-    /// message holds.
+    /// unit; a pair of another unit, a σ missing or extra, or more
+    /// components than the aid has are refused with what the message holds.
     #[test]
     #[allow(
         clippy::float_cmp,
@@ -968,44 +957,49 @@ mod tests {
             fused: true,
             ..Default::default()
         };
-        let p = AidPoint::from_proto(&cns, "/aid/cns").unwrap();
+        let p = AidPoint::from_proto(&cns, AidKind::Cns).unwrap();
         assert_eq!(p.innovation, [3.0, -4.0, 0.0]);
         assert_eq!(p.innovation_var, [4.0, 0.25, 0.0]);
         assert_eq!(
             (p.t_ns, p.test_ratio, p.fused, p.physical),
             (7, 0.25, 1, true)
         );
-        assert_eq!(AidPoint::from_proto(&cns, "/aid/baro").unwrap(), p);
-        let e = AidPoint::from_proto(&cns, "/aid/srs").unwrap_err();
+        // Baro's one component in metres: two are refused.
+        let e = AidPoint::from_proto(&cns, AidKind::Baro).unwrap_err();
         assert!(
-            e.contains("_m") && e.contains("/aid/srs") && e.contains("_mps"),
+            e.contains("_m") && e.contains("/aid/baro") && e.contains("at most 1"),
             "{e}"
         );
-        let e = AidPoint::from_proto(&cns, "/solution").unwrap_err();
-        assert!(e.contains("not an aid"), "{e}");
+        let e = AidPoint::from_proto(&cns, AidKind::Srs).unwrap_err();
+        assert!(
+            e.contains("_m") && e.contains("/aid/srs") && e.contains("at most 0"),
+            "{e}"
+        );
         let short = pb::AidUpdate {
             innovation_sigma_m: vec![2.0],
             ..cns.clone()
         };
-        let e = AidPoint::from_proto(&short, "/aid/cns").unwrap_err();
-        assert!(e.contains("2 innovation components with 1"), "{e}");
+        let e = AidPoint::from_proto(&short, AidKind::Cns).unwrap_err();
+        assert!(e.contains("2 innovation components in _m with 1"), "{e}");
         let four = pb::AidUpdate {
             innovation_m: vec![1.0; 4],
             innovation_sigma_m: vec![1.0; 4],
             ..cns.clone()
         };
-        assert!(AidPoint::from_proto(&four, "/aid/cns").is_err());
+        assert!(AidPoint::from_proto(&four, AidKind::Cns).is_err());
         let star = pb::AidUpdate {
             innovation_rad: vec![1e-5; 3],
             innovation_sigma_rad: vec![2e-5; 3],
             ..Default::default()
         };
         assert_eq!(
-            AidPoint::from_proto(&star, "/aid/star").unwrap().innovation,
+            AidPoint::from_proto(&star, AidKind::Star)
+                .unwrap()
+                .innovation,
             [1e-5; 3]
         );
         // No innovation at all (no component): read as zeros without σ.
-        let none = AidPoint::from_proto(&pb::AidUpdate::default(), "/aid/srs").unwrap();
+        let none = AidPoint::from_proto(&pb::AidUpdate::default(), AidKind::Srs).unwrap();
         assert!(none.normalized(0).is_none());
     }
 

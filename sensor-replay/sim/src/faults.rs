@@ -15,8 +15,7 @@
 //! the same samples everywhere outside the faulted ones, so it is the
 //! fault-free reference of the campaign.
 
-use msgs::{BaroSample, CnsFix, ImuSample, SrsSample, StarSample};
-use polarnav::earth::isa;
+use msgs::{AidKind, AidSample, ImuSample, Stream};
 use serde::Deserialize;
 
 /// `[faults]`.
@@ -32,6 +31,8 @@ pub struct FaultsSpec {
 #[serde(deny_unknown_fields)]
 pub struct FaultEvent {
     pub kind: FaultKind,
+    /// `imu` or an aid's name.
+    #[serde(deserialize_with = "stream_by_name")]
     pub stream: Stream,
     pub start_s: f64,
     pub duration_s: f64,
@@ -55,15 +56,18 @@ pub enum FaultKind {
     Duplicate,
 }
 
-/// A sensor stream, in the order IMU, SRS, CNS, baro, star (`as usize` indexes per-stream arrays).
-#[derive(Debug, Clone, Copy, Deserialize, PartialEq, Eq)]
-#[serde(rename_all = "snake_case")]
-pub enum Stream {
-    Imu,
-    Srs,
-    Cns,
-    Baro,
-    Star,
+/// A stream by its name: `imu` or an aid's.
+fn stream_by_name<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Stream, D::Error> {
+    let name = String::deserialize(d)?;
+    if name == "imu" {
+        return Ok(Stream::Imu);
+    }
+    AidKind::from_name(&name).map(Stream::Aid).ok_or_else(|| {
+        serde::de::Error::custom(format!(
+            "unknown stream {name:?}: expected imu or one of {}",
+            AidKind::names()
+        ))
+    })
 }
 
 impl FaultEvent {
@@ -175,76 +179,14 @@ impl Injector {
         times
     }
 
-    pub fn cns(&mut self, s: &mut CnsFix) -> u32 {
+    /// An aid's sample: the common faults, then the aid's own
+    /// ([`crate::aids::SimAid::fault`]).
+    pub fn aid(&mut self, s: &mut AidSample) -> u32 {
         let mut times = 1;
-        let t = s.t_ns;
-        self.active(Stream::Cns, t, |e| {
-            Self::common(e, &mut s.t_ns, &mut times);
-            match e.kind {
-                FaultKind::Outliers => s.lat_rad += e.magnitude / polarnav::earth::A,
-                FaultKind::Nan => s.lat_rad = f64::NAN,
-                _ => {}
-            }
-        });
-        times
-    }
-
-    pub fn baro(&mut self, s: &mut BaroSample) -> u32 {
-        let mut times = 1;
-        let t = s.t_ns;
-        self.active(Stream::Baro, t, |e| {
-            Self::common(e, &mut s.t_ns, &mut times);
-            match e.kind {
-                FaultKind::Outliers => {
-                    let h = isa::pressure_altitude(s.pressure_pa);
-                    s.pressure_pa = isa::pressure(h + e.magnitude);
-                }
-                FaultKind::Nan => s.pressure_pa = f64::NAN,
-                _ => {}
-            }
-        });
-        times
-    }
-
-    pub fn star(&mut self, s: &mut StarSample) -> u32 {
-        let mut times = 1;
-        let t = s.t_ns;
-        self.active(Stream::Star, t, |e| {
-            Self::common(e, &mut s.t_ns, &mut times);
-            match e.kind {
-                FaultKind::Outliers => {
-                    let [w, x, y, z] = s.q_b_i;
-                    let q = nalgebra::UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(
-                        w, x, y, z,
-                    ));
-                    let err = nalgebra::UnitQuaternion::from_scaled_axis(
-                        nalgebra::Vector3::x() * (e.magnitude * polarnav::aids::star::ARCSEC_RAD),
-                    );
-                    let q = (q * err).into_inner();
-                    s.q_b_i = [q.w, q.i, q.j, q.k];
-                }
-                FaultKind::Nan => s.q_b_i[0] = f64::NAN,
-                _ => {}
-            }
-        });
-        times
-    }
-
-    pub fn srs(&mut self, s: &mut SrsSample) -> u32 {
-        let mut times = 1;
-        let t = s.t_ns;
-        self.active(Stream::Srs, t, |e| {
-            Self::common(e, &mut s.t_ns, &mut times);
-            let line = &mut s.lines[0];
-            match e.kind {
-                // λ = λ0 (1 + v_r / c) to first order: a radial-velocity error of `magnitude`.
-                FaultKind::Outliers => {
-                    line.measured_wavelength_m +=
-                        line.rest_wavelength_m * e.magnitude / 299_792_458.0
-                }
-                FaultKind::Nan => line.measured_wavelength_m = f64::NAN,
-                _ => {}
-            }
+        let t = s.t_ns();
+        self.active(Stream::Aid(s.kind()), t, |e| {
+            Self::common(e, s.t_ns_mut(), &mut times);
+            crate::aids::fault(s, e.kind, e.magnitude);
         });
         times
     }

@@ -7,32 +7,53 @@ use std::path::Path;
 
 use serde::Deserialize;
 
-/// A whole scenario.
-#[derive(Debug, Clone, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct Scenario {
-    pub name: String,
-    #[serde(default)]
-    pub description: String,
-    pub start: Start,
-    #[serde(default)]
-    pub imu: ImuSpec,
-    #[serde(default)]
-    pub truth: TruthSpec,
-    pub cns: Option<CnsSpec>,
-    pub baro: Option<BaroSpec>,
-    pub srs: Option<SrsSpec>,
-    /// Star tracker (`[star]`): body→inertial attitude.
-    pub star: Option<StarSpec>,
-    #[serde(default)]
-    pub init_error: InitErrorSpec,
-    /// Navigator settings this scenario needs (e.g. the paper's 88° switch);
-    /// passed to the navigator through the navlog header.
-    pub navigator: Option<NavigatorOverrides>,
-    /// Injected faults (`[[faults.event]]`), see [`crate::faults`].
-    pub faults: Option<crate::faults::FaultsSpec>,
-    #[serde(rename = "segment")]
-    pub segments: Vec<Segment>,
+use crate::aids::SimAid;
+
+/// A whole scenario. Its aid sections are the declared aids' (`[srs]`,
+/// `[cns]`, ..., each optional: [`crate::aids::SimAid::Spec`]), made by
+/// the macro below from the declaration's list.
+macro_rules! scenario {
+    ([$(($K:ident, $n:ident, $P:ident, $d:tt)),* $(,)?]) => {
+        #[derive(Debug, Clone, Deserialize)]
+        #[serde(deny_unknown_fields)]
+        pub struct Scenario {
+            pub name: String,
+            #[serde(default)]
+            pub description: String,
+            pub start: Start,
+            #[serde(default)]
+            pub imu: ImuSpec,
+            #[serde(default)]
+            pub truth: TruthSpec,
+            $(
+                #[doc = concat!("`[", stringify!($n), "]`: the simulator model of the aid's stream.")]
+                pub $n: Option<<msgs::$P as SimAid>::Spec>,
+            )*
+            #[serde(default)]
+            pub init_error: InitErrorSpec,
+            /// Navigator settings this scenario needs (e.g. the paper's 88° switch);
+            /// passed to the navigator through the navlog header.
+            pub navigator: Option<NavigatorOverrides>,
+            /// Injected faults (`[[faults.event]]`), see [`crate::faults`].
+            pub faults: Option<crate::faults::FaultsSpec>,
+            #[serde(rename = "segment")]
+            pub segments: Vec<Segment>,
+        }
+
+        $(
+            impl SpecOf for msgs::$P {
+                fn spec(s: &Scenario) -> Option<&<Self as SimAid>::Spec> {
+                    s.$n.as_ref()
+                }
+            }
+        )*
+    };
+}
+msgs::for_each_aid!(scenario);
+
+/// Where an aid's section is in a [`Scenario`].
+pub trait SpecOf: SimAid {
+    fn spec(s: &Scenario) -> Option<&<Self as SimAid>::Spec>;
 }
 
 /// Initial position, heading and speed.
@@ -364,50 +385,10 @@ impl Scenario {
         finite_pos("imu.gm_gyro_tau_s", self.imu.gm_gyro_tau_s)?;
         finite_pos("imu.gm_accel_tau_s", self.imu.gm_accel_tau_s)?;
         finite_pos("truth.rate_hz", self.truth.rate_hz)?;
-        if let Some(c) = &self.cns {
-            finite_pos("cns.rate_hz", c.rate_hz)?;
-            finite_pos("cns.sigma_m", c.sigma_m)?;
-        }
-        if let Some(b) = &self.baro {
-            finite_pos("baro.rate_hz", b.rate_hz)?;
-            finite_pos("baro.sigma_m", b.sigma_m)?;
-        }
-        if let Some(st) = &self.star {
-            finite_pos("star.rate_hz", st.rate_hz)?;
-            finite_pos("star.sigma_arcsec", st.sigma_arcsec)?;
-            finite_pos("star.boresight_sigma_arcsec", st.boresight_sigma())?;
-            let n = st.boresight_b.iter().map(|x| x * x).sum::<f64>().sqrt();
-            if !(n.is_finite() && n > 0.0) {
-                return Err(bad(
-                    "star.boresight_b",
-                    format!("expected a non-zero direction, got {:?}", st.boresight_b),
-                ));
-            }
-            for (i, m) in st.misalignment_arcsec.iter().enumerate() {
-                if !(m.is_finite() && m.abs() <= 3600.0) {
-                    return Err(bad(
-                        &format!("star.misalignment_arcsec[{i}]"),
-                        format!("expected a finite angle of at most 3600 arcsec, got {m}"),
-                    ));
-                }
-            }
-        }
-        if let Some(s) = &self.srs {
-            finite_pos("srs.rate_hz", s.rate_hz)?;
-            finite_pos("srs.sigma_mps", s.sigma_mps)?;
-            if !(0.0..90.0).contains(&s.elevation_mask_deg) {
-                return Err(bad(
-                    "srs.elevation_mask_deg",
-                    format!("must be in [0, 90), got {}", s.elevation_mask_deg),
-                ));
-            }
-            for (i, b) in s.bodies.iter().enumerate() {
-                if !b.rest_wavelength_nm.is_finite() || b.rest_wavelength_nm <= 0.0 {
-                    return Err(bad(
-                        &format!("srs.body[{i}].rest_wavelength_nm"),
-                        "must be positive".into(),
-                    ));
-                }
+        for k in msgs::AidKind::ALL {
+            let checked = msgs::match_aid_kind!(k, P => P::spec(self).map_or(Ok(()), P::validate));
+            if let Err((key, message)) = checked {
+                return Err(bad(&format!("{}.{key}", k.name()), message));
             }
         }
         if self.segments.is_empty() {

@@ -3,7 +3,7 @@
 use std::io::Write;
 
 use msgs::navlog::{Header, NavlogWriter, Record, TruthBias, WriteError};
-use msgs::{ImuSample, InitState, TruthRecord};
+use msgs::{ImuSample, InitState, PerAid, TruthRecord};
 use nalgebra::{UnitQuaternion, Vector3};
 use polarnav::earth;
 use polarnav::frames;
@@ -11,7 +11,7 @@ use rand::SeedableRng;
 use rand_chacha::ChaCha20Rng;
 
 use crate::scenario::Scenario;
-use crate::sensors::{self, Body, ImuErrorModel};
+use crate::sensors::{self, ImuErrorModel};
 use crate::trajectory::{Flight, TruthSample};
 
 /// Options of one simulation run.
@@ -41,10 +41,8 @@ impl Default for SimOptions {
 #[derive(Debug, Clone, Default, PartialEq, Eq)]
 pub struct SimSummary {
     pub imu: u64,
-    pub srs: u64,
-    pub cns: u64,
-    pub baro: u64,
-    pub star: u64,
+    /// Samples of each aid.
+    pub aids: PerAid<u64>,
     pub truth: u64,
     pub duration_ns: u64,
     /// Samples affected by each `[[faults.event]]`, in order.
@@ -142,14 +140,14 @@ fn period_ns(rate_hz: f64) -> u64 {
 
 /// A periodic stream stamped at the first IMU time at or after each nominal time.
 #[derive(Debug)]
-struct Schedule {
+pub(crate) struct Schedule {
     period_ns: u64,
     next_ns: u64,
-    seq: u64,
+    pub(crate) seq: u64,
 }
 
 impl Schedule {
-    fn new(rate_hz: f64) -> Self {
+    pub(crate) fn new(rate_hz: f64) -> Self {
         let p = period_ns(rate_hz);
         Self {
             period_ns: p,
@@ -158,7 +156,7 @@ impl Schedule {
         }
     }
     /// True (once) when a sample is due at or before `t_ns`.
-    fn due(&mut self, t_ns: u64) -> bool {
+    pub(crate) fn due(&mut self, t_ns: u64) -> bool {
         if t_ns >= self.next_ns {
             while self.next_ns <= t_ns {
                 self.next_ns += self.period_ns;
@@ -219,21 +217,10 @@ pub fn simulate<W: Write>(
         opts.perfect,
     )))?;
 
-    let catalogue: Vec<Body> = match &s.srs {
-        Some(srs) if !srs.bodies.is_empty() => srs.bodies.iter().map(Body::from_spec).collect(),
-        _ => sensors::default_catalogue(),
-    };
     let dt_ns = period_ns(s.imu.rate_hz);
     let n = (s.duration_s() * 1e9 / dt_ns as f64).floor() as u64;
     let mut truth_sched = Schedule::new(s.truth.rate_hz);
-    let mut cns_sched = s.cns.as_ref().map(|c| Schedule::new(c.rate_hz));
-    let mut baro_sched = s.baro.as_ref().map(|b| Schedule::new(b.rate_hz));
-    let mut srs_sched = s.srs.as_ref().map(|x| Schedule::new(x.rate_hz));
-    let mut star_sched = s.star.as_ref().map(|x| Schedule::new(x.rate_hz));
-    // The star tracker draws from its own generator, so a scenario with
-    // `[star]` has every other sample exactly as the same scenario without.
-    let mut star_rng = ChaCha20Rng::seed_from_u64(opts.seed);
-    star_rng.set_stream(5);
+    let mut aids = crate::aids::Streams::new(s, opts.seed);
     let mut sum = SimSummary::default();
     let noisy = !opts.perfect;
     let mut inject = crate::faults::Injector::new(s.faults.as_ref().filter(|_| opts.faults));
@@ -265,49 +252,16 @@ pub fn simulate<W: Write>(
         sum.imu += put(&mut w, Record::Imu(imu), times)?;
 
         let truth = flight.truth();
-        if let (Some(sch), Some(spec)) = (srs_sched.as_mut(), s.srs.as_ref())
-            && sch.due(t_ns)
-        {
-            let mask = spec.elevation_mask_deg.to_radians();
-            let obs = sensors::srs_sample(
-                &mut rng,
-                t_ns,
-                sch.seq - 1,
-                &truth.r_e,
-                &truth.v_e,
-                &catalogue,
-                mask,
-                spec.sigma_mps,
-                noisy,
-            );
-            let mut obs = obs;
-            let times = inject.srs(&mut obs);
-            sum.srs += put(&mut w, Record::Srs(Box::new(obs)), times)?;
-        }
-        if let (Some(sch), Some(spec)) = (cns_sched.as_mut(), s.cns.as_ref())
-            && sch.due(t_ns)
-        {
-            let mut fix =
-                sensors::cns_fix(&mut rng, t_ns, sch.seq - 1, &truth.r_e, spec.sigma_m, noisy);
-            let times = inject.cns(&mut fix);
-            sum.cns += put(&mut w, Record::Cns(fix), times)?;
-        }
-        if let (Some(sch), Some(spec)) = (baro_sched.as_mut(), s.baro.as_ref())
-            && sch.due(t_ns)
-        {
-            let h = earth::ecef_to_geodetic(&truth.r_e).h_m;
-            let mut b = sensors::baro_sample(&mut rng, t_ns, sch.seq - 1, h, spec.sigma_m, noisy);
-            let times = inject.baro(&mut b);
-            sum.baro += put(&mut w, Record::Baro(b), times)?;
-        }
-        if let (Some(sch), Some(spec)) = (star_sched.as_mut(), s.star.as_ref())
-            && sch.due(t_ns)
-        {
-            let mut x =
-                sensors::star_sample(&mut star_rng, t_ns, sch.seq - 1, &truth.q_b_e, spec, noisy);
-            let times = inject.star(&mut x);
-            sum.star += put(&mut w, Record::Star(x), times)?;
-        }
+        let mut written = Ok(());
+        aids.step(&mut rng, t_ns, &truth, noisy, |mut x| {
+            let times = inject.aid(&mut x);
+            let kind = x.kind();
+            match put(&mut w, Record::aid(x), times) {
+                Ok(n) => sum.aids[kind] += n,
+                Err(e) => written = Err(e),
+            }
+        });
+        written?;
         if truth_sched.due(t_ns) || k == n {
             w.write(&Record::Truth(truth_record(t_ns, &truth)))?;
             w.write(&Record::TruthBias(truth_bias_record(

@@ -4,7 +4,7 @@
 use msgs::BaroSample;
 use nalgebra::{SMatrix, SVector};
 
-use super::{AidError, Measurement};
+use super::{Aid, AidError, Measured, Measurement, NoSettings};
 use crate::earth::isa;
 use crate::error_model::idx;
 use crate::mech::AnyNav;
@@ -43,6 +43,15 @@ pub fn measurement(nav: &AnyNav, b: &BaroSample) -> Result<Measurement<1>, AidEr
         h,
         r: SMatrix::<f64, 1, 1>::new(b.sigma_m * b.sigma_m),
     })
+}
+
+impl Aid for BaroSample {
+    type Settings = NoSettings;
+    /// It observes the position.
+    const OBSERVED: &'static [usize] = &[idx::DP];
+    fn measure(&self, nav: &AnyNav, _: &NoSettings) -> Result<Measured, AidError> {
+        measurement(nav, self).map(Measured::from)
+    }
 }
 
 #[cfg(test)]

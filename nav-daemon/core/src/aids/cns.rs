@@ -8,7 +8,7 @@
 use msgs::CnsFix;
 use nalgebra::{Matrix2, SMatrix, SVector};
 
-use super::{AidError, Measurement};
+use super::{Aid, AidError, Measured, Measurement, NoSettings};
 use crate::earth::{self, Geodetic};
 use crate::error_model::idx;
 use crate::frames;
@@ -58,5 +58,13 @@ pub fn measurement(nav: &AnyNav, c: &CnsFix) -> Result<Measurement<2>, AidError>
                 r: Matrix2::identity() * s2,
             })
         }
+    }
+}
+impl Aid for CnsFix {
+    type Settings = NoSettings;
+    /// It observes the position.
+    const OBSERVED: &'static [usize] = &[idx::DP];
+    fn measure(&self, nav: &AnyNav, _: &NoSettings) -> Result<Measured, AidError> {
+        measurement(nav, self).map(Measured::from)
     }
 }

@@ -1,6 +1,10 @@
 //! Aid measurement models, one module per aid (PX4 `aid_sources/` style):
-//! each builds z, H and R for the current nominal state in either frame.
-//! Whether to fuse (gating, timeouts, health) is decided in [`control`].
+//! each aid's payload implements [`Aid`] in its module, which builds z, H
+//! and R for the current nominal state in either frame. Whether to fuse
+//! (gating, timeouts, health) is decided in [`control`] and the
+//! navigator's gating, the same for every aid. Which aids exist is
+//! declared once, in `msgs::aids`; this module derives from that list the
+//! one struct that holds each aid's own settings ([`OwnAidSettings`]).
 //!
 //! Sign convention: z = (INS prediction) − (aid measurement) = H δx + v, with
 //! δx = computed − true as everywhere in the filter.
@@ -11,10 +15,154 @@ pub mod control;
 pub mod srs;
 pub mod star;
 
+use msgs::{AidKind, AidPayload};
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
+use serde::de::DeserializeOwned;
+use serde::{Deserialize, Serialize};
 
 use crate::earth;
 use crate::mech::AnyNav;
+use crate::settings::SettingsError;
+
+/// What the navigator needs of an aid: its measurement model. Each aid's
+/// payload implements it in the aid's own module.
+pub trait Aid: AidPayload {
+    /// The aid's own settings, its `[aids.NAME]` table ([`NoSettings`]
+    /// when it has none).
+    type Settings: OwnSettings;
+    /// The first state of each 3-state block of the error state that the
+    /// aid observes directly (a reset to the aid resets those blocks).
+    const OBSERVED: &'static [usize];
+    /// The linearized measurement of the nominal state `nav` at the
+    /// sample's own time.
+    fn measure(&self, nav: &AnyNav, settings: &Self::Settings) -> Result<Measured, AidError>;
+}
+
+/// An aid's measurement, of its dimension.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum AnyMeasurement {
+    D1(Measurement<1>),
+    D2(Measurement<2>),
+    D3(Measurement<3>),
+}
+
+/// What [`Aid::measure`] made of a sample.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Measured {
+    pub m: AnyMeasurement,
+    /// SRS: the body excluded by fault detection, if one was.
+    pub excluded_body: Option<u32>,
+}
+
+impl From<Measurement<1>> for Measured {
+    fn from(m: Measurement<1>) -> Self {
+        Self {
+            m: AnyMeasurement::D1(m),
+            excluded_body: None,
+        }
+    }
+}
+impl From<Measurement<2>> for Measured {
+    fn from(m: Measurement<2>) -> Self {
+        Self {
+            m: AnyMeasurement::D2(m),
+            excluded_body: None,
+        }
+    }
+}
+impl From<Measurement<3>> for Measured {
+    fn from(m: Measurement<3>) -> Self {
+        Self {
+            m: AnyMeasurement::D3(m),
+            excluded_body: None,
+        }
+    }
+}
+
+/// The settings an aid has of its own: a table `[aids.NAME]` of the
+/// configuration, each key with its bound.
+pub trait OwnSettings:
+    std::fmt::Debug + Clone + PartialEq + Default + Serialize + DeserializeOwned
+{
+    /// True when the aid has no settings of its own: its table is then not
+    /// written.
+    const NONE: bool = false;
+    /// Checks every key; `table` is the table's dotted name (`aids.gnss`).
+    fn validate(&self, origin: &str, table: &str) -> Result<(), SettingsError>;
+}
+
+/// No settings of the aid's own.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct NoSettings {}
+
+impl OwnSettings for NoSettings {
+    const NONE: bool = true;
+    fn validate(&self, _origin: &str, _table: &str) -> Result<(), SettingsError> {
+        Ok(())
+    }
+}
+
+/// Where an aid's own settings are in [`OwnAidSettings`].
+pub trait OwnOf: Aid {
+    fn own(all: &OwnAidSettings) -> &Self::Settings;
+}
+
+macro_rules! own_settings {
+    ([$(($K:ident, $n:ident, $P:ident, $d:tt)),* $(,)?]) => {
+        /// Each aid's own settings (its `[aids.NAME]` table).
+        #[derive(Debug, Clone, PartialEq, Default)]
+        pub struct OwnAidSettings {
+            $(pub $n: <msgs::$P as Aid>::Settings,)*
+        }
+
+        $(
+            impl OwnOf for msgs::$P {
+                fn own(all: &OwnAidSettings) -> &Self::Settings {
+                    &all.$n
+                }
+            }
+        )*
+
+        impl OwnAidSettings {
+            /// Checks every aid's own settings.
+            pub fn validate(&self, origin: &str) -> Result<(), SettingsError> {
+                $(self.$n.validate(origin, concat!("aids.", stringify!($n)))?;)*
+                Ok(())
+            }
+
+            /// Writes the tables of the aids that have settings, as fields
+            /// of the `[aids]` struct being serialized.
+            pub(crate) fn serialize_into<S: serde::ser::SerializeStruct>(
+                &self,
+                s: &mut S,
+            ) -> Result<(), S::Error> {
+                $(
+                    if <<msgs::$P as Aid>::Settings as OwnSettings>::NONE {
+                        s.skip_field(stringify!($n))?;
+                    } else {
+                        s.serialize_field(stringify!($n), &self.$n)?;
+                    }
+                )*
+                Ok(())
+            }
+
+            /// Reads the table of aid `kind` from `map`.
+            pub(crate) fn deserialize_from<'de, A: serde::de::MapAccess<'de>>(
+                &mut self,
+                kind: AidKind,
+                map: &mut A,
+            ) -> Result<(), A::Error> {
+                match kind {
+                    $(AidKind::$K => self.$n = map.next_value()?,)*
+                }
+                Ok(())
+            }
+        }
+    };
+}
+
+msgs::for_each_aid!(own_settings);
 
 /// One linearized measurement.
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -15,7 +15,10 @@
 use msgs::{SRS_MAX_LINES, SrsLine, SrsSample};
 use nalgebra::{Matrix3, Rotation3, SMatrix, Vector3};
 
-use super::{AidError, Measurement, frame_rotation_per_position_error};
+use super::{
+    Aid, AidError, AnyMeasurement, Measured, Measurement, NoSettings,
+    frame_rotation_per_position_error,
+};
 use crate::earth;
 use crate::error_model::idx;
 use crate::frames::skew;
@@ -237,6 +240,18 @@ pub fn measurement(nav: &AnyNav, s: &SrsSample) -> Result<(Measurement<3>, SrsSo
         },
         sol,
     ))
+}
+
+impl Aid for SrsSample {
+    type Settings = NoSettings;
+    /// It observes the velocity.
+    const OBSERVED: &'static [usize] = &[idx::DV];
+    fn measure(&self, nav: &AnyNav, _: &NoSettings) -> Result<Measured, AidError> {
+        measurement(nav, self).map(|(m, sol)| Measured {
+            m: AnyMeasurement::D3(m),
+            excluded_body: sol.excluded_body,
+        })
+    }
 }
 
 #[cfg(test)]

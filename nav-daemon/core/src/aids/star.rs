@@ -18,7 +18,7 @@
 use msgs::StarSample;
 use nalgebra::{Matrix3, Quaternion, SMatrix, UnitQuaternion, Vector3};
 
-use super::{AidError, Measurement};
+use super::{Aid, AidError, Measured, Measurement, NoSettings};
 use crate::error_model::idx;
 use crate::mech::AnyNav;
 
@@ -112,6 +112,15 @@ pub fn measurement(nav: &AnyNav, s: &StarSample) -> Result<Measurement<3>, AidEr
         return Err(AidError::NonFinite("star measurement"));
     }
     Ok(Measurement { z, h, r })
+}
+
+impl Aid for StarSample {
+    type Settings = NoSettings;
+    /// It observes the attitude.
+    const OBSERVED: &'static [usize] = &[idx::PHI];
+    fn measure(&self, nav: &AnyNav, _: &NoSettings) -> Result<Measured, AidError> {
+        measurement(nav, self).map(Measured::from)
+    }
 }
 
 #[cfg(test)]

@@ -3,11 +3,11 @@
 //! χ² gate and the closed-loop feedback of a fused correction. The
 //! measurement models are `crate::aids`.
 
-use msgs::{BaroSample, CnsFix, SrsSample, StarSample};
+use msgs::{AidKind, AidSample, PerAid};
 use nalgebra::{SMatrix, SVector, Vector3};
 
 use crate::aids::control::AidControl;
-use crate::aids::{self, AidError, Measurement};
+use crate::aids::{Aid, AidError, AnyMeasurement, Measured, Measurement, OwnOf};
 use crate::error_model::idx;
 use crate::filter;
 use crate::mech::AnyNav;
@@ -19,82 +19,55 @@ use super::{AidOutcome, InputRejection, Navigator, secs_to_ns};
 /// The per-aid fusion controls, which aids are selected, and the latency limit.
 #[derive(Debug, Clone)]
 pub(super) struct AidGate {
-    pub(super) srs: AidControl,
-    pub(super) cns: AidControl,
-    pub(super) baro: AidControl,
-    pub(super) star: AidControl,
+    pub(super) controls: PerAid<AidControl>,
     pub(super) enabled: AidSet,
     pub(super) max_latency_ns: u64,
     /// The last gated innovation was rejected (solution flag).
     pub(super) last_rejected: bool,
-    /// Rejection streaks (SRS, CNS, baro, star) and the time after which a
-    /// healthy aid's streak resets the filter to it (0 = never).
-    pub(super) streaks: [Streak; 4],
+    /// Rejection streaks per aid and the time after which a healthy aid's
+    /// streak resets the filter to it (0 = never).
+    pub(super) streaks: PerAid<Streak>,
     pub(super) reset_after_ns: u64,
-    /// Aid resets so far (SRS, CNS, baro, star) and the verdict of the last one.
-    pub(super) resets: [u32; 4],
+    /// Aid resets so far, per aid, and the verdict of the last one.
+    pub(super) resets: PerAid<u32>,
     pub(super) last_reset_verdict: Option<StreakVerdict>,
     /// The bias model the last reset widened the process noise to (None if
     /// it was already at least that wide).
     pub(super) last_reset_widened: Option<BiasModel>,
-    /// The state was reset to this aid (index) and it has not been fused since.
-    pub(super) reset_pending_flag: Option<usize>,
+    /// The state was reset to this aid and it has not been fused since.
+    pub(super) reset_pending_flag: Option<AidKind>,
+    /// Each aid's own settings.
+    pub(super) settings: AidSettings,
 }
 
 impl AidGate {
     pub(super) fn new(a: &AidSettings, enabled: AidSet) -> Self {
         Self {
-            srs: AidControl::new(a.srs_gate, secs_to_ns(a.srs_timeout_s)),
-            cns: AidControl::new(a.cns_gate, secs_to_ns(a.cns_timeout_s)),
-            baro: AidControl::new(a.baro_gate, secs_to_ns(a.baro_timeout_s)),
-            star: AidControl::new(a.star_gate, secs_to_ns(a.star_timeout_s)),
+            controls: PerAid::from_fn(|k| AidControl::new(a.gate[k], secs_to_ns(a.timeout_s[k]))),
             enabled,
             max_latency_ns: secs_to_ns(a.max_latency_s),
             last_rejected: false,
-            streaks: [Streak::default(); 4],
+            streaks: PerAid::default(),
             reset_after_ns: secs_to_ns(a.reset_after_s),
-            resets: [0; 4],
+            resets: PerAid::default(),
             last_reset_verdict: None,
             last_reset_widened: None,
             reset_pending_flag: None,
+            settings: a.clone(),
         }
     }
 
     /// Forgets every streak and anchor (frame switch, reset).
     pub(super) fn clear_streaks(&mut self) {
-        for s in &mut self.streaks {
+        for (_, s) in self.streaks.iter_mut() {
             s.clear();
         }
     }
 }
 
-#[derive(Debug, Clone, Copy, PartialEq, Eq)]
-pub(super) enum AidKind {
-    Srs,
-    Cns,
-    Baro,
-    Star,
-}
-
-impl AidKind {
-    fn index(self) -> usize {
-        match self {
-            AidKind::Srs => 0,
-            AidKind::Cns => 1,
-            AidKind::Baro => 2,
-            AidKind::Star => 3,
-        }
-    }
-
-    /// The block of states the aid observes: velocity for SRS, position for
-    /// CNS and baro, attitude for the star tracker.
-    fn observed_block(self) -> usize {
-        match self {
-            AidKind::Srs => idx::DV,
-            AidKind::Star => idx::PHI,
-            AidKind::Cns | AidKind::Baro => idx::DP,
-        }
-    }
+/// The blocks of states an aid observes.
+fn observed_blocks(which: AidKind) -> &'static [usize] {
+    msgs::match_aid_kind!(which, P => <P as Aid>::OBSERVED)
 }
 
 impl Navigator {
@@ -147,9 +120,9 @@ impl Navigator {
         t_ns: u64,
         m: &Measurement<M>,
     ) -> AidOutcome {
-        let gate = self.control(which).gate;
+        let gate = self.aids.controls[which].gate;
         let Some(out) = self.err.update(m, gate) else {
-            self.control_mut(which).rejected_invalid();
+            self.aids.controls[which].rejected_invalid();
             return AidOutcome {
                 gated: false,
                 fused: false,
@@ -158,9 +131,9 @@ impl Navigator {
             };
         };
         let frame = self.nominal.nav().kind().to_wire();
-        self.control_mut(which).record(t_ns, &out, frame);
+        self.aids.controls[which].record(t_ns, &out, frame);
         self.aids.last_rejected = !out.fused;
-        let k = which.index();
+        let k = which;
         if out.fused {
             self.coasting = false;
             self.resumed = false;
@@ -198,12 +171,11 @@ impl Navigator {
     /// the aid is healthy by [`super::recovery`]'s tests, reset to it.
     fn maybe_reset<const M: usize>(&mut self, which: AidKind, t_ns: u64, m: &Measurement<M>) {
         let after = self.aids.reset_after_ns;
-        let k = which.index();
-        let streak = &self.aids.streaks[k];
+        let streak = &self.aids.streaks[which];
         if after == 0 || streak.duration_ns(t_ns) < after {
             return;
         }
-        let c = self.control(which);
+        let c = &self.aids.controls[which];
         let Some(verdict) = streak.verdict(t_ns, c.gate, c.timeout_ns) else {
             return;
         };
@@ -240,11 +212,13 @@ impl Navigator {
         self.err.tape_break();
         let before = self.err.p;
         let old = self.solution();
-        let o = which.observed_block();
+        let observed = observed_blocks(which);
         let kappa = verdict.covariance_inflation.min(KAPPA_MAX);
         let mut d = SVector::<f64, 15>::repeat(kappa.sqrt());
-        for i in o..o + 3 {
-            d[i] = 1.0;
+        for &o in observed {
+            for i in o..o + 3 {
+                d[i] = 1.0;
+            }
         }
         let mut p = self.err.p;
         for i in 0..15 {
@@ -262,8 +236,10 @@ impl Navigator {
             p[(ba, ba)] = p[(ba, ba)].max(bound.accel_sigma.powi(2));
         }
         let mut g = SMatrix::<f64, M, 15>::zeros();
-        g.fixed_view_mut::<M, 3>(0, o)
-            .copy_from(&m.h.fixed_view::<M, 3>(0, o));
+        for &o in observed {
+            g.fixed_view_mut::<M, 3>(0, o)
+                .copy_from(&m.h.fixed_view::<M, 3>(0, o));
+        }
         let s = m.h * before * m.h.transpose() + m.r;
         let mut lambda = SMatrix::<f64, M, M>::zeros();
         for i in 0..M {
@@ -279,47 +255,26 @@ impl Navigator {
         self.feed_back(t_ns, &out.dx);
         let widened = self.err.noise.widen_biases(&bound);
         self.aids.last_reset_widened = widened.then_some(bound);
-        let k = which.index();
-        self.aids.resets[k] += 1;
+        self.aids.resets[which] += 1;
         self.aids.last_reset_verdict = Some(*verdict);
-        self.aids.reset_pending_flag = Some(k);
+        self.aids.reset_pending_flag = Some(which);
         self.aids.clear_streaks();
         self.record_reset(&old);
     }
 
-    fn control(&self, which: AidKind) -> &AidControl {
-        match which {
-            AidKind::Srs => &self.aids.srs,
-            AidKind::Cns => &self.aids.cns,
-            AidKind::Baro => &self.aids.baro,
-            AidKind::Star => &self.aids.star,
-        }
-    }
-    fn control_mut(&mut self, which: AidKind) -> &mut AidControl {
-        match which {
-            AidKind::Srs => &mut self.aids.srs,
-            AidKind::Cns => &mut self.aids.cns,
-            AidKind::Baro => &mut self.aids.baro,
-            AidKind::Star => &mut self.aids.star,
-        }
+    /// Offers one aid sample: counters, selection, time check, the aid's
+    /// model at its own time, fusion.
+    pub fn on_aid(&mut self, sample: &AidSample) -> Result<AidOutcome, InputRejection> {
+        msgs::match_aid!(sample, x => self.on_aid_of(x))
     }
 
-    /// Common path of every aid: counters, time check, model, fusion.
-    fn on_aid<const M: usize>(
-        &mut self,
-        which: AidKind,
-        t_ns: u64,
-        model: impl FnOnce(&AnyNav) -> Result<(Measurement<M>, Option<u32>), AidError>,
-    ) -> Result<AidOutcome, InputRejection> {
-        self.control_mut(which).received();
-        let enabled = match which {
-            AidKind::Srs => self.aids.enabled.srs,
-            AidKind::Cns => self.aids.enabled.cns,
-            AidKind::Baro => self.aids.enabled.baro,
-            AidKind::Star => self.aids.enabled.star,
-        };
-        if !enabled {
-            self.control_mut(which).counters.not_used += 1;
+    /// [`Self::on_aid`] for one aid's payload.
+    fn on_aid_of<A: OwnOf>(&mut self, x: &A) -> Result<AidOutcome, InputRejection> {
+        let which = A::KIND;
+        let t_ns = x.t_ns();
+        self.aids.controls[which].received();
+        if !self.aids.enabled.has(which) {
+            self.aids.controls[which].counters.not_used += 1;
             return Ok(AidOutcome {
                 gated: false,
                 fused: false,
@@ -330,54 +285,35 @@ impl Navigator {
         let age = match self.aid_age(t_ns) {
             Ok(a) => a,
             Err(e) => {
-                self.control_mut(which).rejected_time();
+                self.aids.controls[which].rejected_time();
                 return Err(e);
             }
         };
-        if t_ns <= self.control(which).counters.last_t_ns
-            && self.control(which).counters.accepted > 0
-        {
-            self.control_mut(which).rejected_time();
-            return Err(InputRejection::TimeNotIncreasing {
-                t_ns,
-                prev_ns: self.control(which).counters.last_t_ns,
-            });
+        let c = &self.aids.controls[which];
+        if t_ns <= c.counters.last_t_ns && c.counters.accepted > 0 {
+            let prev_ns = c.counters.last_t_ns;
+            self.aids.controls[which].rejected_time();
+            return Err(InputRejection::TimeNotIncreasing { t_ns, prev_ns });
         }
         self.propagate_covariance();
         let at = self.state_at(t_ns, age);
-        let (m, excluded) = match model(&at) {
-            Ok(x) => x,
+        let measured: Result<Measured, AidError> = x.measure(&at, A::own(&self.aids.settings.own));
+        let Measured { m, excluded_body } = match measured {
+            Ok(m) => m,
             Err(e) => {
-                self.control_mut(which).rejected_invalid();
+                self.aids.controls[which].rejected_invalid();
                 return Err(e.into());
             }
         };
-        let mut out = self.fuse(which, t_ns, &m);
-        out.excluded_body = excluded;
-        if excluded.is_some() {
-            self.control_mut(which).status.exclusions += 1;
+        let mut out = match &m {
+            AnyMeasurement::D1(m) => self.fuse(which, t_ns, m),
+            AnyMeasurement::D2(m) => self.fuse(which, t_ns, m),
+            AnyMeasurement::D3(m) => self.fuse(which, t_ns, m),
+        };
+        out.excluded_body = excluded_body;
+        if excluded_body.is_some() {
+            self.aids.controls[which].status.exclusions += 1;
         }
         Ok(out)
-    }
-
-    pub fn on_srs(&mut self, s: &SrsSample) -> Result<AidOutcome, InputRejection> {
-        self.on_aid(AidKind::Srs, s.t_ns, |n| {
-            aids::srs::measurement(n, s).map(|(m, sol)| (m, sol.excluded_body))
-        })
-    }
-    pub fn on_cns(&mut self, c: &CnsFix) -> Result<AidOutcome, InputRejection> {
-        self.on_aid(AidKind::Cns, c.t_ns, |n| {
-            aids::cns::measurement(n, c).map(|m| (m, None))
-        })
-    }
-    pub fn on_baro(&mut self, b: &BaroSample) -> Result<AidOutcome, InputRejection> {
-        self.on_aid(AidKind::Baro, b.t_ns, |n| {
-            aids::baro::measurement(n, b).map(|m| (m, None))
-        })
-    }
-    pub fn on_star(&mut self, s: &StarSample) -> Result<AidOutcome, InputRejection> {
-        self.on_aid(AidKind::Star, s.t_ns, |n| {
-            aids::star::measurement(n, s).map(|m| (m, None))
-        })
     }
 }

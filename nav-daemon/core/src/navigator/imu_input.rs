@@ -161,12 +161,7 @@ impl Navigator {
         self.t_ns = t_ns;
         self.err.set_clock(t_ns, true);
         self.history.clear();
-        for c in [
-            &mut self.aids.srs,
-            &mut self.aids.cns,
-            &mut self.aids.baro,
-            &mut self.aids.star,
-        ] {
+        for (_, c) in self.aids.controls.iter_mut() {
             c.counters.last_t_ns = 0;
         }
         self.coast(self.limits.max_coast_s);

@@ -11,7 +11,7 @@
 //! nominal state is converted and, with `Conversion::Paper`, P = Φ P Φᵀ.
 //! Nothing in the steady-state loop allocates.
 
-use msgs::{ImuSample, InitState, Solution, StreamCounters};
+use msgs::{ImuSample, InitState, PerAid, Solution, StreamCounters};
 use nalgebra::{UnitQuaternion, Vector3};
 
 use crate::aids::AidError;
@@ -296,12 +296,12 @@ impl Navigator {
         fresh.err.repairs = self.err.repairs;
         fresh.err.propagations = self.err.propagations;
         fresh.work = self.work;
-        for (n, o) in [
-            (&mut fresh.aids.srs, &self.aids.srs),
-            (&mut fresh.aids.cns, &self.aids.cns),
-            (&mut fresh.aids.baro, &self.aids.baro),
-            (&mut fresh.aids.star, &self.aids.star),
-        ] {
+        for ((_, n), (_, o)) in fresh
+            .aids
+            .controls
+            .iter_mut()
+            .zip(self.aids.controls.iter())
+        {
             n.counters = o.counters;
             n.counters.last_t_ns = 0;
         }
@@ -460,8 +460,8 @@ impl Navigator {
         &self.reset
     }
 
-    /// Resets to an aid so far: (SRS, CNS, baro, star).
-    pub fn aid_resets(&self) -> [u32; 4] {
+    /// Resets to each aid so far.
+    pub fn aid_resets(&self) -> PerAid<u32> {
         self.aids.resets
     }
 

@@ -1,10 +1,9 @@
 //! Report building: the solution and status records, and the covariance
 //! mapped out of the filter's frame into local east/north/up.
 
-use msgs::{AidStatus, Solution, Status, StreamCounters, solution_flags};
+use msgs::{AidKind, AidStatus, Solution, Status, Stream, solution_flags};
 use nalgebra::{Matrix3, Vector3};
 
-use crate::aids::control::AidControl;
 use crate::error_model::Mat15;
 use crate::error_model::idx;
 use crate::frames;
@@ -53,17 +52,10 @@ impl Navigator {
 
     fn flags(&self) -> u32 {
         let mut f = solution_flags::ALIGNED;
-        if self.aids.srs.fresh(self.t_ns) {
-            f |= solution_flags::SRS_FRESH;
-        }
-        if self.aids.cns.fresh(self.t_ns) {
-            f |= solution_flags::CNS_FRESH;
-        }
-        if self.aids.baro.fresh(self.t_ns) {
-            f |= solution_flags::BARO_FRESH;
-        }
-        if self.aids.star.fresh(self.t_ns) {
-            f |= solution_flags::STAR_FRESH;
+        for (k, c) in self.aids.controls.iter() {
+            if c.fresh(self.t_ns) {
+                f |= k.decl().fresh_flag;
+            }
         }
         if self.aids.last_rejected {
             f |= solution_flags::LAST_INNOVATION_REJECTED;
@@ -102,33 +94,16 @@ impl Navigator {
         s
     }
 
-    /// The aids' status records (SRS, CNS, baro, star), as [`Self::status`]
-    /// carries them, without building the rest of the status.
-    pub fn aid_statuses(&self) -> [AidStatus; 4] {
-        let a = &self.aids;
-        [&a.srs, &a.cns, &a.baro, &a.star].map(|c| c.status_at(self.t_ns))
+    /// Aid `k`'s status record, as [`Self::status`] carries it, without
+    /// building the rest of the status.
+    pub fn aid_status(&self, k: AidKind) -> AidStatus {
+        self.aids.controls[k].status_at(self.t_ns)
     }
 
     /// Health record (loop timing is filled in by the live driver).
     pub fn status(&self) -> Status {
-        let aid = |c: &AidControl| -> (StreamCounters, AidStatus) {
-            (c.counters, c.status_at(self.t_ns))
-        };
-        let (srs, srs_aid) = aid(&self.aids.srs);
-        let (cns, cns_aid) = aid(&self.aids.cns);
-        let (baro, baro_aid) = aid(&self.aids.baro);
-        let (star, star_aid) = aid(&self.aids.star);
-        Status {
+        let mut s = Status {
             t_ns: self.t_ns,
-            imu: self.imu,
-            srs,
-            cns,
-            baro,
-            star,
-            srs_aid,
-            cns_aid,
-            baro_aid,
-            star_aid,
             last_switch_t_ns: self.last_switch_t_ns,
             switch_count: self.switch_count,
             imu_gap_count: self.imu_gap_count,
@@ -138,7 +113,13 @@ impl Navigator {
             flags: self.flags(),
             frame: self.nominal.nav().kind().to_wire() as u8,
             ..Default::default()
+        };
+        *s.counters_mut(Stream::Imu) = self.imu;
+        for (k, c) in self.aids.controls.iter() {
+            *s.counters_mut(Stream::Aid(k)) = c.counters;
+            s.aids[k as usize] = c.status_at(self.t_ns);
         }
+        s
     }
 }
 

@@ -229,10 +229,7 @@ impl Truth {
 #[allow(clippy::large_enum_variant)]
 pub enum Owned {
     Imu(ImuSample),
-    Srs(SrsSample),
-    Cns(CnsFix),
-    Baro(BaroSample),
-    Star(StarSample),
+    Aid(msgs::AidSample),
     Init(InitState),
 }
 
@@ -240,20 +237,14 @@ impl Owned {
     pub fn input(&self) -> Input<'_> {
         match self {
             Owned::Imu(x) => Input::Imu(x),
-            Owned::Srs(x) => Input::Srs(x),
-            Owned::Cns(x) => Input::Cns(x),
-            Owned::Baro(x) => Input::Baro(x),
-            Owned::Star(x) => Input::Star(x),
+            Owned::Aid(x) => Input::Aid(x),
             Owned::Init(x) => Input::Init(x),
         }
     }
     pub fn t_ns_mut(&mut self) -> &mut u64 {
         match self {
             Owned::Imu(x) => &mut x.t_ns,
-            Owned::Srs(x) => &mut x.t_ns,
-            Owned::Cns(x) => &mut x.t_ns,
-            Owned::Baro(x) => &mut x.t_ns,
-            Owned::Star(x) => &mut x.t_ns,
+            Owned::Aid(x) => x.t_ns_mut(),
             Owned::Init(x) => &mut x.t_ns,
         }
     }
