@@ -21,8 +21,10 @@ pub mod aids;
 pub mod navlog;
 pub mod payloads;
 pub mod service;
+pub mod status;
 
 pub use aids::{
     AID_COUNT, AidDecl, AidKind, AidPayload, AidSample, PerAid, PerStream, STREAM_COUNT, Stream,
 };
 pub use payloads::*;
+pub use status::{AidStatus, Status, StreamCounters};

@@ -16,7 +16,8 @@ use std::io::{BufRead, Write};
 use serde::{Deserialize, Serialize};
 
 use crate::aids::{AidKind, AidSample};
-use crate::payloads::{ImuSample, InitState, Solution, Status, TruthRecord};
+use crate::payloads::{ImuSample, InitState, Solution, TruthRecord};
+use crate::status::Status;
 
 /// First bytes of every navlog's header record.
 pub const MAGIC: [u8; 8] = *b"POLARNAV";

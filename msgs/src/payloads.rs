@@ -7,8 +7,6 @@
 use iceoryx2::prelude::ZeroCopySend;
 use serde::{Deserialize, Serialize};
 
-use crate::aids::{AID_COUNT, AidKind, STREAM_COUNT, Stream};
-
 /// Maximum number of spectral lines in one SRS message.
 pub const SRS_MAX_LINES: usize = 8;
 
@@ -165,7 +163,7 @@ pub enum WireFrame {
 }
 
 impl WireFrame {
-    /// The frame an [`AidStatus::made_in_frame`] byte names (1 + the
+    /// The frame an [`AidStatus::made_in_frame`](crate::AidStatus::made_in_frame) byte names (1 + the
     /// frame); `None` for 0 (not known) or any other value.
     pub fn from_made_in(v: u8) -> Option<Self> {
         v.checked_sub(1).and_then(Self::from_u8)
@@ -284,163 +282,6 @@ fn unknown3() -> [f64; 3] {
     [f64::NAN; 3]
 }
 
-/// Counters of one input stream. Every received sample is counted once, as
-/// accepted or under one rejection reason:
-/// `received = accepted + rejected_invalid + rejected_time + rejected_gate + not_used`.
-#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
-#[cfg_attr(feature = "iceoryx2", derive(ZeroCopySend))]
-#[repr(C)]
-#[cfg_attr(feature = "iceoryx2", type_name("polarnav::StreamCounters_v3"))]
-pub struct StreamCounters {
-    /// Samples received from the transport or log.
-    pub received: u64,
-    /// Samples that passed validation and were used.
-    pub accepted: u64,
-    /// Rejected: non-finite or physically impossible values.
-    pub rejected_invalid: u64,
-    /// Rejected: time stamp not after the previous one (backwards or duplicate).
-    pub rejected_time: u64,
-    /// Rejected by the innovation gate (aids only).
-    pub rejected_gate: u64,
-    /// Not used: the aid is disabled, or there was no navigation state to apply
-    /// the sample to (before the first init, or stamped before a re-initialization).
-    pub not_used: u64,
-    /// Gaps detected in the sequence numbers (samples lost upstream).
-    pub seq_gaps: u64,
-    /// Time stamp of the last accepted sample (0 = none yet).
-    pub last_t_ns: u64,
-    /// Samples refused before they were received because another publisher
-    /// owns the input service (live only; not part of `received`). The
-    /// first publisher to send owns it until it disconnects or its process dies.
-    pub refused_publisher: u64,
-}
-
-/// The status record every aid reports (one shape for every aid).
-#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
-#[cfg_attr(feature = "iceoryx2", derive(ZeroCopySend))]
-#[repr(C)]
-#[cfg_attr(feature = "iceoryx2", type_name("polarnav::AidStatus_v2"))]
-pub struct AidStatus {
-    /// Last innovation (measurement − prediction), up to 3 components.
-    pub innovation: [f64; 3],
-    /// Its variance (diagonal of S).
-    pub innovation_var: [f64; 3],
-    /// χ² test ratio of the last innovation (test statistic / gate threshold).
-    pub test_ratio: f64,
-    /// Time of the last fused measurement (0 = never).
-    pub last_fuse_t_ns: u64,
-    /// SRS: lines excluded by fault detection and exclusion (other aids: 0).
-    pub exclusions: u64,
-    /// 1 if the last measurement was fused, 0 if rejected.
-    pub fused: u8,
-    /// 1 if the aid is fresh (within its timeout).
-    pub fresh: u8,
-    /// The navigation frame the last innovation was made in, as 1 +
-    /// [`WireFrame`] (1 geographic, 2 grid), so that a reader converts a
-    /// CNS innovation (Δlatitude, Δlongitude in g; metres in G) in the
-    /// right frame even when a switch came between the update and this
-    /// status. 0: not known (no update yet, or a sender before this field:
-    /// the byte was padding, always zero). See [`AidStatus::made_in`].
-    pub made_in_frame: u8,
-    /// Always zero.
-    pub _pad: [u8; 5],
-}
-
-impl AidStatus {
-    /// The frame the last innovation was made in, when the sender says.
-    pub fn made_in(&self) -> Option<WireFrame> {
-        WireFrame::from_made_in(self.made_in_frame)
-    }
-
-    /// The value of [`AidStatus::made_in_frame`] for an innovation made in `frame`.
-    pub fn made_in_frame_of(frame: WireFrame) -> u8 {
-        frame as u8 + 1
-    }
-}
-
-/// Health of the daemon, published at 1 Hz.
-#[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
-#[cfg_attr(feature = "iceoryx2", derive(ZeroCopySend))]
-#[repr(C)]
-#[cfg_attr(feature = "iceoryx2", type_name("polarnav::Status_v4"))]
-pub struct Status {
-    pub t_ns: u64,
-    pub seq: u64,
-    /// Counters per input stream: `streams[0]` the IMU's, `streams[1 + k]`
-    /// aid k's (k an `AidKind`).
-    pub streams: [StreamCounters; STREAM_COUNT],
-    /// Status per aid: `aids[k]` aid k's (k an `AidKind`).
-    pub aids: [AidStatus; AID_COUNT],
-    /// Filter cycles run, and cycles that overran their period in wall-clock
-    /// time (including time the thread was preempted).
-    pub cycles: u64,
-    pub overruns: u64,
-    /// Cycles whose own CPU time exceeded the period (the daemon's work, not
-    /// preemption by others): `overruns − overruns_cpu` were stalls from outside.
-    pub overruns_cpu: u64,
-    /// Cycle execution time statistics over the last status period (ns).
-    pub cycle_time_mean_ns: u64,
-    pub cycle_time_max_ns: u64,
-    /// Time of the last frame switch (0 = none).
-    pub last_switch_t_ns: u64,
-    /// IMU gaps longer than `[filter] imu_gap_s` coasted across, and the
-    /// total sensor time coasted (ns).
-    pub imu_gap_count: u64,
-    pub coasted_ns: u64,
-    /// Checkpoints written, and whether this run resumed from one (1) or
-    /// started cold (0).
-    pub checkpoints_written: u64,
-    /// Re-initializations (new init messages) taken.
-    pub reinit_count: u32,
-    pub switch_count: u32,
-    /// Resets of the navigation state (see `Solution::reset_t_ns`).
-    pub reset_count: u32,
-    /// Bit set of [`solution_flags`] at the time of the status.
-    pub flags: u32,
-    /// [`WireFrame`] as u8.
-    pub frame: u8,
-    /// 1 if this run resumed from a checkpoint, 0 after a cold start.
-    pub resumed: u8,
-    /// Always zero.
-    pub _pad: [u8; 6],
-}
-
-impl Status {
-    /// The counters of `stream`.
-    pub fn counters(&self, stream: Stream) -> &StreamCounters {
-        &self.streams[stream.index()]
-    }
-    pub fn counters_mut(&mut self, stream: Stream) -> &mut StreamCounters {
-        &mut self.streams[stream.index()]
-    }
-    /// The IMU's counters.
-    pub fn imu(&self) -> &StreamCounters {
-        &self.streams[0]
-    }
-    /// The counters of aid `k`.
-    pub fn aid_counters(&self, k: AidKind) -> &StreamCounters {
-        self.counters(Stream::Aid(k))
-    }
-    /// The counters of aid `k`, to change.
-    pub fn aid_counters_mut(&mut self, k: AidKind) -> &mut StreamCounters {
-        self.counters_mut(Stream::Aid(k))
-    }
-    /// The status of aid `k`.
-    pub fn aid(&self, k: AidKind) -> &AidStatus {
-        &self.aids[k as usize]
-    }
-    /// The status of aid `k`, to change.
-    pub fn aid_mut(&mut self, k: AidKind) -> &mut AidStatus {
-        &mut self.aids[k as usize]
-    }
-    /// Each aid with its counters and status.
-    pub fn each_aid(&self) -> impl Iterator<Item = (AidKind, &StreamCounters, &AidStatus)> {
-        AidKind::ALL
-            .into_iter()
-            .map(|k| (k, self.aid_counters(k), self.aid(k)))
-    }
-}
-
 /// Truth record of a simulated or reference flight (navlog only, not on the wire).
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
 #[repr(C)]
@@ -457,6 +298,8 @@ pub struct TruthRecord {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::aids::{AID_COUNT, STREAM_COUNT};
+    use crate::status::{AidStatus, Status, StreamCounters};
     use core::mem::{align_of, size_of};
 
     /// Sum of field sizes equals the struct size: no implicit padding, so the

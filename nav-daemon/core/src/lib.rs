@@ -16,6 +16,7 @@
 
 pub mod aids;
 pub mod align;
+pub mod bounds;
 pub mod checkpoint;
 pub mod earth;
 pub mod error_model;

@@ -7,19 +7,8 @@ use serde::{Deserialize, Serialize};
 use msgs::{AID_COUNT, AidKind, PerAid};
 
 use crate::aids::OwnAidSettings;
+pub use crate::bounds::{Bound, MAX_FLIGHT_S, SettingsError};
 use crate::frame_select::{FramePolicy, SwitchLatitudes};
-
-/// A settings value out of range: names where it came from and the key.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[error("{origin}: key `{key}`: {message}")]
-pub struct SettingsError {
-    /// The file, header or option the value came from.
-    pub origin: String,
-    /// The key, `table.name`.
-    pub key: String,
-    /// What was expected and what was found.
-    pub message: String,
-}
 
 /// Filter parameter conversion at a frame switch.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Deserialize, Serialize)]
@@ -603,11 +592,6 @@ fn check(origin: &str, key: &str, v: f64, ok: bool, expected: &str) -> Result<()
     }
 }
 
-/// The longest time any setting may span: about 116 days, above the
-/// longest HALE flight flown (64 days, 5.5e6 s). A period or timeout
-/// beyond it never comes round in a flight.
-pub const MAX_FLIGHT_S: f64 = 1e7;
-
 /// The resolution of every time stamp (`t_ns`): a shorter time is not a time.
 pub const STAMP_RESOLUTION_S: f64 = 1e-9;
 
@@ -623,50 +607,6 @@ pub fn earth_rate_dps() -> f64 {
 /// the specific force an IMU at rest or in level flight measures there.
 pub fn max_normal_gravity_mps2() -> f64 {
     crate::earth::normal_gravity(std::f64::consts::FRAC_PI_2, 0.0)
-}
-
-/// A physical bound of a numeric setting: `[lo, hi]` in `unit`, and why a
-/// value below `lo` or above `hi` cannot work. [`Bound::check`] refuses NaN,
-/// ±Inf and values outside, naming the key and the reason.
-#[derive(Debug, Clone, Copy)]
-pub struct Bound<'a> {
-    pub lo: f64,
-    pub hi: f64,
-    pub unit: &'a str,
-    /// Why a value below `lo` cannot work.
-    pub below: &'a str,
-    /// Why a value above `hi` cannot work.
-    pub above: &'a str,
-}
-
-impl Bound<'_> {
-    /// `Ok` if `v` is finite and in `[lo, hi]`; else an error naming
-    /// `origin`, `key`, the bound, the value and the reason.
-    pub fn check(&self, origin: &str, key: &str, v: f64) -> Result<(), SettingsError> {
-        let message = if !v.is_finite() {
-            format!(
-                "expected a finite number in [{}, {}] {}, got {v}",
-                self.lo, self.hi, self.unit
-            )
-        } else if v < self.lo {
-            format!(
-                "expected at least {} {}, got {v}: {}",
-                self.lo, self.unit, self.below
-            )
-        } else if v > self.hi {
-            format!(
-                "expected at most {} {}, got {v}: {}",
-                self.hi, self.unit, self.above
-            )
-        } else {
-            return Ok(());
-        };
-        Err(SettingsError {
-            origin: origin.to_owned(),
-            key: key.to_owned(),
-            message,
-        })
-    }
 }
 
 /// Above these the squares, 2σ²/τ and P₀ of the noise model leave the

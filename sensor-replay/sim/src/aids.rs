@@ -4,16 +4,114 @@
 //! declaration's (`msgs::aids`), and [`Streams`] runs every aid of a
 //! scenario, in the declared order, at each IMU epoch.
 
-use msgs::{AidKind, AidPayload, AidSample, BaroSample, CnsFix, SrsSample, StarSample};
+use msgs::{AidPayload, AidSample, BaroSample, CnsFix, SrsSample, StarSample};
+use nalgebra::Vector3;
 use polarnav::earth::{self, isa};
-use rand::SeedableRng;
 use rand_chacha::ChaCha20Rng;
 use serde::de::DeserializeOwned;
 
-use crate::faults::FaultKind;
-use crate::scenario::{BaroSpec, CnsSpec, Scenario, SpecOf, SrsSpec, StarSpec};
-use crate::sensors::{self, Body};
-use crate::trajectory::TruthSample;
+use serde::Deserialize;
+
+use crate::sensors::{self, Body, StarSensor, TruthSample};
+
+/// A gross error applied to a sample (a fault of [`crate::faults`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum Corruption {
+    /// An outlier of this magnitude, in the aid's unit.
+    Outlier(f64),
+    /// A NaN in the sample.
+    Nan,
+}
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct CnsSpec {
+    pub rate_hz: f64,
+    /// Horizontal 1-σ (m).
+    pub sigma_m: f64,
+}
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BaroSpec {
+    pub rate_hz: f64,
+    /// Altitude 1-σ (m).
+    pub sigma_m: f64,
+}
+
+/// `[star]`: a star tracker fixed to the body.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StarSpec {
+    pub rate_hz: f64,
+    /// 1-σ about each axis across the boresight (arcsec).
+    pub sigma_arcsec: f64,
+    /// 1-σ about the boresight (arcsec); default 8 × `sigma_arcsec`, the
+    /// usual ratio of a star tracker's roll to its cross-boresight accuracy.
+    pub boresight_sigma_arcsec: Option<f64>,
+    /// The boresight in body axes (normalized; default up, [0, 0, 1]).
+    #[serde(default = "default_boresight")]
+    pub boresight_b: [f64; 3],
+    /// A mounting misalignment the sensor's driver does not know: a fixed
+    /// small rotation about body x, y, z (arcsec) in every sample.
+    #[serde(default)]
+    pub misalignment_arcsec: [f64; 3],
+}
+
+fn default_boresight() -> [f64; 3] {
+    [0.0, 0.0, 1.0]
+}
+
+impl StarSpec {
+    /// The stated σ about the boresight (arcsec).
+    pub fn boresight_sigma(&self) -> f64 {
+        self.boresight_sigma_arcsec
+            .unwrap_or(8.0 * self.sigma_arcsec)
+    }
+}
+
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct SrsSpec {
+    pub rate_hz: f64,
+    /// Radial-velocity 1-σ per line (m/s).
+    pub sigma_mps: f64,
+    #[serde(default = "default_mask")]
+    pub elevation_mask_deg: f64,
+    /// Explicit body catalogue; the built-in catalogue when empty.
+    #[serde(default, rename = "body")]
+    pub bodies: Vec<BodySpec>,
+}
+
+fn default_mask() -> f64 {
+    10.0
+}
+
+/// One celestial body: direction (fixed star) and ephemeris velocity.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BodySpec {
+    pub id: u32,
+    /// Right ascension and declination of the line of sight (deg), inertial frame.
+    pub ra_deg: f64,
+    pub dec_deg: f64,
+    /// Velocity relative to the Earth's centre, inertial frame (m/s).
+    pub vel_i_mps: [f64; 3],
+    /// Rest wavelength of the observed line (nm).
+    pub rest_wavelength_nm: f64,
+}
+
+/// A body of the SRS catalogue from its section.
+pub fn body_of(b: &BodySpec) -> Body {
+    let (sr, cr) = b.ra_deg.to_radians().sin_cos();
+    let (sd, cd) = b.dec_deg.to_radians().sin_cos();
+    Body {
+        id: b.id,
+        los_i: Vector3::new(cd * cr, cd * sr, sd),
+        vel_i: Vector3::from(b.vel_i_mps),
+        rest_wavelength_m: b.rest_wavelength_nm * 1e-9,
+    }
+}
 
 /// An aid's simulator model.
 pub trait SimAid: AidPayload + std::fmt::Debug {
@@ -43,9 +141,9 @@ pub trait SimAid: AidPayload + std::fmt::Debug {
         truth: &TruthSample,
         noisy: bool,
     ) -> Self;
-    /// An `outliers` fault of `magnitude` (the aid's unit, see
-    /// [`crate::faults`]) or a `nan` fault, applied to the sample.
-    fn fault(&mut self, kind: FaultKind, magnitude: f64);
+    /// A gross error applied to the sample (the `outliers` and `nan`
+    /// faults of [`crate::faults`]).
+    fn corrupt(&mut self, c: Corruption);
 }
 
 /// A positive finite value, or the message that names the key.
@@ -93,7 +191,7 @@ impl SimAid for SrsSample {
         if spec.bodies.is_empty() {
             sensors::default_catalogue()
         } else {
-            spec.bodies.iter().map(Body::from_spec).collect()
+            spec.bodies.iter().map(body_of).collect()
         }
     }
     fn sample(
@@ -119,14 +217,13 @@ impl SimAid for SrsSample {
     }
     /// On the first line: a radial-velocity error of `magnitude` m/s
     /// (λ = λ0 (1 + v_r / c) to first order), or a NaN wavelength.
-    fn fault(&mut self, kind: FaultKind, magnitude: f64) {
+    fn corrupt(&mut self, c: Corruption) {
         let line = &mut self.lines[0];
-        match kind {
-            FaultKind::Outliers => {
+        match c {
+            Corruption::Outlier(magnitude) => {
                 line.measured_wavelength_m += line.rest_wavelength_m * magnitude / 299_792_458.0
             }
-            FaultKind::Nan => line.measured_wavelength_m = f64::NAN,
-            _ => {}
+            Corruption::Nan => line.measured_wavelength_m = f64::NAN,
         }
     }
 }
@@ -157,11 +254,10 @@ impl SimAid for CnsFix {
         sensors::cns_fix(rng, t_ns, seq, &truth.r_e, spec.sigma_m, noisy)
     }
     /// `magnitude` metres north, or a NaN latitude.
-    fn fault(&mut self, kind: FaultKind, magnitude: f64) {
-        match kind {
-            FaultKind::Outliers => self.lat_rad += magnitude / earth::A,
-            FaultKind::Nan => self.lat_rad = f64::NAN,
-            _ => {}
+    fn corrupt(&mut self, c: Corruption) {
+        match c {
+            Corruption::Outlier(magnitude) => self.lat_rad += magnitude / earth::A,
+            Corruption::Nan => self.lat_rad = f64::NAN,
         }
     }
 }
@@ -193,14 +289,13 @@ impl SimAid for BaroSample {
         sensors::baro_sample(rng, t_ns, seq, h, spec.sigma_m, noisy)
     }
     /// `magnitude` metres up, or a NaN pressure.
-    fn fault(&mut self, kind: FaultKind, magnitude: f64) {
-        match kind {
-            FaultKind::Outliers => {
+    fn corrupt(&mut self, c: Corruption) {
+        match c {
+            Corruption::Outlier(magnitude) => {
                 let h = isa::pressure_altitude(self.pressure_pa);
                 self.pressure_pa = isa::pressure(h + magnitude);
             }
-            FaultKind::Nan => self.pressure_pa = f64::NAN,
-            _ => {}
+            Corruption::Nan => self.pressure_pa = f64::NAN,
         }
     }
 }
@@ -247,114 +342,37 @@ impl SimAid for StarSample {
         truth: &TruthSample,
         noisy: bool,
     ) -> Self {
-        sensors::star_sample(rng, t_ns, seq, &truth.q_b_e, spec, noisy)
+        let star = StarSensor {
+            boresight_b: spec.boresight_b,
+            sigma_cross_arcsec: spec.sigma_arcsec,
+            sigma_boresight_arcsec: spec.boresight_sigma(),
+            misalignment_arcsec: spec.misalignment_arcsec,
+        };
+        sensors::star_sample(rng, t_ns, seq, &truth.q_b_e, &star, noisy)
     }
     /// A rotation of `magnitude` arcsec about body x (stray light), or a
     /// NaN quaternion w.
-    fn fault(&mut self, kind: FaultKind, magnitude: f64) {
-        match kind {
-            FaultKind::Outliers => {
+    fn corrupt(&mut self, c: Corruption) {
+        match c {
+            Corruption::Outlier(magnitude) => {
                 let [w, x, y, z] = self.q_b_i;
                 let q = nalgebra::UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(
                     w, x, y, z,
                 ));
                 let err = nalgebra::UnitQuaternion::from_scaled_axis(
-                    nalgebra::Vector3::x() * (magnitude * polarnav::aids::star::ARCSEC_RAD),
+                    Vector3::x() * (magnitude * polarnav::aids::star::ARCSEC_RAD),
                 );
                 let q = (q * err).into_inner();
                 self.q_b_i = [q.w, q.i, q.j, q.k];
             }
-            FaultKind::Nan => self.q_b_i[0] = f64::NAN,
-            _ => {}
+            Corruption::Nan => self.q_b_i[0] = f64::NAN,
         }
     }
 }
 
 // ---- every aid of a flight -------------------------------------------------
 
-/// A sample made from the truth, and how a fault corrupts it, whatever the aid.
-pub fn fault(sample: &mut AidSample, kind: FaultKind, magnitude: f64) {
-    msgs::match_aid!(sample, x => SimAid::fault(x, kind, magnitude));
-}
-
-/// One aid of a flight: its section, state, schedule and generator.
-trait Stream: std::fmt::Debug {
-    /// The sample due at or before `t_ns` (once per period), if one is.
-    fn step(
-        &mut self,
-        shared: &mut ChaCha20Rng,
-        t_ns: u64,
-        truth: &TruthSample,
-        noisy: bool,
-    ) -> Option<AidSample>;
-}
-
-#[derive(Debug)]
-struct Running<A: SimAid> {
-    spec: A::Spec,
-    state: A::State,
-    sched: crate::simulate::Schedule,
-    own_rng: Option<ChaCha20Rng>,
-}
-
-impl<A: SimAid + SpecOf> Stream for Running<A> {
-    fn step(
-        &mut self,
-        shared: &mut ChaCha20Rng,
-        t_ns: u64,
-        truth: &TruthSample,
-        noisy: bool,
-    ) -> Option<AidSample> {
-        if !self.sched.due(t_ns) {
-            return None;
-        }
-        let rng = self.own_rng.as_mut().unwrap_or(shared);
-        let seq = self.sched.seq - 1;
-        let x = A::sample(&self.spec, &mut self.state, rng, t_ns, seq, truth, noisy);
-        Some(x.into())
-    }
-}
-
-/// The aid streams of a scenario, in the declared order.
-#[derive(Debug)]
-pub struct Streams(Vec<Box<dyn Stream>>);
-
-impl Streams {
-    /// Every aid the scenario has a section for, seeded from `seed`.
-    pub fn new(s: &Scenario, seed: u64) -> Self {
-        let mut v: Vec<Box<dyn Stream>> = Vec::new();
-        for k in AidKind::ALL {
-            msgs::match_aid_kind!(k, P => {
-                if let Some(spec) = P::spec(s) {
-                    v.push(Box::new(Running::<P> {
-                        spec: spec.clone(),
-                        state: P::start(spec),
-                        sched: crate::simulate::Schedule::new(P::rate_hz(spec)),
-                        own_rng: P::OWN_STREAM.map(|stream| {
-                            let mut r = ChaCha20Rng::seed_from_u64(seed);
-                            r.set_stream(stream);
-                            r
-                        }),
-                    }));
-                }
-            });
-        }
-        Self(v)
-    }
-
-    /// The samples due at or before `t_ns`, in the declared order.
-    pub fn step(
-        &mut self,
-        shared: &mut ChaCha20Rng,
-        t_ns: u64,
-        truth: &TruthSample,
-        noisy: bool,
-        mut out: impl FnMut(AidSample),
-    ) {
-        for s in &mut self.0 {
-            if let Some(x) = s.step(shared, t_ns, truth, noisy) {
-                out(x);
-            }
-        }
-    }
+/// A gross error applied to a sample, whatever the aid.
+pub fn corrupt(sample: &mut AidSample, c: Corruption) {
+    msgs::match_aid!(sample, x => SimAid::corrupt(x, c));
 }

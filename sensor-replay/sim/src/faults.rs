@@ -18,6 +18,8 @@
 use msgs::{AidKind, AidSample, ImuSample, Stream};
 use serde::Deserialize;
 
+use crate::aids::Corruption;
+
 /// `[faults]`.
 #[derive(Debug, Clone, Default, Deserialize, PartialEq)]
 #[serde(deny_unknown_fields)]
@@ -186,7 +188,11 @@ impl Injector {
         let t = s.t_ns();
         self.active(Stream::Aid(s.kind()), t, |e| {
             Self::common(e, s.t_ns_mut(), &mut times);
-            crate::aids::fault(s, e.kind, e.magnitude);
+            match e.kind {
+                FaultKind::Outliers => crate::aids::corrupt(s, Corruption::Outlier(e.magnitude)),
+                FaultKind::Nan => crate::aids::corrupt(s, Corruption::Nan),
+                _ => {}
+            }
         });
         times
     }

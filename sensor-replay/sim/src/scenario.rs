@@ -8,6 +8,8 @@ use std::path::Path;
 use serde::Deserialize;
 
 use crate::aids::SimAid;
+pub use crate::aids::{BaroSpec, BodySpec, CnsSpec, SrsSpec, StarSpec};
+pub use crate::sensors::{BiasModel, ImuSpec};
 
 /// A whole scenario. Its aid sections are the declared aids' (`[srs]`,
 /// `[cns]`, ..., each optional: [`crate::aids::SimAid::Spec`]), made by
@@ -80,61 +82,6 @@ pub enum BankMode {
     Level,
 }
 
-/// How constant biases are drawn from their magnitudes.
-#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum BiasModel {
-    /// Each axis N(0, value²) from the seed (the filter's prior matches).
-    #[default]
-    Gaussian,
-    /// Each axis exactly +value.
-    Fixed,
-}
-
-/// IMU rate and error model. Units as in papers/001 Table 1.
-#[derive(Debug, Clone, Deserialize)]
-#[serde(deny_unknown_fields, default)]
-pub struct ImuSpec {
-    pub rate_hz: f64,
-    pub bias_model: BiasModel,
-    /// Gyro constant bias (deg/h).
-    pub gyro_bias_dph: f64,
-    /// Accelerometer constant bias (µg).
-    pub accel_bias_ug: f64,
-    /// Angle random walk (deg/√h).
-    pub arw_dpsh: f64,
-    /// Velocity random walk (µg/√Hz).
-    pub vrw_ug_psqhz: f64,
-    /// First-order Gauss–Markov gyro bias: σ (deg/h) and correlation time (s); 0 = off.
-    pub gm_gyro_sigma_dph: f64,
-    pub gm_gyro_tau_s: f64,
-    /// First-order Gauss–Markov accelerometer bias: σ (µg) and correlation time (s); 0 = off.
-    pub gm_accel_sigma_ug: f64,
-    pub gm_accel_tau_s: f64,
-    /// Quantization step of the angle increments (rad) and velocity increments (m/s); 0 = none.
-    pub gyro_quant_rad: f64,
-    pub accel_quant_mps: f64,
-}
-
-impl Default for ImuSpec {
-    fn default() -> Self {
-        Self {
-            rate_hz: 200.0,
-            bias_model: BiasModel::Gaussian,
-            gyro_bias_dph: 0.0,
-            accel_bias_ug: 0.0,
-            arw_dpsh: 0.0,
-            vrw_ug_psqhz: 0.0,
-            gm_gyro_sigma_dph: 0.0,
-            gm_gyro_tau_s: 3600.0,
-            gm_accel_sigma_ug: 0.0,
-            gm_accel_tau_s: 3600.0,
-            gyro_quant_rad: 0.0,
-            accel_quant_mps: 0.0,
-        }
-    }
-}
-
 /// Truth record rate.
 #[derive(Debug, Clone, Deserialize)]
 #[serde(deny_unknown_fields, default)]
@@ -146,84 +93,6 @@ impl Default for TruthSpec {
     fn default() -> Self {
         Self { rate_hz: 10.0 }
     }
-}
-
-#[derive(Debug, Clone, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct CnsSpec {
-    pub rate_hz: f64,
-    /// Horizontal 1-σ (m).
-    pub sigma_m: f64,
-}
-
-#[derive(Debug, Clone, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct BaroSpec {
-    pub rate_hz: f64,
-    /// Altitude 1-σ (m).
-    pub sigma_m: f64,
-}
-
-/// `[star]`: a star tracker fixed to the body.
-#[derive(Debug, Clone, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct StarSpec {
-    pub rate_hz: f64,
-    /// 1-σ about each axis across the boresight (arcsec).
-    pub sigma_arcsec: f64,
-    /// 1-σ about the boresight (arcsec); default 8 × `sigma_arcsec`, the
-    /// usual ratio of a star tracker's roll to its cross-boresight accuracy.
-    pub boresight_sigma_arcsec: Option<f64>,
-    /// The boresight in body axes (normalized; default up, [0, 0, 1]).
-    #[serde(default = "default_boresight")]
-    pub boresight_b: [f64; 3],
-    /// A mounting misalignment the sensor's driver does not know: a fixed
-    /// small rotation about body x, y, z (arcsec) in every sample.
-    #[serde(default)]
-    pub misalignment_arcsec: [f64; 3],
-}
-
-fn default_boresight() -> [f64; 3] {
-    [0.0, 0.0, 1.0]
-}
-
-impl StarSpec {
-    /// The stated σ about the boresight (arcsec).
-    pub fn boresight_sigma(&self) -> f64 {
-        self.boresight_sigma_arcsec
-            .unwrap_or(8.0 * self.sigma_arcsec)
-    }
-}
-
-#[derive(Debug, Clone, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct SrsSpec {
-    pub rate_hz: f64,
-    /// Radial-velocity 1-σ per line (m/s).
-    pub sigma_mps: f64,
-    #[serde(default = "default_mask")]
-    pub elevation_mask_deg: f64,
-    /// Explicit body catalogue; the built-in catalogue when empty.
-    #[serde(default, rename = "body")]
-    pub bodies: Vec<BodySpec>,
-}
-
-fn default_mask() -> f64 {
-    10.0
-}
-
-/// One celestial body: direction (fixed star) and ephemeris velocity.
-#[derive(Debug, Clone, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct BodySpec {
-    pub id: u32,
-    /// Right ascension and declination of the line of sight (deg), inertial frame.
-    pub ra_deg: f64,
-    pub dec_deg: f64,
-    /// Velocity relative to the Earth's centre, inertial frame (m/s).
-    pub vel_i_mps: [f64; 3],
-    /// Rest wavelength of the observed line (nm).
-    pub rest_wavelength_nm: f64,
 }
 
 /// Initial errors of the state handed to the navigator (1-σ; drawn from the seed).

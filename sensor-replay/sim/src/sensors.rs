@@ -8,7 +8,70 @@ use rand::Rng;
 use rand_chacha::ChaCha20Rng;
 use rand_distr::StandardNormal;
 
-use crate::scenario::{BiasModel, BodySpec, ImuSpec};
+use serde::Deserialize;
+
+/// How constant biases are drawn from their magnitudes.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum BiasModel {
+    /// Each axis N(0, value²) from the seed (the filter's prior matches).
+    #[default]
+    Gaussian,
+    /// Each axis exactly +value.
+    Fixed,
+}
+
+/// IMU rate and error model. Units as in papers/001 Table 1.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct ImuSpec {
+    pub rate_hz: f64,
+    pub bias_model: BiasModel,
+    /// Gyro constant bias (deg/h).
+    pub gyro_bias_dph: f64,
+    /// Accelerometer constant bias (µg).
+    pub accel_bias_ug: f64,
+    /// Angle random walk (deg/√h).
+    pub arw_dpsh: f64,
+    /// Velocity random walk (µg/√Hz).
+    pub vrw_ug_psqhz: f64,
+    /// First-order Gauss–Markov gyro bias: σ (deg/h) and correlation time (s); 0 = off.
+    pub gm_gyro_sigma_dph: f64,
+    pub gm_gyro_tau_s: f64,
+    /// First-order Gauss–Markov accelerometer bias: σ (µg) and correlation time (s); 0 = off.
+    pub gm_accel_sigma_ug: f64,
+    pub gm_accel_tau_s: f64,
+    /// Quantization step of the angle increments (rad) and velocity increments (m/s); 0 = none.
+    pub gyro_quant_rad: f64,
+    pub accel_quant_mps: f64,
+}
+
+impl Default for ImuSpec {
+    fn default() -> Self {
+        Self {
+            rate_hz: 200.0,
+            bias_model: BiasModel::Gaussian,
+            gyro_bias_dph: 0.0,
+            accel_bias_ug: 0.0,
+            arw_dpsh: 0.0,
+            vrw_ug_psqhz: 0.0,
+            gm_gyro_sigma_dph: 0.0,
+            gm_gyro_tau_s: 3600.0,
+            gm_accel_sigma_ug: 0.0,
+            gm_accel_tau_s: 3600.0,
+            gyro_quant_rad: 0.0,
+            accel_quant_mps: 0.0,
+        }
+    }
+}
+
+/// One truth sample: position, velocity, attitude.
+#[derive(Debug, Clone, Copy)]
+pub struct TruthSample {
+    pub r_e: Vector3<f64>,
+    pub v_e: Vector3<f64>,
+    pub q_b_e: UnitQuaternion<f64>,
+}
 
 /// Speed of light (m/s).
 pub const C_LIGHT: f64 = 299_792_458.0;
@@ -183,6 +246,18 @@ pub fn baro_sample(
     }
 }
 
+/// A star tracker's mounting and noise.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StarSensor {
+    /// The boresight, body axes (normalized here).
+    pub boresight_b: [f64; 3],
+    /// 1-σ across and about the boresight (arcsec).
+    pub sigma_cross_arcsec: f64,
+    pub sigma_boresight_arcsec: f64,
+    /// A fixed mounting rotation about body x, y, z (arcsec).
+    pub misalignment_arcsec: [f64; 3],
+}
+
 /// One arcsecond (rad).
 const ARCSEC: f64 = std::f64::consts::PI / (180.0 * 3600.0);
 
@@ -195,15 +270,15 @@ pub fn star_sample(
     t_ns: u64,
     seq: u64,
     q_b_e: &UnitQuaternion<f64>,
-    spec: &crate::scenario::StarSpec,
+    star: &StarSensor,
     noisy: bool,
 ) -> StarSample {
-    let b = Vector3::from(spec.boresight_b).normalize();
-    let (sc, sb) = (spec.sigma_arcsec, spec.boresight_sigma());
+    let b = Vector3::from(star.boresight_b).normalize();
+    let (sc, sb) = (star.sigma_cross_arcsec, star.sigma_boresight_arcsec);
     let q_e_i = UnitQuaternion::from_rotation_matrix(&c_e_i(t_ns as f64 * 1e-9));
     let mut q = q_e_i * q_b_e;
     if noisy {
-        let mu = Vector3::from(spec.misalignment_arcsec) * ARCSEC;
+        let mu = Vector3::from(star.misalignment_arcsec) * ARCSEC;
         // Two axes across the boresight.
         let a = if b.x.abs() < 0.9 {
             Vector3::x()
@@ -234,19 +309,6 @@ pub struct Body {
     pub los_i: Vector3<f64>,
     pub vel_i: Vector3<f64>,
     pub rest_wavelength_m: f64,
-}
-
-impl Body {
-    pub fn from_spec(b: &BodySpec) -> Self {
-        let (sr, cr) = b.ra_deg.to_radians().sin_cos();
-        let (sd, cd) = b.dec_deg.to_radians().sin_cos();
-        Self {
-            id: b.id,
-            los_i: Vector3::new(cd * cr, cd * sr, sd),
-            vel_i: Vector3::from(b.vel_i_mps),
-            rest_wavelength_m: b.rest_wavelength_nm * 1e-9,
-        }
-    }
 }
 
 /// Built-in catalogue: 24 directions spread evenly over the sphere (Fibonacci

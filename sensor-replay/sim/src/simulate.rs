@@ -3,14 +3,15 @@
 use std::io::Write;
 
 use msgs::navlog::{Header, NavlogWriter, Record, TruthBias, WriteError};
-use msgs::{ImuSample, InitState, PerAid, TruthRecord};
+use msgs::{AidKind, AidSample, ImuSample, InitState, PerAid, TruthRecord};
 use nalgebra::{UnitQuaternion, Vector3};
 use polarnav::earth;
 use polarnav::frames;
 use rand::SeedableRng;
 use rand_chacha::ChaCha20Rng;
 
-use crate::scenario::Scenario;
+use crate::aids::SimAid;
+use crate::scenario::{Scenario, SpecOf};
 use crate::sensors::{self, ImuErrorModel};
 use crate::trajectory::{Flight, TruthSample};
 
@@ -169,6 +170,88 @@ impl Schedule {
     }
 }
 
+/// One aid of a flight: its section, state, schedule and generator.
+trait Stream: std::fmt::Debug {
+    /// The sample due at or before `t_ns` (once per period), if one is.
+    fn step(
+        &mut self,
+        shared: &mut ChaCha20Rng,
+        t_ns: u64,
+        truth: &TruthSample,
+        noisy: bool,
+    ) -> Option<AidSample>;
+}
+
+#[derive(Debug)]
+struct Running<A: SimAid> {
+    spec: A::Spec,
+    state: A::State,
+    sched: Schedule,
+    own_rng: Option<ChaCha20Rng>,
+}
+
+impl<A: SimAid + SpecOf> Stream for Running<A> {
+    fn step(
+        &mut self,
+        shared: &mut ChaCha20Rng,
+        t_ns: u64,
+        truth: &TruthSample,
+        noisy: bool,
+    ) -> Option<AidSample> {
+        if !self.sched.due(t_ns) {
+            return None;
+        }
+        let rng = self.own_rng.as_mut().unwrap_or(shared);
+        let seq = self.sched.seq - 1;
+        let x = A::sample(&self.spec, &mut self.state, rng, t_ns, seq, truth, noisy);
+        Some(x.into())
+    }
+}
+
+/// The aid streams of a scenario, in the declared order.
+#[derive(Debug)]
+pub struct Streams(Vec<Box<dyn Stream>>);
+
+impl Streams {
+    /// Every aid the scenario has a section for, seeded from `seed`.
+    pub fn new(s: &Scenario, seed: u64) -> Self {
+        let mut v: Vec<Box<dyn Stream>> = Vec::new();
+        for k in AidKind::ALL {
+            msgs::match_aid_kind!(k, P => {
+                if let Some(spec) = P::spec(s) {
+                    v.push(Box::new(Running::<P> {
+                        spec: spec.clone(),
+                        state: P::start(spec),
+                        sched: Schedule::new(P::rate_hz(spec)),
+                        own_rng: P::OWN_STREAM.map(|stream| {
+                            let mut r = ChaCha20Rng::seed_from_u64(seed);
+                            r.set_stream(stream);
+                            r
+                        }),
+                    }));
+                }
+            });
+        }
+        Self(v)
+    }
+
+    /// The samples due at or before `t_ns`, in the declared order.
+    pub fn step(
+        &mut self,
+        shared: &mut ChaCha20Rng,
+        t_ns: u64,
+        truth: &TruthSample,
+        noisy: bool,
+        mut out: impl FnMut(AidSample),
+    ) {
+        for s in &mut self.0 {
+            if let Some(x) = s.step(shared, t_ns, truth, noisy) {
+                out(x);
+            }
+        }
+    }
+}
+
 /// Runs the scenario and writes the navlog.
 pub fn simulate<W: Write>(
     s: &Scenario,
@@ -220,7 +303,7 @@ pub fn simulate<W: Write>(
     let dt_ns = period_ns(s.imu.rate_hz);
     let n = (s.duration_s() * 1e9 / dt_ns as f64).floor() as u64;
     let mut truth_sched = Schedule::new(s.truth.rate_hz);
-    let mut aids = crate::aids::Streams::new(s, opts.seed);
+    let mut aids = Streams::new(s, opts.seed);
     let mut sum = SimSummary::default();
     let noisy = !opts.perfect;
     let mut inject = crate::faults::Injector::new(s.faults.as_ref().filter(|_| opts.faults));

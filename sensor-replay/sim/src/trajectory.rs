@@ -14,11 +14,12 @@
 //! Δθ = ∫ω_ib^b dt and Δv = ∫f^b dt are consistent with the truth to the
 //! integrator's precision (far below the mechanization's own error).
 
-use nalgebra::{Matrix3, UnitQuaternion, Vector3};
+use nalgebra::{Matrix3, Vector3};
 use polarnav::earth::{self, Geodetic};
 use polarnav::frames;
 
 use crate::scenario::{BankMode, Scenario, Segment};
+pub use crate::sensors::TruthSample;
 
 /// Smooth ramp: s(τ) = ½(1 − cos(πτ/r)) rises 0→1 over [0, r].
 fn ramp(tau: f64, r: f64) -> (f64, f64, f64) {
@@ -250,14 +251,6 @@ fn axpy(y: &TruthState, h: f64, d: &TruthState) -> TruthState {
         int_omega_b: y.int_omega_b + d.int_omega_b * h,
         int_f_b: y.int_f_b + d.int_f_b * h,
     }
-}
-
-/// One truth sample: position, velocity, attitude.
-#[derive(Debug, Clone, Copy)]
-pub struct TruthSample {
-    pub r_e: Vector3<f64>,
-    pub v_e: Vector3<f64>,
-    pub q_b_e: UnitQuaternion<f64>,
 }
 
 /// Generates the flight sample by sample.

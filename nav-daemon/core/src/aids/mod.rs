@@ -20,9 +20,9 @@ use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 use serde::de::DeserializeOwned;
 use serde::{Deserialize, Serialize};
 
+use crate::bounds::SettingsError;
 use crate::earth;
 use crate::mech::AnyNav;
-use crate::settings::SettingsError;
 
 /// What the navigator needs of an aid: its measurement model. Each aid's
 /// payload implements it in the aid's own module.
