@@ -18,6 +18,7 @@ pub mod aids;
 pub mod align;
 pub mod bounds;
 pub mod checkpoint;
+pub mod chi2;
 pub mod earth;
 pub mod error_model;
 pub mod filter;

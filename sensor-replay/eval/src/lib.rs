@@ -3,7 +3,8 @@
 //! estimator's health from its own outputs when it has none, and draws the
 //! figures. Depends on no transport.
 
-pub mod chi2;
+/// The χ² distribution (the core's, shared with its integrity test).
+pub use polarnav::chi2;
 pub mod envelope;
 pub mod eval;
 pub mod logfile;

@@ -1,5 +1,7 @@
-//! χ² distribution: cumulative distribution and quantiles, for the
-//! consistency tests of the review (normalized innovation squared).
+//! χ² distribution: cumulative distribution, upper tail and quantiles, for
+//! the integrity test of the aids that are not autonomous (an alarm
+//! threshold at a false-alarm probability of 1e-7) and the consistency
+//! tests of the review (normalized innovation squared).
 //!
 //! The CDF is the regularized lower incomplete gamma function P(k/2, x/2)
 //! (series below a + 1, Lentz continued fraction above; Numerical Recipes
@@ -35,10 +37,13 @@ fn ln_gamma(x: f64) -> f64 {
     0.5 * (2.0 * std::f64::consts::PI).ln() + (x + 0.5) * t.ln() - t + a.ln()
 }
 
-/// Regularized lower incomplete gamma P(a, x), a > 0, x ≥ 0.
-fn gamma_p(a: f64, x: f64) -> f64 {
+/// Regularized lower and upper incomplete gamma, (P(a, x), Q(a, x)), each
+/// computed where it is accurate: the series for P below a + 1, the
+/// continued fraction for Q above, the other as one minus it (so a tail of
+/// 1e-12 keeps its digits).
+fn gamma_pq(a: f64, x: f64) -> (f64, f64) {
     if x <= 0.0 {
-        return 0.0;
+        return (0.0, 1.0);
     }
     let ln_pre = -x + a * x.ln() - ln_gamma(a);
     if x < a + 1.0 {
@@ -51,7 +56,8 @@ fn gamma_p(a: f64, x: f64) -> f64 {
                 break;
             }
         }
-        (sum.ln() + ln_pre).exp().min(1.0)
+        let p = (sum.ln() + ln_pre).exp().min(1.0);
+        (p, 1.0 - p)
     } else {
         const TINY: f64 = 1e-300;
         let mut b = x + 1.0 - a;
@@ -76,8 +82,14 @@ fn gamma_p(a: f64, x: f64) -> f64 {
                 break;
             }
         }
-        (1.0 - (ln_pre + h.ln()).exp()).max(0.0)
+        let q = (ln_pre + h.ln()).exp().min(1.0);
+        ((1.0 - q).max(0.0), q)
     }
+}
+
+/// Regularized lower incomplete gamma P(a, x), a > 0, x ≥ 0.
+fn gamma_p(a: f64, x: f64) -> f64 {
+    gamma_pq(a, x).0
 }
 
 /// P(X ≤ x) for X ~ χ²(k).
@@ -147,6 +159,39 @@ pub fn normal_quantile(p: f64) -> f64 {
     let e = phi(x) - p;
     let u = e * (2.0 * std::f64::consts::PI).sqrt() * (0.5 * x * x).exp();
     x - u / (1.0 + 0.5 * x * u)
+}
+
+/// P(X > x) for X ~ χ²(k): the upper tail, accurate far out (1e-15).
+pub fn sf(x: f64, k: f64) -> f64 {
+    gamma_pq(0.5 * k, 0.5 * x).1
+}
+
+/// The x with P(X > x) = `alpha` for X ~ χ²(k) (0 < alpha < 1), found on
+/// the upper tail itself, so that a false-alarm probability of 1e-12
+/// keeps its digits (`quantile(1 − alpha)` would lose them).
+pub fn quantile_upper(alpha: f64, k: f64) -> f64 {
+    if k.is_nan() || k <= 0.0 || alpha.is_nan() || alpha <= 0.0 || alpha >= 1.0 {
+        return f64::NAN;
+    }
+    let (mut lo, mut hi) = (0.0, k.max(1.0));
+    while sf(hi, k) > alpha {
+        hi *= 2.0;
+        if !hi.is_finite() {
+            return f64::INFINITY;
+        }
+    }
+    for _ in 0..200 {
+        let mid = 0.5 * (lo + hi);
+        if sf(mid, k) > alpha {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+        if hi - lo < 1e-12 * hi.max(1e-300) {
+            break;
+        }
+    }
+    0.5 * (lo + hi)
 }
 
 /// The quantile of χ²(k) at probability `p` (0 < p < 1).
@@ -239,6 +284,29 @@ mod tests {
         ] {
             assert!((normal_quantile(p) - z).abs() < 1e-9, "{p}");
         }
+    }
+
+    /// The upper tail against closed forms: χ²(2) has Q = e^(−x/2),
+    /// χ²(6) has Q = e^(−x/2)(1 + x/2 + x²/8); the quantiles of tiny
+    /// tails invert them to 1e-9.
+    #[test]
+    fn the_upper_tail_and_its_quantiles_match_closed_forms() {
+        for x in [0.1, 1.0, 5.0, 30.0, 80.0, 200.0] {
+            let q2 = (-x / 2.0_f64).exp();
+            assert!((sf(x, 2.0) / q2 - 1.0).abs() < 1e-12, "χ²(2) at {x}");
+            let q6 = (-x / 2.0_f64).exp() * (1.0 + x / 2.0 + x * x / 8.0);
+            assert!((sf(x, 6.0) / q6 - 1.0).abs() < 1e-12, "χ²(6) at {x}");
+        }
+        for alpha in [1e-3, 1e-7, 1e-12] {
+            let x = quantile_upper(alpha, 2.0);
+            assert!((x - (-2.0 * f64::ln(alpha))).abs() < 1e-9 * x, "{alpha}: {x}");
+            let x6 = quantile_upper(alpha, 6.0);
+            let q6 = (-x6 / 2.0).exp() * (1.0 + x6 / 2.0 + x6 * x6 / 8.0);
+            assert!((q6 / alpha - 1.0).abs() < 1e-9, "{alpha}: {x6}");
+        }
+        // The lower quantile agrees where both are accurate.
+        assert!((quantile_upper(1e-3, 3.0) - quantile(0.999, 3.0)).abs() < 1e-9);
+        assert!(quantile_upper(f64::NAN, 3.0).is_nan() && quantile_upper(0.0, 3.0).is_nan());
     }
 
     #[test]
