@@ -274,7 +274,9 @@ pub fn run(records: &[Record], cfg: &NavigatorConfig, init: Option<InitState>) -
     out.fused = st.each_aid().map(|(_, c, _)| c.accepted).sum();
     out.rejected = st
         .each_aid()
-        .map(|(_, c, _)| c.rejected_invalid + c.rejected_time + c.rejected_gate)
+        .map(|(_, c, _)| {
+            c.rejected_invalid + c.rejected_time + c.rejected_gate + c.rejected_integrity
+        })
         .sum();
     out
 }

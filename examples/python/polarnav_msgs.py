@@ -33,6 +33,8 @@ FRAME_GRID = 1
 AIDS = ("srs", "cns", "baro", "star")
 AID_COUNT = len(AIDS)
 STREAM_COUNT = AID_COUNT + 1
+MAX_COMPONENTS = 6
+MAX_CAUSES = 4
 
 
 class Solution(ctypes.Structure):
@@ -86,6 +88,7 @@ class StreamCounters(ctypes.Structure):
         ("rejected_invalid", ctypes.c_uint64),
         ("rejected_time", ctypes.c_uint64),
         ("rejected_gate", ctypes.c_uint64),
+        ("rejected_integrity", ctypes.c_uint64),
         ("not_used", ctypes.c_uint64),
         ("seq_gaps", ctypes.c_uint64),
         ("last_t_ns", ctypes.c_uint64),
@@ -94,29 +97,36 @@ class StreamCounters(ctypes.Structure):
 
     @staticmethod
     def type_name() -> str:
-        return "polarnav::StreamCounters_v3"
+        return "polarnav::StreamCounters_v4"
 
 
 class AidStatus(ctypes.Structure):
     """Status of one aid (the same record for every aid)."""
 
     _fields_ = [
-        ("innovation", V3),
-        ("innovation_var", V3),
+        ("innovation", ctypes.c_double * MAX_COMPONENTS),
+        ("innovation_var", ctypes.c_double * MAX_COMPONENTS),
         ("test_ratio", ctypes.c_double),
         ("last_fuse_t_ns", ctypes.c_uint64),
         ("exclusions", ctypes.c_uint64),
+        # An aid that is not autonomous (GNSS): its integrity test.
+        ("integrity_ratio", ctypes.c_double),
+        ("excluded_since_t_ns", ctypes.c_uint64),
+        # Samples refused before fusion, by the aid's causes (first: invalid content).
+        ("refused", ctypes.c_uint64 * MAX_CAUSES),
         ("fused", ctypes.c_uint8),
         ("fresh", ctypes.c_uint8),
         # The frame the last innovation was made in: 1 + WireFrame (1 geographic,
         # 2 grid), 0 = not known (no update yet, or a daemon before this field).
         ("made_in_frame", ctypes.c_uint8),
-        ("_pad", ctypes.c_uint8 * 5),
+        ("excluded", ctypes.c_uint8),
+        ("exclusion_cause", ctypes.c_uint8),
+        ("_pad", ctypes.c_uint8 * 3),
     ]
 
     @staticmethod
     def type_name() -> str:
-        return "polarnav::AidStatus_v2"
+        return "polarnav::AidStatus_v3"
 
 
 class Status(ctypes.Structure):
@@ -160,7 +170,7 @@ class Status(ctypes.Structure):
 
     @staticmethod
     def type_name() -> str:
-        return "polarnav::Status_v4"
+        return "polarnav::Status_v5"
 
 
 class StarSample(ctypes.Structure):

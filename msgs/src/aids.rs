@@ -55,6 +55,14 @@ pub enum AidKind {
     Star = 3,
 }
 
+/// The most innovation components an aid has (the length of
+/// `AidStatus::innovation`).
+pub const MAX_COMPONENTS: usize = 6;
+
+/// The most causes an aid refuses a sample for before fusion (the length
+/// of `AidStatus::refused`).
+pub const MAX_CAUSES: usize = 4;
+
 /// Number of aids (the length of `Status::aids`).
 pub const AID_COUNT: usize = 4;
 /// Number of input streams with counters: the IMU and the aids (the
@@ -84,6 +92,9 @@ macro_rules! for_each_aid {
                 ],
                 gate: 16.266,
                 timeout_s: 3.0,
+                causes: &["invalid content"],
+                autonomous: true,
+                excluded_flag: 0,
             }),
             (Cns, cns, CnsFix, {
                 label: "CNS",
@@ -96,6 +107,9 @@ macro_rules! for_each_aid {
                 ],
                 gate: 13.816,
                 timeout_s: 3.0,
+                causes: &["invalid content"],
+                autonomous: true,
+                excluded_flag: 0,
             }),
             (Baro, baro, BaroSample, {
                 label: "baro",
@@ -105,6 +119,9 @@ macro_rules! for_each_aid {
                 components: &[Component::new("up", Unit::M)],
                 gate: 10.828,
                 timeout_s: 1.0,
+                causes: &["invalid content"],
+                autonomous: true,
+                excluded_flag: 0,
             }),
             (Star, star, StarSample, {
                 label: "star",
@@ -118,6 +135,9 @@ macro_rules! for_each_aid {
                 ],
                 gate: 16.266,
                 timeout_s: 3.0,
+                causes: &["invalid content"],
+                autonomous: true,
+                excluded_flag: 0,
             }),
         ] }
     };
@@ -197,6 +217,18 @@ pub struct AidDecl {
     /// timeout (s) after which it is stale.
     pub gate: f64,
     pub timeout_s: f64,
+    /// Why a sample is refused before fusion, in the order of
+    /// `AidStatus::refused`: the first is always invalid content
+    /// (non-finite or physically impossible), the rest are the aid's own
+    /// quality checks (at most [`MAX_CAUSES`] in all).
+    pub causes: &'static [&'static str],
+    /// Trusted on its own: false for an aid that can be jammed or spoofed
+    /// (GNSS), which is fused only while it agrees with the autonomous
+    /// aids (the session's integrity test).
+    pub autonomous: bool,
+    /// Its bit of the solution's flags while its integrity test excludes
+    /// it (0 for an autonomous aid).
+    pub excluded_flag: u32,
 }
 
 impl AidDecl {
@@ -347,6 +379,17 @@ impl AidKind {
     /// The names of all aids, comma-separated (for messages).
     pub fn names() -> String {
         Self::ALL.map(AidKind::name).join(", ")
+    }
+
+    /// The exclusion bits of every aid that has one.
+    pub const fn all_excluded_flags() -> u32 {
+        let mut f = 0;
+        let mut k = 0;
+        while k < AID_COUNT {
+            f |= Self::ALL[k].decl().excluded_flag;
+            k += 1;
+        }
+        f
     }
 
     /// The freshness bits of every aid.
@@ -539,7 +582,27 @@ mod tests {
             assert_eq!(d.fresh_flag.count_ones(), 1, "{}", d.name);
             assert_eq!(flags & d.fresh_flag, 0, "{}: flag used twice", d.name);
             flags |= d.fresh_flag;
-            assert!(!d.components.is_empty() && d.components.len() <= 6);
+            assert!(!d.components.is_empty() && d.components.len() <= MAX_COMPONENTS);
+            assert!(!d.causes.is_empty() && d.causes.len() <= MAX_CAUSES);
+            assert_eq!(d.autonomous, d.excluded_flag == 0, "{}", d.name);
+            if d.excluded_flag != 0 {
+                assert_eq!(d.excluded_flag.count_ones(), 1, "{}", d.name);
+                assert_eq!(flags & d.excluded_flag, 0, "{}: flag used twice", d.name);
+                flags |= d.excluded_flag;
+            }
+            // The components of one unit are neighbours (the integrity
+            // test takes each unit's block as a run).
+            let units: Vec<&str> = d.components.iter().map(|c| c.unit.shown()).collect();
+            for (i, u) in units.iter().enumerate() {
+                assert!(
+                    !units[i + 1..]
+                        .iter()
+                        .skip_while(|x| *x == u)
+                        .any(|x| x == u),
+                    "{}: the {u} components are not neighbours",
+                    d.name
+                );
+            }
             assert!(d.gate >= d.dof() as f64 && d.timeout_s > 0.0);
             assert_eq!(AidKind::from_name(d.name), Some(k));
             assert_eq!(AidKind::from_record(d.record), Some(k));

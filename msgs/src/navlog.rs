@@ -31,7 +31,11 @@ pub const MAGIC: [u8; 8] = *b"POLARNAV";
 /// (or -2) file is read through its old `_v2` layout and converted, with
 /// the bias σ unknown (NaN); a format-3 reader skips a format-4 solution
 /// record as undecodable and reads the rest.
-pub const FORMAT_VERSION: u16 = 4;
+/// 5: the `_v5` status record (a sixth component of every aid's status:
+/// 6 innovation components, refusals by cause, the integrity test; and
+/// `rejected_integrity` per stream). A status record of format 4 or before
+/// does not decode and is skipped as incompatible; every other record reads.
+pub const FORMAT_VERSION: u16 = 5;
 /// Frames longer than this are treated as corruption (the largest record is ~1 kB
 /// plus the header's scenario text).
 pub const MAX_FRAME_BYTES: usize = 1 << 20;

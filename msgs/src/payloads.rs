@@ -298,7 +298,7 @@ pub struct TruthRecord {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::aids::{AID_COUNT, STREAM_COUNT};
+    use crate::aids::{AID_COUNT, MAX_CAUSES, MAX_COMPONENTS, STREAM_COUNT};
     use crate::status::{AidStatus, Status, StreamCounters};
     use core::mem::{align_of, size_of};
 
@@ -337,8 +337,11 @@ mod tests {
                 + 1
                 + 3
         );
-        assert_eq!(size_of::<StreamCounters>(), 9 * 8);
-        assert_eq!(size_of::<AidStatus>(), 48 + 8 + 8 + 8 + 8);
+        assert_eq!(size_of::<StreamCounters>(), 10 * 8);
+        assert_eq!(
+            size_of::<AidStatus>(),
+            2 * MAX_COMPONENTS * 8 + 5 * 8 + MAX_CAUSES * 8 + 8
+        );
         assert_eq!(
             size_of::<Status>(),
             16 + STREAM_COUNT * size_of::<StreamCounters>()

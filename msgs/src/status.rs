@@ -8,27 +8,32 @@
 use iceoryx2::prelude::ZeroCopySend;
 use serde::{Deserialize, Serialize};
 
-use crate::aids::{AID_COUNT, AidKind, STREAM_COUNT, Stream};
+use crate::aids::{AID_COUNT, AidKind, MAX_CAUSES, MAX_COMPONENTS, STREAM_COUNT, Stream};
 use crate::payloads::WireFrame;
 
 /// Counters of one input stream. Every received sample is counted once, as
-/// accepted or under one rejection reason:
-/// `received = accepted + rejected_invalid + rejected_time + rejected_gate + not_used`.
+/// accepted or under one rejection reason ([`StreamCounters::decided`]):
+/// `received = accepted + rejected_invalid + rejected_time + rejected_gate
+/// + rejected_integrity + not_used`.
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
 #[cfg_attr(feature = "iceoryx2", derive(ZeroCopySend))]
 #[repr(C)]
-#[cfg_attr(feature = "iceoryx2", type_name("polarnav::StreamCounters_v3"))]
+#[cfg_attr(feature = "iceoryx2", type_name("polarnav::StreamCounters_v4"))]
 pub struct StreamCounters {
     /// Samples received from the transport or log.
     pub received: u64,
     /// Samples that passed validation and were used.
     pub accepted: u64,
-    /// Rejected: non-finite or physically impossible values.
+    /// Rejected: non-finite or physically impossible values, or refused by
+    /// the aid's own quality checks (`AidStatus::refused` says which).
     pub rejected_invalid: u64,
     /// Rejected: time stamp not after the previous one (backwards or duplicate).
     pub rejected_time: u64,
     /// Rejected by the innovation gate (aids only).
     pub rejected_gate: u64,
+    /// Rejected because the aid is excluded by its integrity test (aids
+    /// that are not autonomous: GNSS).
+    pub rejected_integrity: u64,
     /// Not used: the aid is disabled, or there was no navigation state to apply
     /// the sample to (before the first init, or stamped before a re-initialization).
     pub not_used: u64,
@@ -42,22 +47,48 @@ pub struct StreamCounters {
     pub refused_publisher: u64,
 }
 
+impl StreamCounters {
+    /// Every outcome counted: equals `received` when each sample is
+    /// counted once.
+    pub fn decided(&self) -> u64 {
+        self.accepted
+            + self.rejected_invalid
+            + self.rejected_time
+            + self.rejected_gate
+            + self.rejected_integrity
+            + self.not_used
+    }
+}
+
 /// The status record every aid reports (one shape for every aid).
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
 #[cfg_attr(feature = "iceoryx2", derive(ZeroCopySend))]
 #[repr(C)]
-#[cfg_attr(feature = "iceoryx2", type_name("polarnav::AidStatus_v2"))]
+#[cfg_attr(feature = "iceoryx2", type_name("polarnav::AidStatus_v3"))]
 pub struct AidStatus {
-    /// Last innovation (measurement − prediction), up to 3 components.
-    pub innovation: [f64; 3],
+    /// Last innovation (measurement − prediction), up to
+    /// [`MAX_COMPONENTS`] components (the aid's declaration says how many
+    /// and their units); unused ones zero.
+    pub innovation: [f64; MAX_COMPONENTS],
     /// Its variance (diagonal of S).
-    pub innovation_var: [f64; 3],
+    pub innovation_var: [f64; MAX_COMPONENTS],
     /// χ² test ratio of the last innovation (test statistic / gate threshold).
     pub test_ratio: f64,
     /// Time of the last fused measurement (0 = never).
     pub last_fuse_t_ns: u64,
-    /// SRS: lines excluded by fault detection and exclusion (other aids: 0).
+    /// Exclusions by fault detection so far: SRS lines, and for an aid
+    /// that is not autonomous its exclusions by the integrity test.
     pub exclusions: u64,
+    /// An aid that is not autonomous: its last integrity test's statistic
+    /// over the alarm threshold (above 1 is an alarm; 0: no test yet, and
+    /// always 0 for an autonomous aid).
+    pub integrity_ratio: f64,
+    /// Since when it is excluded (ns; 0 when it is not).
+    pub excluded_since_t_ns: u64,
+    /// Samples refused before fusion, by the aid's causes (its
+    /// declaration's `causes`: the first is invalid content); they sum to
+    /// the stream's `rejected_invalid`.
+    pub refused: [u64; MAX_CAUSES],
     /// 1 if the last measurement was fused, 0 if rejected.
     pub fused: u8,
     /// 1 if the aid is fresh (within its timeout).
@@ -69,8 +100,13 @@ pub struct AidStatus {
     /// status. 0: not known (no update yet, or a sender before this field:
     /// the byte was padding, always zero). See [`AidStatus::made_in`].
     pub made_in_frame: u8,
+    /// 1 while the integrity test excludes the aid.
+    pub excluded: u8,
+    /// Why (`polarnav::integrity::cause`: 1 position, 2 velocity, 3 other
+    /// components inconsistent with the autonomous solution; 0 none).
+    pub exclusion_cause: u8,
     /// Always zero.
-    pub _pad: [u8; 5],
+    pub _pad: [u8; 3],
 }
 
 impl AidStatus {
@@ -89,7 +125,7 @@ impl AidStatus {
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
 #[cfg_attr(feature = "iceoryx2", derive(ZeroCopySend))]
 #[repr(C)]
-#[cfg_attr(feature = "iceoryx2", type_name("polarnav::Status_v4"))]
+#[cfg_attr(feature = "iceoryx2", type_name("polarnav::Status_v5"))]
 pub struct Status {
     pub t_ns: u64,
     pub seq: u64,

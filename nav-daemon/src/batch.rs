@@ -79,7 +79,9 @@ impl BatchReport {
         let fused = s.each_aid().map(|(_, c, _)| c.accepted).sum();
         let rejected = s
             .each_aid()
-            .map(|(_, c, _)| c.rejected_invalid + c.rejected_time + c.rejected_gate)
+            .map(|(_, c, _)| {
+                c.rejected_invalid + c.rejected_time + c.rejected_gate + c.rejected_integrity
+            })
             .sum();
         (fused, rejected)
     }

@@ -94,7 +94,7 @@ pub fn check_accounting(
     for (stream, p) in published.iter() {
         let name = stream.name();
         let c = status.counters(stream);
-        let sum = c.accepted + c.rejected_invalid + c.rejected_time + c.rejected_gate + c.not_used;
+        let sum = c.decided();
         if sum != c.received {
             return Err(format!(
                 "{name}: received {} but accepted {} + rejected {}/{}/{} + not used {} = {sum}",

@@ -945,11 +945,12 @@ fn python_ctypes_mirror_has_the_rust_layout() {
         reset_count, frame, _pad);
     rust.extend(
         offsets!(StreamCounters: received, accepted, rejected_invalid, rejected_time,
-        rejected_gate, not_used, seq_gaps, last_t_ns, refused_publisher),
+        rejected_gate, rejected_integrity, not_used, seq_gaps, last_t_ns, refused_publisher),
     );
     rust.extend(
         offsets!(AidStatus: innovation, innovation_var, test_ratio, last_fuse_t_ns,
-        exclusions, fused, fresh, made_in_frame, _pad),
+        exclusions, integrity_ratio, excluded_since_t_ns, refused, fused, fresh, made_in_frame,
+        excluded, exclusion_cause, _pad),
     );
     rust.extend(
         offsets!(Status: t_ns, seq, streams, aids, cycles, overruns, overruns_cpu, cycle_time_mean_ns, cycle_time_max_ns, last_switch_t_ns, imu_gap_count,
@@ -1692,7 +1693,12 @@ fn second_publisher_is_refused_counted_and_flagged_and_navigation_goes_on() {
     ] {
         assert_eq!(
             c.received,
-            c.accepted + c.rejected_invalid + c.rejected_time + c.rejected_gate + c.not_used,
+            c.accepted
+                + c.rejected_invalid
+                + c.rejected_time
+                + c.rejected_gate
+                + c.rejected_integrity
+                + c.not_used,
             "{c:?}"
         );
     }

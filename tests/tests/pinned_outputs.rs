@@ -37,7 +37,32 @@ const ADDED_SINCE_THE_PIN: &[(&str, &str)] = &[];
 /// with the change (exact item names). Everything else they carry is
 /// pinned by finer items: the navlog's frames after its header and the
 /// header's fields, each MCAP channel's messages.
-const CHANGED_SINCE_THE_PIN: &[(&str, &str)] = &[];
+const CHANGED_SINCE_THE_PIN: &[(&str, &str)] = &[
+    ("navlog file", FORMAT_5),
+    ("navlog record 00 (1 frames)", FORMAT_5),
+    ("navlog header format_version", FORMAT_5),
+    ("mcap metadata polarnav navlog_format_version", FORMAT_5),
+    ("mcap schema polarnav.AidUpdate", SCHEMA),
+    ("mcap schema polarnav.BaroSample", SCHEMA),
+    ("mcap schema polarnav.CnsFix", SCHEMA),
+    ("mcap schema polarnav.ImuSample", SCHEMA),
+    ("mcap schema polarnav.InitState", SCHEMA),
+    ("mcap schema polarnav.Solution", SCHEMA),
+    ("mcap schema polarnav.SrsSample", SCHEMA),
+    ("mcap schema polarnav.StarSample", SCHEMA),
+    ("mcap schema polarnav.Status", SCHEMA),
+    ("mcap schema polarnav.SwitchNote", SCHEMA),
+    ("mcap schema polarnav.Truth", SCHEMA),
+    ("mcap schema polarnav.TruthBias", SCHEMA),
+];
+
+/// The navlog's format version 4 → 5 (the `_v5` status record): the
+/// header's one field and what contains it.
+const FORMAT_5: &str = "navlog format 5, the _v5 status record (issue 29)";
+/// `polarnav.proto` grew: Status.aids (every aid by name),
+/// StreamCounters.rejected_integrity, AidStatus' integrity and refusal
+/// fields (issue 29). Every channel's messages stay pinned.
+const SCHEMA: &str = "polarnav.proto grew with the aids' status (issue 29)";
 
 /// The fields of `polarnav.Status` added since the pin, cleared before a
 /// `/status` message is hashed: every byte the message had at the pin
@@ -46,7 +71,27 @@ fn canonical(topic: &str, data: &[u8]) -> Vec<u8> {
     if topic != "/status" {
         return data.to_vec();
     }
-    let s: polarnav_proto::Status = prost::Message::decode(data).expect("a polarnav.Status");
+    let mut s: polarnav_proto::Status = prost::Message::decode(data).expect("a polarnav.Status");
+    s.aids.clear();
+    let legacy = [&mut s.imu, &mut s.srs, &mut s.cns, &mut s.baro, &mut s.star];
+    for c in legacy.into_iter().flatten() {
+        c.rejected_integrity = 0;
+    }
+    for a in [
+        &mut s.srs_aid,
+        &mut s.cns_aid,
+        &mut s.baro_aid,
+        &mut s.star_aid,
+    ]
+    .into_iter()
+    .flatten()
+    {
+        a.integrity_ratio = 0.0;
+        a.excluded = false;
+        a.excluded_since_t_ns = 0;
+        a.exclusion_cause.clear();
+        a.refused.clear();
+    }
     prost::Message::encode_to_vec(&s)
 }
 

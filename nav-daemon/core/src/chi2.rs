@@ -299,7 +299,10 @@ mod tests {
         }
         for alpha in [1e-3, 1e-7, 1e-12] {
             let x = quantile_upper(alpha, 2.0);
-            assert!((x - (-2.0 * f64::ln(alpha))).abs() < 1e-9 * x, "{alpha}: {x}");
+            assert!(
+                (x - (-2.0 * f64::ln(alpha))).abs() < 1e-9 * x,
+                "{alpha}: {x}"
+            );
             let x6 = quantile_upper(alpha, 6.0);
             let q6 = (-x6 / 2.0).exp() * (1.0 + x6 / 2.0 + x6 * x6 / 8.0);
             assert!((q6 / alpha - 1.0).abs() < 1e-9, "{alpha}: {x6}");

@@ -25,6 +25,7 @@ pub mod filter;
 pub mod frame_select;
 pub mod frames;
 pub mod inbox;
+pub mod integrity;
 pub mod mech;
 pub mod navigator;
 pub mod row_interval;

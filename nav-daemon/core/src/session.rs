@@ -38,7 +38,7 @@
 //!   IMU wait for it as they always do, so a late IMU costs nothing.
 //! - **Accounting**: every input is counted once, per stream:
 //!   `received = accepted + rejected_invalid + rejected_time + rejected_gate
-//!   + not_used`, and inits apart ([`InitCounters`]).
+//!   + rejected_integrity + not_used`, and inits apart ([`InitCounters`]).
 //!
 //! Work per input is bounded: no loop in here or in the navigator depends
 //! on a value of the input (gaps are bridged in at most

@@ -124,7 +124,7 @@ proptest! {
         let st = nav.status();
         for (c, n) in st.streams[..4].iter().zip(sent) {
             prop_assert_eq!(c.received, n);
-            prop_assert_eq!(c.received, c.accepted + c.rejected_invalid + c.rejected_time + c.rejected_gate + c.not_used);
+            prop_assert_eq!(c.received, c.accepted + c.rejected_invalid + c.rejected_time + c.rejected_gate + c.rejected_integrity + c.not_used);
         }
     }
 }

@@ -234,8 +234,12 @@ impl Harness {
             .iter()
             .zip(self.pushed)
         {
-            let sum =
-                c.accepted + c.rejected_invalid + c.rejected_time + c.rejected_gate + c.not_used;
+            let sum = c.accepted
+                + c.rejected_invalid
+                + c.rejected_time
+                + c.rejected_gate
+                + c.rejected_integrity
+                + c.not_used;
             if c.received != sum {
                 return Err(format!(
                     "(b) {name}: received {} != accepted + rejected + not_used = {sum} ({c:?})",

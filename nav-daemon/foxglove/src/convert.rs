@@ -124,6 +124,43 @@ fn counters(c: &StreamCounters) -> pb::StreamCounters {
         seq_gaps: c.seq_gaps,
         last_t_ns: c.last_t_ns,
         refused_publisher: c.refused_publisher,
+        rejected_integrity: c.rejected_integrity,
+    }
+}
+
+/// Aid `kind`'s status in a status record stamped `t_ns`, its last update
+/// converted where it was made (`at`). The integrity fields only for an
+/// aid that is not autonomous, the refusals only for causes that have some.
+fn aid_status(t_ns: u64, kind: AidKind, a: &AidStatus, at: UpdateAt) -> pb::AidStatus {
+    let decl = kind.decl();
+    let (integrity_ratio, excluded, excluded_since_t_ns, exclusion_cause) = if decl.autonomous {
+        (0.0, false, 0, String::new())
+    } else {
+        (
+            a.integrity_ratio,
+            a.excluded != 0,
+            a.excluded_since_t_ns,
+            polarnav::integrity::cause::text(a.exclusion_cause).to_owned(),
+        )
+    };
+    pb::AidStatus {
+        last: Some(aid_update(t_ns, kind, a, at)),
+        last_fuse_t_ns: a.last_fuse_t_ns,
+        fresh: a.fresh != 0,
+        integrity_ratio,
+        excluded,
+        excluded_since_t_ns,
+        exclusion_cause,
+        refused: decl
+            .causes
+            .iter()
+            .zip(a.refused)
+            .filter(|(_, n)| *n > 0)
+            .map(|(c, n)| pb::RefusedCount {
+                cause: (*c).to_owned(),
+                count: n,
+            })
+            .collect(),
     }
 }
 
@@ -132,11 +169,7 @@ fn counters(c: &StreamCounters) -> pb::StreamCounters {
 /// `FlightChannels::status`). The message's per-aid fields are those of
 /// the four aids it was written for (`polarnav.Status`' fields 4 to 11).
 pub fn status(st: &Status, made: &PerAid<UpdateAt>) -> pb::Status {
-    let aid = |kind: AidKind| pb::AidStatus {
-        last: Some(aid_update(st.t_ns, kind, st.aid(kind), made[kind])),
-        last_fuse_t_ns: st.aid(kind).last_fuse_t_ns,
-        fresh: st.aid(kind).fresh != 0,
-    };
+    let aid = |kind: AidKind| aid_status(st.t_ns, kind, st.aid(kind), made[kind]);
     let c = |kind: AidKind| Some(counters(st.aid_counters(kind)));
     pb::Status {
         t_ns: st.t_ns,
@@ -165,6 +198,14 @@ pub fn status(st: &Status, made: &PerAid<UpdateAt>) -> pb::Status {
         flags: st.flags,
         frame: nav_frame(st.frame),
         resumed: st.resumed != 0,
+        aids: st
+            .each_aid()
+            .map(|(k, c, _)| pb::NamedAid {
+                name: k.name().to_owned(),
+                counters: Some(counters(c)),
+                status: Some(aid(k)),
+            })
+            .collect(),
     }
 }
 
@@ -227,8 +268,8 @@ mod tests {
             let lon = 0.3;
             let (dlat, dlon) = (2e-7, -3e-7);
             let a = AidStatus {
-                innovation: [dlat, dlon, 0.0],
-                innovation_var: [1e-14, 4e-14, 0.0],
+                innovation: [dlat, dlon, 0.0, 0.0, 0.0, 0.0],
+                innovation_var: [1e-14, 4e-14, 0.0, 0.0, 0.0, 0.0],
                 ..Default::default()
             };
             let u = aid_update(
@@ -277,8 +318,8 @@ mod tests {
     #[test]
     fn a_cns_innovation_in_grid_is_left_in_metres() {
         let a = AidStatus {
-            innovation: [3.0, -4.0, 0.0],
-            innovation_var: [9.0, 16.0, 0.0],
+            innovation: [3.0, -4.0, 0.0, 0.0, 0.0, 0.0],
+            innovation_var: [9.0, 16.0, 0.0, 0.0, 0.0, 0.0],
             ..Default::default()
         };
         let u = aid_update(
@@ -383,8 +424,8 @@ mod tests {
             #[test]
             fn an_update_from_any_status_keeps_its_shape_and_sound_values(
                 kind in aid(),
-                v in proptest::array::uniform3(any_value()),
-                var in proptest::array::uniform3(any_value()),
+                v in proptest::array::uniform6(any_value()),
+                var in proptest::array::uniform6(any_value()),
                 lat in prop_oneof![4 => -std::f64::consts::FRAC_PI_2..=std::f64::consts::FRAC_PI_2, 1 => any_value()],
                 h in prop_oneof![4 => -1e4f64..1e5, 1 => any_value()],
                 frame in any::<u8>(),
@@ -411,7 +452,7 @@ mod tests {
                     other => other,
                 };
                 let comps = kind.decl().components;
-                let dim = comps.len().min(3);
+                let dim = comps.len();
                 // The dimensions of the aids the status was written for.
                 let written_for = match kind {
                     AidKind::Baro => Some(1),

@@ -138,7 +138,7 @@ enum Out {
 /// Which update of an aid a status reports: its gated count and the bits
 /// of its innovation (a restarted daemon counts from 0 again).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
-struct UpdateKey(u64, [u64; 3]);
+struct UpdateKey(u64, [u64; msgs::aids::MAX_COMPONENTS]);
 
 /// A message type of the mapping: its schema and how it encodes.
 trait Msg {
@@ -1082,8 +1082,8 @@ mod tests {
                 ..Status::default()
             };
             st.aid_counters_mut(AidKind::Star).accepted = star;
-            st.aid_mut(AidKind::Star).innovation = [innovation, 0.0, 0.0];
-            st.aid_mut(AidKind::Star).innovation_var = [1.0; 3];
+            st.aid_mut(AidKind::Star).innovation = [innovation, 0.0, 0.0, 0.0, 0.0, 0.0];
+            st.aid_mut(AidKind::Star).innovation_var = [1.0; 6];
             st.aid_mut(AidKind::Star).fused = 1;
             st
         };

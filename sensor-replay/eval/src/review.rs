@@ -15,7 +15,7 @@
 use std::fmt::Write as _;
 use std::path::Path;
 
-use msgs::aids::Unit;
+use msgs::aids::{MAX_COMPONENTS, Unit};
 use msgs::{AidKind, PerAid, Status, TruthRecord, solution_flags};
 use plotters::coord::Shift;
 use plotters::prelude::*;
@@ -164,7 +164,7 @@ pub fn nis_test(nis: &[(f64, bool)], dim: usize) -> Option<NisTest> {
 }
 
 /// One update: (t, innovation per component, σ per component, accepted, NIS).
-type AidSample = (f64, [f64; 3], [f64; 3], bool, f64);
+type AidSample = (f64, [f64; MAX_COMPONENTS], [f64; MAX_COMPONENTS], bool, f64);
 
 /// A figure's two halves: the panels and the legend strip.
 type Halves<DB> = (DrawingArea<DB, Shift>, DrawingArea<DB, Shift>);
@@ -182,8 +182,8 @@ struct AidSeries {
     /// Its figure's file name, `aid_NAME`.
     file: String,
     /// The unit each component is drawn in.
-    units: [&'static str; 3],
-    comps: [&'static str; 3],
+    units: [&'static str; MAX_COMPONENTS],
+    comps: [&'static str; MAX_COMPONENTS],
     points: Vec<AidSample>,
     dim: usize,
 }
@@ -192,7 +192,7 @@ impl AidSeries {
     /// The units of its components, distinct, in order ("m/s", "m, m/s").
     fn unit(&self) -> String {
         let mut u: Vec<&str> = Vec::new();
-        for x in &self.units[..self.dim.clamp(1, 3)] {
+        for x in &self.units[..self.dim.clamp(1, MAX_COMPONENTS)] {
             if !u.contains(x) {
                 u.push(x);
             }
@@ -255,10 +255,10 @@ fn aid_series(aids: &Aids, at: &Where) -> Vec<AidSeries> {
             continue;
         }
         let decl = kind.decl();
-        let mut units = [""; 3];
-        let mut comps = [""; 3];
-        let mut factor = [1.0; 3];
-        for (k, c) in decl.components.iter().take(3).enumerate() {
+        let mut units = [""; MAX_COMPONENTS];
+        let mut comps = [""; MAX_COMPONENTS];
+        let mut factor = [1.0; MAX_COMPONENTS];
+        for (k, c) in decl.components.iter().take(MAX_COMPONENTS).enumerate() {
             (units[k], factor[k]) = drawn(c.unit);
             comps[k] = c.label;
         }
@@ -280,7 +280,7 @@ fn aid_series(aids: &Aids, at: &Where) -> Vec<AidSeries> {
                     })
                 {
                     let [n, e] = polarnav::earth::metres_per_radian(lat, h);
-                    for (k, c) in decl.components.iter().take(3).enumerate() {
+                    for (k, c) in decl.components.iter().take(MAX_COMPONENTS).enumerate() {
                         match c.unit {
                             Unit::LatitudeInG => scale[k] = n,
                             Unit::LongitudeInG => scale[k] = e,
@@ -290,9 +290,9 @@ fn aid_series(aids: &Aids, at: &Where) -> Vec<AidSeries> {
                 }
                 let mut nis = 0.0;
                 let mut m = 0;
-                let mut v = [f64::NAN; 3];
-                let mut sig = [f64::NAN; 3];
-                for k in 0..3 {
+                let mut v = [f64::NAN; MAX_COMPONENTS];
+                let mut sig = [f64::NAN; MAX_COMPONENTS];
+                for k in 0..MAX_COMPONENTS {
                     let var = a.innovation_var[k];
                     if var > 0.0 && var.is_finite() {
                         nis += a.innovation[k] * a.innovation[k] / var;
@@ -322,7 +322,7 @@ fn aid_series(aids: &Aids, at: &Where) -> Vec<AidSeries> {
 /// (a live recording: one per status, 1 Hz), one point per new update.
 pub fn aids_from_status(status: &[Status]) -> Option<Aids> {
     let mut a = Aids::default();
-    let mut last: PerAid<Option<(u64, [u64; 3])>> = PerAid::default();
+    let mut last: PerAid<Option<(u64, [u64; MAX_COMPONENTS])>> = PerAid::default();
     for st in status {
         for (k, c, s) in st.each_aid() {
             if c.accepted + c.rejected_gate == 0 {
@@ -1759,15 +1759,15 @@ mod tests {
         assert!(aids_from_status(&[st]).is_none());
         st.t_ns = 1_000_000_000;
         st.aid_counters_mut(AidKind::Baro).accepted = 1;
-        st.aid_mut(AidKind::Baro).innovation = [2.0, 0.0, 0.0];
-        st.aid_mut(AidKind::Baro).innovation_var = [4.0, 0.0, 0.0];
+        st.aid_mut(AidKind::Baro).innovation = [2.0, 0.0, 0.0, 0.0, 0.0, 0.0];
+        st.aid_mut(AidKind::Baro).innovation_var = [4.0, 0.0, 0.0, 0.0, 0.0, 0.0];
         st.aid_mut(AidKind::Baro).fused = 1;
         let mut later = st;
         later.t_ns = 2_000_000_000;
         let mut next = later;
         next.t_ns = 3_000_000_000;
         next.aid_counters_mut(AidKind::Baro).rejected_gate = 1;
-        next.aid_mut(AidKind::Baro).innovation = [40.0, 0.0, 0.0];
+        next.aid_mut(AidKind::Baro).innovation = [40.0, 0.0, 0.0, 0.0, 0.0, 0.0];
         next.aid_mut(AidKind::Baro).fused = 0;
         let a = aids_from_status(&[st, later, next]).expect("aids");
         assert!(
@@ -1803,8 +1803,8 @@ mod tests {
             ..Status::default()
         };
         st.aid_counters_mut(AidKind::Cns).accepted = 1;
-        st.aid_mut(AidKind::Cns).innovation = [1e-6, -2e-6, 0.0];
-        st.aid_mut(AidKind::Cns).innovation_var = [1e-12, 1e-12, 0.0];
+        st.aid_mut(AidKind::Cns).innovation = [1e-6, -2e-6, 0.0, 0.0, 0.0, 0.0];
+        st.aid_mut(AidKind::Cns).innovation_var = [1e-12, 1e-12, 0.0, 0.0, 0.0, 0.0];
         st.aid_mut(AidKind::Cns).fused = 1;
         let [n, e] = polarnav::earth::metres_per_radian(lat, h);
         for (made_in_frame, scale) in [(1u8, [n, e]), (2, [1.0, 1.0]), (0, [1.0, 1.0])] {

@@ -12,7 +12,7 @@ use mcap::records::Record;
 use mcap::sans_io::linear_reader::{LinearReadEvent, LinearReader, LinearReaderOptions};
 
 use msgs::Solution;
-use msgs::aids::Unit;
+use msgs::aids::{MAX_COMPONENTS, Unit};
 use msgs::{AidKind, PerAid};
 use polarnav::solution_csv::{self, Row};
 use polarnav_proto as pb;
@@ -24,9 +24,11 @@ use serde::Deserialize;
 #[derive(Debug, Clone, Copy, PartialEq, Deserialize)]
 pub struct AidPoint {
     pub t_ns: u64,
-    /// Up to 3 components, unused ones with zero variance.
-    pub innovation: [f64; 3],
-    pub innovation_var: [f64; 3],
+    /// Up to `MAX_COMPONENTS` components, unused ones with zero variance.
+    #[serde(deserialize_with = "components")]
+    pub innovation: [f64; MAX_COMPONENTS],
+    #[serde(deserialize_with = "components")]
+    pub innovation_var: [f64; MAX_COMPONENTS],
     pub test_ratio: f64,
     pub fused: u8,
     /// The innovation is in the aid's one physical unit (m/s, m, m, rad)
@@ -61,8 +63,8 @@ impl AidPoint {
     }
 
     /// The update a protobuf `polarnav.AidUpdate` of aid `aid`'s channel
-    /// carries. The components of the aid's innovation (its declaration's,
-    /// at most 3) are in the pair of fields of their units, in order, each
+    /// carries. The components of the aid's innovation (its declaration's)
+    /// are in the pair of fields of their units, in order, each
     /// with its σ: a pair may hold fewer (the last ones read as unused) but
     /// not more, and the pairs of units the aid has none of must be empty;
     /// anything else is refused, saying what the message holds.
@@ -79,8 +81,8 @@ impl AidPoint {
         };
         let comps = aid.decl().components;
         let mut next = [0usize; 3];
-        let mut innovation = [0.0; 3];
-        let mut innovation_var = [0.0; 3];
+        let mut innovation = [0.0; MAX_COMPONENTS];
+        let mut innovation_var = [0.0; MAX_COMPONENTS];
         for (unit, name, v, sd) in pairs {
             let want = comps.iter().filter(|c| shown(c.unit) == unit).count();
             if v.len() != sd.len() || v.len() > want {
@@ -91,7 +93,7 @@ impl AidPoint {
                 ));
             }
         }
-        for (k, c) in comps.iter().take(3).enumerate() {
+        for (k, c) in comps.iter().take(MAX_COMPONENTS).enumerate() {
             let p = pairs.iter().position(|p| p.0 == shown(c.unit)).unwrap_or(1);
             let (_, _, v, sd) = pairs[p];
             if let (Some(x), Some(d)) = (v.get(next[p]), sd.get(next[p])) {
@@ -110,6 +112,21 @@ impl AidPoint {
             made_in_frame: 0,
         })
     }
+}
+
+/// An innovation of up to `MAX_COMPONENTS` components from a JSON message
+/// of an earlier version (3 then), the rest zero.
+fn components<'de, D: serde::Deserializer<'de>>(d: D) -> Result<[f64; MAX_COMPONENTS], D::Error> {
+    let v: Vec<f64> = Vec::deserialize(d)?;
+    if v.len() > MAX_COMPONENTS {
+        return Err(serde::de::Error::custom(format!(
+            "{} innovation components, at most {MAX_COMPONENTS}",
+            v.len()
+        )));
+    }
+    let mut out = [0.0; MAX_COMPONENTS];
+    out[..v.len()].copy_from_slice(&v);
+    Ok(out)
 }
 
 impl AidPoint {
@@ -958,8 +975,8 @@ mod tests {
             ..Default::default()
         };
         let p = AidPoint::from_proto(&cns, AidKind::Cns).unwrap();
-        assert_eq!(p.innovation, [3.0, -4.0, 0.0]);
-        assert_eq!(p.innovation_var, [4.0, 0.25, 0.0]);
+        assert_eq!(p.innovation, [3.0, -4.0, 0.0, 0.0, 0.0, 0.0]);
+        assert_eq!(p.innovation_var, [4.0, 0.25, 0.0, 0.0, 0.0, 0.0]);
         assert_eq!(
             (p.t_ns, p.test_ratio, p.fused, p.physical),
             (7, 0.25, 1, true)
@@ -996,7 +1013,7 @@ mod tests {
             AidPoint::from_proto(&star, AidKind::Star)
                 .unwrap()
                 .innovation,
-            [1e-5; 3]
+            [1e-5, 1e-5, 1e-5, 0.0, 0.0, 0.0]
         );
         // No innovation at all (no component): read as zeros without σ.
         let none = AidPoint::from_proto(&pb::AidUpdate::default(), AidKind::Srs).unwrap();

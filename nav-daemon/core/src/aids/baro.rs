@@ -4,7 +4,7 @@
 use msgs::BaroSample;
 use nalgebra::{SMatrix, SVector};
 
-use super::{Aid, AidError, Measured, Measurement, NoSettings};
+use super::{Aid, AidError, Context, Measured, Measurement, NoSettings};
 use crate::earth::isa;
 use crate::error_model::idx;
 use crate::mech::AnyNav;
@@ -49,7 +49,7 @@ impl Aid for BaroSample {
     type Settings = NoSettings;
     /// It observes the position.
     const OBSERVED: &'static [usize] = &[idx::DP];
-    fn measure(&self, nav: &AnyNav, _: &NoSettings) -> Result<Measured, AidError> {
+    fn measure(&self, nav: &AnyNav, _: &Context, _: &NoSettings) -> Result<Measured, AidError> {
         measurement(nav, self).map(Measured::from)
     }
 }

@@ -8,7 +8,7 @@
 use msgs::CnsFix;
 use nalgebra::{Matrix2, SMatrix, SVector};
 
-use super::{Aid, AidError, Measured, Measurement, NoSettings};
+use super::{Aid, AidError, Context, Measured, Measurement, NoSettings};
 use crate::earth::{self, Geodetic};
 use crate::error_model::idx;
 use crate::frames;
@@ -64,7 +64,7 @@ impl Aid for CnsFix {
     type Settings = NoSettings;
     /// It observes the position.
     const OBSERVED: &'static [usize] = &[idx::DP];
-    fn measure(&self, nav: &AnyNav, _: &NoSettings) -> Result<Measured, AidError> {
+    fn measure(&self, nav: &AnyNav, _: &Context, _: &NoSettings) -> Result<Measured, AidError> {
         measurement(nav, self).map(Measured::from)
     }
 }

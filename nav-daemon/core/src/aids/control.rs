@@ -1,6 +1,7 @@
 //! The decision to fuse, apart from the measurement models: χ² gate
 //! thresholds, timeouts, counters and the status record every aid reports.
 
+use msgs::aids::{MAX_CAUSES, MAX_COMPONENTS};
 use msgs::{AidStatus, StreamCounters, WireFrame};
 
 use crate::filter::UpdateOutcome;
@@ -33,7 +34,15 @@ impl AidControl {
 
     /// Rejected before fusion: invalid content.
     pub fn rejected_invalid(&mut self) {
+        self.refused(0);
+    }
+
+    /// Refused before fusion for cause `cause` of the aid's declaration
+    /// (0: invalid content; a cause beyond the record's counts as 0).
+    pub fn refused(&mut self, cause: usize) {
         self.counters.rejected_invalid += 1;
+        let k = if cause < MAX_CAUSES { cause } else { 0 };
+        self.status.refused[k] += 1;
         self.status.fused = 0;
     }
 
@@ -46,9 +55,9 @@ impl AidControl {
     /// Records the outcome of a gated update at `t_ns`, made in the
     /// navigation frame `frame`.
     pub fn record<const M: usize>(&mut self, t_ns: u64, out: &UpdateOutcome<M>, frame: WireFrame) {
-        let mut innovation = [0.0; 3];
-        let mut var = [0.0; 3];
-        for i in 0..M.min(3) {
+        let mut innovation = [0.0; MAX_COMPONENTS];
+        let mut var = [0.0; MAX_COMPONENTS];
+        for i in 0..M.min(MAX_COMPONENTS) {
             innovation[i] = out.innovation[i];
             var[i] = out.innovation_var[i];
         }
@@ -129,5 +138,6 @@ mod tests {
         // The invalid measurement made no innovation: the last one's frame stands.
         assert_eq!(s.made_in(), Some(WireFrame::Grid));
         assert!((s.innovation[1] - 2.0).abs() < 1e-15 && s.innovation[2].abs() < 1e-15);
+        assert_eq!(s.refused, [1, 0, 0, 0]);
     }
 }

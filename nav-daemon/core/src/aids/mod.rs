@@ -35,15 +35,32 @@ pub trait Aid: AidPayload {
     const OBSERVED: &'static [usize];
     /// The linearized measurement of the nominal state `nav` at the
     /// sample's own time.
-    fn measure(&self, nav: &AnyNav, settings: &Self::Settings) -> Result<Measured, AidError>;
+    fn measure(
+        &self,
+        nav: &AnyNav,
+        ctx: &Context,
+        settings: &Self::Settings,
+    ) -> Result<Measured, AidError>;
 }
 
-/// An aid's measurement, of its dimension.
+/// What a measurement model may need of the navigator besides the state.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Context {
+    /// The body's rate against inertial space, body axes (rad/s): the
+    /// newest IMU increment's, the gyro bias estimate removed (a lever
+    /// arm's velocity).
+    pub omega_ib_b: Vector3<f64>,
+}
+
+/// An aid's measurement, of its dimension. Held by value on purpose:
+/// boxing the largest would allocate for every aid sample.
+#[allow(clippy::large_enum_variant)]
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum AnyMeasurement {
     D1(Measurement<1>),
     D2(Measurement<2>),
     D3(Measurement<3>),
+    D6(Measurement<6>),
 }
 
 /// What [`Aid::measure`] made of a sample.
@@ -74,6 +91,14 @@ impl From<Measurement<3>> for Measured {
     fn from(m: Measurement<3>) -> Self {
         Self {
             m: AnyMeasurement::D3(m),
+            excluded_body: None,
+        }
+    }
+}
+impl From<Measurement<6>> for Measured {
+    fn from(m: Measurement<6>) -> Self {
+        Self {
+            m: AnyMeasurement::D6(m),
             excluded_body: None,
         }
     }
@@ -201,6 +226,24 @@ pub enum AidError {
     OutOfRange { what: &'static str, value: f64 },
     #[error("SRS: {0}")]
     Srs(#[from] srs::SrsError),
+    /// Refused by the aid's own quality checks: `cause` indexes its
+    /// declaration's `causes`.
+    #[error("{what} = {value}: refused ({})", cause)]
+    Refused {
+        cause: usize,
+        what: &'static str,
+        value: f64,
+    },
+}
+
+impl AidError {
+    /// The refusal cause this error counts under (0: invalid content).
+    pub fn cause(&self) -> usize {
+        match self {
+            AidError::Refused { cause, .. } => *cause,
+            _ => 0,
+        }
+    }
 }
 
 /// Rotation of the nav frame caused by a position error, θ = Θ δp, so that
@@ -238,7 +281,7 @@ pub(crate) fn finite3(v: &Vector3<f64>) -> bool {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::earth::{Geodetic, isa};
     use crate::frames;
@@ -250,7 +293,7 @@ mod tests {
 
     /// A navigation state at (lat, lon) in `kind`, turned and moving (the
     /// aids' measurement-model tests share it).
-    pub(super) fn truth(kind: FrameKind, lat: f64, lon: f64) -> AnyNav {
+    pub(crate) fn truth(kind: FrameKind, lat: f64, lon: f64) -> AnyNav {
         let geo = Geodetic::from_deg(lat, lon, 17_000.0);
         let c_e_g = frames::c_e_g(geo.lat_rad, geo.lon_rad);
         let q = UnitQuaternion::from_matrix(
@@ -261,7 +304,7 @@ mod tests {
     }
 
     /// The computed state with error x = computed − true.
-    fn computed(t: &AnyNav, x: &SVector<f64, 15>) -> AnyNav {
+    pub(crate) fn computed(t: &AnyNav, x: &SVector<f64, 15>) -> AnyNav {
         let mut c = *t;
         let part = |o: usize| Vector3::new(x[o], x[o + 1], x[o + 2]);
         c.correct(

@@ -16,7 +16,7 @@ use msgs::{SRS_MAX_LINES, SrsLine, SrsSample};
 use nalgebra::{Matrix3, Rotation3, SMatrix, Vector3};
 
 use super::{
-    Aid, AidError, AnyMeasurement, Measured, Measurement, NoSettings,
+    Aid, AidError, AnyMeasurement, Context, Measured, Measurement, NoSettings,
     frame_rotation_per_position_error,
 };
 use crate::earth;
@@ -246,7 +246,7 @@ impl Aid for SrsSample {
     type Settings = NoSettings;
     /// It observes the velocity.
     const OBSERVED: &'static [usize] = &[idx::DV];
-    fn measure(&self, nav: &AnyNav, _: &NoSettings) -> Result<Measured, AidError> {
+    fn measure(&self, nav: &AnyNav, _: &Context, _: &NoSettings) -> Result<Measured, AidError> {
         measurement(nav, self).map(|(m, sol)| Measured {
             m: AnyMeasurement::D3(m),
             excluded_body: sol.excluded_body,

@@ -18,7 +18,7 @@
 use msgs::StarSample;
 use nalgebra::{Matrix3, Quaternion, SMatrix, UnitQuaternion, Vector3};
 
-use super::{Aid, AidError, Measured, Measurement, NoSettings};
+use super::{Aid, AidError, Context, Measured, Measurement, NoSettings};
 use crate::error_model::idx;
 use crate::mech::AnyNav;
 
@@ -118,7 +118,7 @@ impl Aid for StarSample {
     type Settings = NoSettings;
     /// It observes the attitude.
     const OBSERVED: &'static [usize] = &[idx::PHI];
-    fn measure(&self, nav: &AnyNav, _: &NoSettings) -> Result<Measured, AidError> {
+    fn measure(&self, nav: &AnyNav, _: &Context, _: &NoSettings) -> Result<Measured, AidError> {
         measurement(nav, self).map(Measured::from)
     }
 }

@@ -7,7 +7,7 @@ use msgs::{AidKind, AidSample, PerAid};
 use nalgebra::{SMatrix, SVector, Vector3};
 
 use crate::aids::control::AidControl;
-use crate::aids::{Aid, AidError, AnyMeasurement, Measured, Measurement, OwnOf};
+use crate::aids::{Aid, AidError, AnyMeasurement, Context, Measured, Measurement, OwnOf};
 use crate::error_model::idx;
 use crate::filter;
 use crate::mech::AnyNav;
@@ -262,6 +262,15 @@ impl Navigator {
         self.record_reset(&old);
     }
 
+    /// The body's rate against inertial space (rad/s, body axes): the
+    /// newest IMU increment's, the gyro bias estimate removed (zero before
+    /// the second sample).
+    pub(super) fn body_rate(&self) -> Vector3<f64> {
+        self.prev_inc
+            .filter(|i| i.dt_s > 0.0)
+            .map_or_else(Vector3::zeros, |i| i.d_theta / i.dt_s)
+    }
+
     /// Offers one aid sample: counters, selection, time check, the aid's
     /// model at its own time, fusion.
     pub fn on_aid(&mut self, sample: &AidSample) -> Result<AidOutcome, InputRejection> {
@@ -297,11 +306,15 @@ impl Navigator {
         }
         self.propagate_covariance();
         let at = self.state_at(t_ns, age);
-        let measured: Result<Measured, AidError> = x.measure(&at, A::own(&self.aids.settings.own));
+        let ctx = Context {
+            omega_ib_b: self.body_rate(),
+        };
+        let measured: Result<Measured, AidError> =
+            x.measure(&at, &ctx, A::own(&self.aids.settings.own));
         let Measured { m, excluded_body } = match measured {
             Ok(m) => m,
             Err(e) => {
-                self.aids.controls[which].rejected_invalid();
+                self.aids.controls[which].refused(e.cause());
                 return Err(e.into());
             }
         };
@@ -309,6 +322,7 @@ impl Navigator {
             AnyMeasurement::D1(m) => self.fuse(which, t_ns, m),
             AnyMeasurement::D2(m) => self.fuse(which, t_ns, m),
             AnyMeasurement::D3(m) => self.fuse(which, t_ns, m),
+            AnyMeasurement::D6(m) => self.fuse(which, t_ns, m),
         };
         out.excluded_body = excluded_body;
         if excluded_body.is_some() {

@@ -1,0 +1,268 @@
+//! Integrity of the aids that are not autonomous (GNSS, issue 29): each of
+//! their samples is tested against what the INS and the autonomous aids
+//! (SRS, CNS, baro, star tracker) say without them, before the navigator
+//! may fuse it.
+//!
+//! **Why a second filter, and this test.** A spoofer that drags the
+//! position slowly, with a velocity consistent with it, passes every χ²
+//! gate of a filter that GNSS dominates: that filter follows it, and then
+//! rejects the CNS fixes that disagree. What the spoofer cannot move is a
+//! solution that never saw GNSS. So the session keeps a *reference*
+//! navigator, fed the same IMU samples and autonomous aids as the main one
+//! and no GNSS, and tests each GNSS sample against it: the sample's
+//! innovation ν with respect to the reference, at the sample's own time
+//! and through the aid's own measurement model (lever arm included), has
+//! the covariance S = H P_ref Hᵀ + R, and
+//!
+//! q = νᵀ S⁻¹ ν ~ χ²(m)
+//!
+//! when the sample and the reference are both right (m = 6 for GNSS). An
+//! alarm is raised when q exceeds the χ²(m) quantile of the false-alarm
+//! probability per test from the settings (default 1e-7: at 5 Hz, one false
+//! alarm in 550 flight hours if the samples were independent). The test is
+//! a snapshot one on purpose: the reference's error and the receiver's
+//! correlated error change slowly, so a window of q's is not χ²(m·N) and its
+//! threshold would be a guess, while one sample's q is exact. A drag at a
+//! m/s² shows in velocity first: with the reference's velocity σ of a few
+//! cm/s and the receiver's of a decimetre, q reaches the alarm when a·t is
+//! about 7σ of the velocity difference, that is after t ≈ 70 s at
+//! 0.01 m/s² (½ a t² ≈ 25 m of drag) and at the first sample at 10 m/s².
+//!
+//! **What an alarm does.** The aid is excluded: the main navigator takes
+//! the reference's state and covariance (a reset of the solution, flagged
+//! and published as one, whose step removes what the spoofer had dragged),
+//! and the aid's samples are counted as `rejected_integrity` and not fused.
+//! While excluded, each sample goes on being tested (against the main
+//! navigator, which is then the reference's equal); the aid is readmitted
+//! once its samples have agreed (q below the threshold) continuously for
+//! `readmit_after_s` of sensor time, and the reference starts again from
+//! the main navigator. Everything is decided on the samples' stamps, so
+//! live equals `batch`.
+
+use serde::{Deserialize, Serialize};
+
+use crate::settings::{Bound, SettingsError};
+
+/// The integrity test of a non-autonomous aid (in the aid's own settings).
+#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct IntegritySettings {
+    /// Test the aid against the autonomous solution (off: the aid is fused
+    /// whenever its own gate passes it, as in PX4 or ArduPilot).
+    pub integrity: bool,
+    /// False-alarm probability of one test (one sample).
+    pub integrity_false_alarm: f64,
+    /// An excluded aid is readmitted after its samples have agreed with the
+    /// autonomous solution continuously for this long (s).
+    pub readmit_after_s: f64,
+}
+
+impl Default for IntegritySettings {
+    fn default() -> Self {
+        Self {
+            integrity: true,
+            integrity_false_alarm: 1e-7,
+            readmit_after_s: 60.0,
+        }
+    }
+}
+
+impl IntegritySettings {
+    pub fn validate(&self, origin: &str, table: &str) -> Result<(), SettingsError> {
+        Bound {
+            lo: 1e-15,
+            hi: 0.01,
+            unit: "",
+            below: "below 1e-15 the threshold leaves the range the χ² tail is computed in: \
+                    no spoofer short of kilometres would be seen",
+            above: "above 1 % per sample the aid would be excluded every few seconds by chance",
+        }
+        .check(
+            origin,
+            &format!("{table}.integrity_false_alarm"),
+            self.integrity_false_alarm,
+        )?;
+        Bound {
+            lo: 1.0,
+            hi: crate::settings::MAX_FLIGHT_S,
+            unit: "s",
+            below: "an aid must agree for at least a second before it is trusted again",
+            above: "longer than any flight: an excluded aid would never come back",
+        }
+        .check(
+            origin,
+            &format!("{table}.readmit_after_s"),
+            self.readmit_after_s,
+        )
+    }
+
+    /// The alarm threshold on q for an innovation of `dof` components.
+    pub fn threshold(&self, dof: usize) -> f64 {
+        crate::chi2::quantile_upper(self.integrity_false_alarm, dof as f64)
+    }
+}
+
+/// Why an aid was excluded ([`Monitor::cause`], `AidStatus::exclusion_cause`).
+pub mod cause {
+    /// Not excluded.
+    pub const NONE: u8 = 0;
+    /// Its position disagrees with the autonomous solution (the position
+    /// components' own q is the larger share).
+    pub const POSITION: u8 = 1;
+    /// Its velocity disagrees.
+    pub const VELOCITY: u8 = 2;
+    /// Its other components disagree (an aid of one kind of component).
+    pub const MEASUREMENT: u8 = 3;
+
+    /// What the cause means, for logs.
+    pub fn text(c: u8) -> &'static str {
+        match c {
+            POSITION => "position inconsistent with the autonomous solution",
+            VELOCITY => "velocity inconsistent with the autonomous solution",
+            MEASUREMENT => "measurement inconsistent with the autonomous solution",
+            _ => "none",
+        }
+    }
+}
+
+/// One test of one sample.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Test {
+    /// νᵀ S⁻¹ ν.
+    pub q: f64,
+    /// Its alarm threshold.
+    pub threshold: f64,
+    /// The cause an alarm would have (the block of components with the
+    /// larger share of q, each against its own χ² quantile).
+    pub cause: u8,
+}
+
+impl Test {
+    /// q over the threshold: above 1 is an alarm.
+    pub fn ratio(&self) -> f64 {
+        self.q / self.threshold
+    }
+
+    pub fn alarm(&self) -> bool {
+        self.q.is_nan() || self.q > self.threshold
+    }
+}
+
+/// What to do with a tested sample.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum Verdict {
+    /// The aid is trusted: offer the sample to the navigator.
+    Admit,
+    /// An alarm: exclude the aid now (the main navigator takes the
+    /// reference's state) and refuse the sample.
+    Exclude,
+    /// The aid stays excluded: refuse the sample.
+    Refuse,
+    /// The aid has agreed long enough: readmit it and offer the sample.
+    Readmit,
+}
+
+/// One non-autonomous aid's integrity state.
+#[derive(Debug, Clone, Copy, Default, PartialEq)]
+pub struct Monitor {
+    pub excluded: bool,
+    /// Since when the aid is excluded (ns; 0 when it is not).
+    pub excluded_since_ns: u64,
+    /// Since when its samples agree while it is excluded.
+    agreeing_since_ns: Option<u64>,
+    /// The cause of the current or last exclusion.
+    pub cause: u8,
+    /// q over the threshold of the last test (NaN before any).
+    pub last_ratio: Option<f64>,
+    /// Exclusions so far.
+    pub exclusions: u64,
+}
+
+impl Monitor {
+    /// Decides on a sample stamped `t_ns` that was tested (`test`), the
+    /// readmission time being `readmit_ns`.
+    pub fn decide(&mut self, t_ns: u64, test: &Test, readmit_ns: u64) -> Verdict {
+        self.last_ratio = Some(test.ratio());
+        if !self.excluded {
+            if test.alarm() {
+                self.excluded = true;
+                self.excluded_since_ns = t_ns;
+                self.agreeing_since_ns = None;
+                self.cause = test.cause;
+                self.exclusions += 1;
+                return Verdict::Exclude;
+            }
+            return Verdict::Admit;
+        }
+        if test.alarm() {
+            self.agreeing_since_ns = None;
+            return Verdict::Refuse;
+        }
+        let since = *self.agreeing_since_ns.get_or_insert(t_ns);
+        if t_ns.saturating_sub(since) >= readmit_ns {
+            self.excluded = false;
+            self.excluded_since_ns = 0;
+            self.agreeing_since_ns = None;
+            return Verdict::Readmit;
+        }
+        Verdict::Refuse
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn test(q: f64) -> Test {
+        Test {
+            q,
+            threshold: 10.0,
+            cause: cause::VELOCITY,
+        }
+    }
+
+    /// An alarm excludes at once; readmission needs continuous agreement
+    /// for the whole time, and a new alarm restarts it.
+    #[test]
+    fn exclusion_and_readmission_follow_the_stamps() {
+        let s = 1_000_000_000u64;
+        let mut m = Monitor::default();
+        assert_eq!(m.decide(s, &test(3.0), 60 * s), Verdict::Admit);
+        assert_eq!(m.decide(2 * s, &test(11.0), 60 * s), Verdict::Exclude);
+        assert_eq!(
+            (m.excluded, m.cause, m.exclusions),
+            (true, cause::VELOCITY, 1)
+        );
+        assert_eq!(m.decide(3 * s, &test(1.0), 60 * s), Verdict::Refuse);
+        assert_eq!(m.decide(40 * s, &test(1.0), 60 * s), Verdict::Refuse);
+        // A disagreement restarts the time.
+        assert_eq!(m.decide(50 * s, &test(f64::NAN), 60 * s), Verdict::Refuse);
+        assert_eq!(m.decide(60 * s, &test(2.0), 60 * s), Verdict::Refuse);
+        assert_eq!(m.decide(119 * s, &test(2.0), 60 * s), Verdict::Refuse);
+        assert_eq!(m.decide(120 * s, &test(2.0), 60 * s), Verdict::Readmit);
+        assert!(!m.excluded);
+        assert_eq!(m.decide(121 * s, &test(2.0), 60 * s), Verdict::Admit);
+        assert!((m.last_ratio.unwrap() - 0.2).abs() < 1e-15);
+    }
+
+    #[test]
+    fn a_nan_statistic_is_an_alarm() {
+        assert!(test(f64::NAN).alarm() && test(f64::INFINITY).alarm() && !test(10.0).alarm());
+    }
+
+    /// Against the closed form of χ²(6)'s tail, Q = e^(−x/2) (1 + x/2 +
+    /// x²/8), and the 99.9 % table value of χ²(3).
+    #[test]
+    fn thresholds_are_the_chi2_quantiles_of_the_false_alarm_probability() {
+        let s = IntegritySettings::default();
+        let x = s.threshold(6);
+        let tail = (-x / 2.0).exp() * (1.0 + x / 2.0 + x * x / 8.0);
+        assert!((tail / 1e-7 - 1.0).abs() < 1e-6, "χ²(6) {x}: tail {tail}");
+        assert!((x - 43.3378).abs() < 1e-3, "{x}");
+        let t = IntegritySettings {
+            integrity_false_alarm: 1e-3,
+            ..s
+        };
+        assert!((t.threshold(3) - 16.266).abs() < 1e-3, "{}", t.threshold(3));
+    }
+}
