@@ -10,6 +10,7 @@ use nalgebra::{Matrix3, Quaternion, UnitQuaternion, Vector3};
 use polarnav::earth;
 use polarnav::frames;
 use polarnav::navigator::{NavigatorConfig, SwitchEvent};
+use polarnav::integrity::{Test, Verdict};
 use polarnav::session::{Event, Input, Session, SessionSettings, Sink, Stream};
 use polarnav_sim::scenario::Scenario;
 use polarnav_sim::simulate::{SimOptions, simulate};
@@ -181,6 +182,9 @@ pub struct Snapshot {
     pub cov_vel: Matrix3<f64>,
     pub cov_att: Matrix3<f64>,
     pub frame: u8,
+    /// The solution flags, as the session publishes them (an aid's
+    /// exclusion included).
+    pub flags: u32,
 }
 
 /// One run: snapshots at every truth epoch, switches, aid accounting.
@@ -191,6 +195,22 @@ pub struct Run {
     pub switches: Vec<SwitchEvent>,
     pub fused: u64,
     pub rejected: u64,
+    /// Every integrity test (an aid that is not autonomous): its time,
+    /// test and decision.
+    pub integrity: Vec<(u64, Test, Verdict)>,
+    /// The final status.
+    pub status: msgs::Status,
+}
+
+impl Run {
+    /// The times of the exclusions and readmissions (ns).
+    pub fn decisions(&self, verdict: Verdict) -> Vec<u64> {
+        self.integrity
+            .iter()
+            .filter(|(_, _, v)| *v == verdict)
+            .map(|(t, _, _)| *t)
+            .collect()
+    }
 }
 
 pub fn quat(q: &[f64; 4]) -> UnitQuaternion<f64> {
@@ -203,6 +223,7 @@ pub fn quat(q: &[f64; 4]) -> UnitQuaternion<f64> {
 struct RunSink {
     switches: Vec<SwitchEvent>,
     rejected_imu: u64,
+    integrity: Vec<(u64, Test, Verdict)>,
 }
 
 impl Sink for RunSink {
@@ -210,6 +231,12 @@ impl Sink for RunSink {
     fn event(&mut self, e: &Event) {
         match e {
             Event::Switch(sw) => self.switches.push(*sw),
+            Event::Integrity {
+                t_ns,
+                test,
+                verdict,
+                ..
+            } => self.integrity.push((*t_ns, *test, *verdict)),
             Event::Rejected {
                 stream: Stream::Imu,
                 ..
@@ -253,6 +280,7 @@ pub fn run(records: &[Record], cfg: &NavigatorConfig, init: Option<InitState>) -
                         cov_vel,
                         cov_att,
                         frame: nav.solution().frame,
+                        flags: nav.solution().flags | excluded_flags(&session),
                     });
                     out.truth.push(*t);
                 }
@@ -270,6 +298,8 @@ pub fn run(records: &[Record], cfg: &NavigatorConfig, init: Option<InitState>) -
         "an IMU sample of a clean log was refused"
     );
     let st = session.status();
+    out.status = st;
+    out.integrity = sink.integrity;
     out.switches = sink.switches;
     out.fused = st.each_aid().map(|(_, c, _)| c.accepted).sum();
     out.rejected = st
@@ -279,6 +309,31 @@ pub fn run(records: &[Record], cfg: &NavigatorConfig, init: Option<InitState>) -
         })
         .sum();
     out
+}
+
+/// The solution flags of the aids the session's integrity test excludes.
+fn excluded_flags(session: &Session) -> u32 {
+    msgs::AidKind::ALL
+        .into_iter()
+        .filter(|k| session.integrity(*k).excluded)
+        .map(|k| k.decl().excluded_flag)
+        .fold(0, |a, b| a | b)
+}
+
+/// NEES of position, velocity and attitude (3 degrees of freedom each) of
+/// every snapshot of a run against its truth.
+pub fn nees(r: &Run) -> Vec<[f64; 3]> {
+    r.snaps
+        .iter()
+        .zip(&r.truth)
+        .map(|(s, t)| {
+            let (p, v, a) = errors(s, t);
+            let q = |e: Vector3<f64>, c: &Matrix3<f64>| {
+                e.dot(&(c.try_inverse().expect("P invertible") * e))
+            };
+            [q(p, &s.cov_pos), q(v, &s.cov_vel), q(a, &s.cov_att)]
+        })
+        .collect()
 }
 
 /// Errors of a snapshot against its truth, in local ENU: position (m), velocity (m/s), attitude φ (rad).

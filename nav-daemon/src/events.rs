@@ -3,6 +3,7 @@
 
 use std::time::{Duration, Instant};
 
+use polarnav::integrity::Verdict;
 use polarnav::session::{Event, InitSource};
 
 /// A sensor time stamp in seconds, as the logs show times.
@@ -112,6 +113,42 @@ pub fn log_event(log: &str, e: &Event) {
         // where the navigator refuses them; the gate's own verdicts are in
         // status, and each one on the MCAP `/aid/*` channels.
         Event::AidUpdate { .. } => {}
+        // One per tested sample: only the decisions are logged; every
+        // test is in status and on the MCAP `/integrity/*` channels.
+        Event::Integrity {
+            stream,
+            t_ns,
+            test,
+            verdict: Verdict::Exclude,
+            exclusions,
+            step,
+        } => {
+            let norm = |d: &[f64; 3]| d.iter().map(|x| x * x).sum::<f64>().sqrt();
+            tracing::error!(
+                t_s = secs(*t_ns),
+                q = test.q,
+                threshold = test.threshold,
+                exclusions,
+                "{log}: {} excluded: {} (q {:.1} > {:.1}); the solution returns to the autonomous one (|Δr| {:.2} m, |Δv| {:.3} m/s)",
+                stream.name(),
+                polarnav::integrity::cause::text(test.cause),
+                test.q,
+                test.threshold,
+                step.map_or(0.0, |r| norm(&r.delta_pos_e_m)),
+                step.map_or(0.0, |r| norm(&r.delta_vel_e_mps)),
+            )
+        }
+        Event::Integrity {
+            stream,
+            t_ns,
+            verdict: Verdict::Readmit,
+            ..
+        } => tracing::info!(
+            t_s = secs(*t_ns),
+            "{log}: {} readmitted: its samples agreed with the autonomous solution for the readmission time",
+            stream.name()
+        ),
+        Event::Integrity { .. } => {}
         Event::AidReset {
             stream,
             reset,

@@ -5,7 +5,7 @@
 //! [χ²₀.₀₂₅(90)/30, χ²₀.₉₇₅(90)/30] = [2.188, 3.938].
 
 use polarnav::navigator::NavigatorConfig;
-use polarnav_tests::{Run, errors, run, simulate_records};
+use polarnav_tests::{Run, errors, nees, run, simulate_records};
 
 const WINDOW: &str = r#"
 name = "pole-window"
@@ -48,20 +48,6 @@ duration_s = 900.0
 const RUNS: u64 = 30;
 const LO: f64 = 65.647 / 30.0;
 const HI: f64 = 118.136 / 30.0;
-
-fn nees(r: &Run) -> Vec<[f64; 3]> {
-    r.snaps
-        .iter()
-        .zip(&r.truth)
-        .map(|(s, t)| {
-            let (p, v, a) = errors(s, t);
-            let q = |e: nalgebra::Vector3<f64>, c: &nalgebra::Matrix3<f64>| {
-                e.dot(&(c.try_inverse().expect("P invertible") * e))
-            };
-            [q(p, &s.cov_pos), q(v, &s.cov_vel), q(a, &s.cov_att)]
-        })
-        .collect()
-}
 
 #[test]
 fn thirty_seed_average_nees_is_inside_the_95_percent_chi2_band() {

@@ -36,6 +36,15 @@
 //! - **IMU loss** (the live loop's wall-clock watchdog, [`Session::imu_lost`])
 //!   is reported in the status and changes no decision: aids ahead of the
 //!   IMU wait for it as they always do, so a late IMU costs nothing.
+//! - **Integrity** of the aids that are not autonomous (GNSS): the
+//!   session keeps a reference navigator fed every input but theirs, and
+//!   tests each of their samples against it before the main navigator may
+//!   fuse it ([`crate::integrity`]): an alarm excludes the aid and the
+//!   main navigator takes the reference's state (published as a reset); a
+//!   sample of an excluded aid is refused (`rejected_integrity`) until its
+//!   samples have agreed for the readmission time. The reference starts
+//!   as a copy of the main navigator at the first tested sample, again at
+//!   each re-initialization, and follows its time re-synchronizations.
 //! - **Accounting**: every input is counted once, per stream:
 //!   `received = accepted + rejected_invalid + rejected_time + rejected_gate
 //!   + rejected_integrity + not_used`, and inits apart ([`InitCounters`]).
@@ -46,10 +55,13 @@
 //! Nothing is logged here: decisions are reported as [`Event`]s to the
 //! driver's [`Sink`], which logs them as it sees fit.
 
-use msgs::{AidSample, AidStatus, ImuSample, InitState, Solution, Status, StreamCounters};
+use msgs::{
+    AidKind, AidSample, AidStatus, ImuSample, InitState, PerAid, Solution, Status, StreamCounters,
+};
 
 use crate::align::{AlignError, Alignment, AlignmentAccumulator, aligned_init};
 use crate::checkpoint::{Checkpoint, CheckpointError};
+use crate::integrity::{IntegritySettings, Monitor, Test, Verdict};
 use crate::navigator::{
     IMU_DT_RANGE_S, InputRejection, Navigator, NavigatorConfig, SwitchEvent, check_init,
 };
@@ -257,6 +269,23 @@ pub enum Event {
         lat_rad: f64,
         h_m: f64,
     },
+    /// A sample of an aid that is not autonomous was tested against the
+    /// reference ([`crate::integrity`]): its statistic and what was decided
+    /// (one per tested sample; sinks that log should log only
+    /// [`Verdict::Exclude`] and [`Verdict::Readmit`]). On an exclusion the
+    /// main navigator has taken the reference's state: its reset record
+    /// says by how much.
+    Integrity {
+        stream: Stream,
+        t_ns: u64,
+        test: Test,
+        verdict: Verdict,
+        /// The aid's exclusions so far (this one included).
+        exclusions: u64,
+        /// On an exclusion: the step the main navigator made to the
+        /// reference's state.
+        step: Option<crate::navigator::ResetRecord>,
+    },
     /// An aid rejected for `[aids] reset_after_s` while consistent reset the
     /// states it observes: the reset as published, the tests' findings, and
     /// the bias model the process noise was widened to if this reset did.
@@ -385,6 +414,13 @@ impl SeqTracker {
 pub struct Session {
     settings: SessionSettings,
     nav: Option<Navigator>,
+    /// The integrity test's reference: a navigator fed every input but the
+    /// samples of the aids that are not autonomous (from the first tested
+    /// sample on).
+    reference: Option<Navigator>,
+    /// The integrity state of each aid (only those that are not
+    /// autonomous are ever tested).
+    integrity: PerAid<Monitor>,
     /// Whether navigators keep the smoother's record.
     smoother_tape: bool,
     /// Alignment in progress: the init it started from and the accumulator.
@@ -420,6 +456,8 @@ impl Session {
         Self {
             settings,
             nav: None,
+            reference: None,
+            integrity: PerAid::default(),
             aligning: None,
             resume: None,
             held_init: None,
@@ -615,12 +653,24 @@ impl Session {
             c.received += 1;
             c.not_used += 1;
         }
+        for (k, m) in self.integrity.iter() {
+            if k.decl().autonomous {
+                continue;
+            }
+            let a = &mut s.aids[k as usize];
+            a.integrity_ratio = m.last_ratio.unwrap_or(0.0);
+            a.excluded = u8::from(m.excluded);
+            a.exclusion_cause = m.cause;
+            a.excluded_since_t_ns = m.excluded_since_ns;
+            a.exclusions = m.exclusions;
+        }
+        s.flags |= self.excluded_flags();
         s.resumed = u8::from(self.resumed);
         s.reinit_count = self.reinits;
         if self.imu_lost {
             use msgs::solution_flags as f;
             s.flags |= f::IMU_LOST;
-            s.flags &= !msgs::AidKind::all_fresh_flags();
+            s.flags &= !AidKind::all_fresh_flags();
             for a in &mut s.aids {
                 a.fresh = 0;
             }
@@ -629,6 +679,34 @@ impl Session {
             s.flags &= !msgs::solution_flags::ALIGNED;
         }
         s
+    }
+
+    /// The solution flags of the aids the integrity test excludes now.
+    fn excluded_flags(&self) -> u32 {
+        let mut f = 0;
+        for (k, m) in self.integrity.iter() {
+            if m.excluded {
+                f |= k.decl().excluded_flag;
+            }
+        }
+        f
+    }
+
+    /// The integrity state of aid `k` (for tools; the status reports it).
+    pub fn integrity(&self, k: AidKind) -> &Monitor {
+        &self.integrity[k]
+    }
+
+    /// The work of the session's navigators so far ([`Navigator::work`]:
+    /// the main one's and the reference's since it was last copied).
+    pub fn work(&self) -> u64 {
+        self.nav.as_ref().map_or(0, Navigator::work)
+            + self.reference.as_ref().map_or(0, Navigator::work)
+    }
+
+    /// The integrity test's reference navigator, once an aid has been tested.
+    pub fn reference(&self) -> Option<&Navigator> {
+        self.reference.as_ref()
     }
 
     fn count_outside(&mut self, stream: Stream, f: impl FnOnce(&mut StreamCounters)) {
@@ -707,6 +785,11 @@ impl Session {
         match self.nav.as_mut() {
             Some(n) => {
                 n.reinitialize(&init, cfg);
+                // The reference starts again from the new state, which
+                // holds no aid's sample.
+                if self.reference.is_some() {
+                    self.reference = Some(n.reference_copy());
+                }
                 self.reinits += 1;
                 sink.event(&Event::Reinitialized { t_ns: init.t_ns });
             }
@@ -924,6 +1007,9 @@ impl Session {
         let Some(n) = self.nav.as_mut() else { return };
         let from = n.t_ns();
         n.resync(to);
+        if let Some(r) = &mut self.reference {
+            r.resync(to);
+        }
         self.resyncs += 1;
         sink.event(&Event::TimeResync {
             from_t_ns: from,
@@ -965,6 +1051,10 @@ impl Session {
     fn integrate(&mut self, s: &ImuSample, sink: &mut impl Sink) {
         self.flush(sink);
         let Some(n) = self.nav.as_mut() else { return };
+        if let Some(r) = &mut self.reference {
+            // The same sample, the same decision (the same time line).
+            let _ = r.on_imu(s);
+        }
         match n.on_imu(s) {
             Ok(out) => {
                 self.last_imu_t_ns = s.t_ns;
@@ -994,8 +1084,11 @@ impl Session {
         let marks = (n.switch_count(), n.last_reset().count, self.reinits);
         let must = last || self.marks != Some(marks);
         self.marks = Some(marks);
+        let excluded = self.excluded_flags();
+        let Some(n) = &mut self.nav else { return };
         if sink.wants_solution(n.t_ns(), must) {
-            let s = n.solution();
+            let mut s = n.solution();
+            s.flags |= excluded;
             sink.solution(&s);
             n.tape_solution(&s);
         }
@@ -1085,13 +1178,79 @@ impl Session {
         }
     }
 
+    /// The integrity settings of aid `k` when its samples are tested: an
+    /// aid that is not autonomous, selected, with its test on.
+    fn tested(&self, k: AidKind) -> Option<IntegritySettings> {
+        let n = &self.settings.navigator;
+        if k.decl().autonomous || !n.aids.has(k) {
+            return None;
+        }
+        n.aid_settings.own.integrity(k).filter(|s| s.integrity)
+    }
+
+    /// The integrity test of a sample of a tested aid; whether the sample
+    /// is barred from the main navigator (the aid excluded, or the sample
+    /// untestable). A sample the navigator would not take to its model
+    /// (late, a repeat) is not tested: the navigator refuses it for that.
+    fn judge(&mut self, a: &AidSample, is: &IntegritySettings, sink: &mut impl Sink) -> bool {
+        let Some(n) = self.nav.as_mut() else {
+            return false;
+        };
+        if !n.aid_reaches_model(a) {
+            return false;
+        }
+        let r = self.reference.get_or_insert_with(|| n.reference_copy());
+        let Some(test) = r.test_aid(a, is) else {
+            // Refused content is counted as such by the navigator; a sample
+            // whose S is not positive definite is not trusted.
+            return true;
+        };
+        let k = a.kind();
+        let m = &mut self.integrity[k];
+        let readmit_ns = (is.readmit_after_s * 1e9).round() as u64;
+        let verdict = m.decide(a.t_ns(), &test, readmit_ns);
+        let mut step = None;
+        if verdict == Verdict::Exclude {
+            // What the main navigator fused of the aid is dropped: it
+            // continues from the reference (which keeps running, to judge
+            // the aid and any other that is not autonomous).
+            if let Some(sw) = n.adopt(r.reference_copy()) {
+                sink.event(&Event::Switch(sw));
+            }
+            step = Some(*n.last_reset());
+        }
+        sink.event(&Event::Integrity {
+            stream: stream_of(a),
+            t_ns: a.t_ns(),
+            test,
+            verdict,
+            exclusions: m.exclusions,
+            step,
+        });
+        matches!(verdict, Verdict::Exclude | Verdict::Refuse)
+    }
+
     fn offer(&mut self, a: &AidSample, sink: &mut impl Sink) {
+        let barred = match self.tested(a.kind()) {
+            Some(is) => self.judge(a, &is, sink),
+            None => false,
+        };
+        if a.kind().decl().autonomous
+            && let Some(r) = &mut self.reference
+        {
+            let _ = r.on_aid(a);
+        }
         let Some(n) = self.nav.as_mut() else {
             self.count_outside(stream_of(a), |c| c.not_used += 1);
             return;
         };
         let resets = n.aid_resets();
-        match n.on_aid(a) {
+        let result = if barred {
+            n.on_barred_aid(a)
+        } else {
+            n.on_aid(a)
+        };
+        match result {
             // Not used (the aid disabled) or undone as invalid: counted in
             // the status, but no update to report.
             Ok(o) if !o.gated => {}

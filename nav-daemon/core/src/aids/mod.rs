@@ -114,6 +114,11 @@ pub trait OwnSettings:
     const NONE: bool = false;
     /// Checks every key; `table` is the table's dotted name (`aids.gnss`).
     fn validate(&self, origin: &str, table: &str) -> Result<(), SettingsError>;
+    /// The integrity test of an aid that is not autonomous (its settings
+    /// are among the aid's own); `None` for an autonomous aid.
+    fn integrity(&self) -> Option<crate::integrity::IntegritySettings> {
+        None
+    }
 }
 
 /// No settings of the aid's own.
@@ -170,6 +175,13 @@ macro_rules! own_settings {
                     }
                 )*
                 Ok(())
+            }
+
+            /// The integrity test's settings of aid `kind` (`None`: autonomous).
+            pub fn integrity(&self, kind: AidKind) -> Option<crate::integrity::IntegritySettings> {
+                match kind {
+                    $(AidKind::$K => self.$n.integrity(),)*
+                }
             }
 
             /// Reads the table of aid `kind` from `map`.

@@ -155,6 +155,20 @@ impl ErrorState {
         true
     }
 
+    /// P as a propagation to the current time would make it, computed on
+    /// a copy: nothing of this error state changes (the integrity test
+    /// reads the reference navigator's P without touching it).
+    pub(super) fn current_p(&self, nominal: &Nominal) -> Mat15 {
+        let mut p = self.p;
+        if self.acc_dt > 0.0 {
+            let f_b = self.acc_dv_b / self.acc_dt;
+            let mut f = nominal.nav().error_dynamics(&f_b);
+            self.noise.add_bias_dynamics(&mut f);
+            filter::propagate(&mut p, &f, &self.noise, self.acc_dt);
+        }
+        p
+    }
+
     /// Replaces a covariance that lost finiteness or positive definiteness
     /// by the re-inflated one a cold start would have (P₀ from wide σ, in
     /// the current frame) and counts it: a published σ is never a NaN in

@@ -72,7 +72,7 @@ fn observed_blocks(which: AidKind) -> &'static [usize] {
 
 impl Navigator {
     /// Checks an aid's time stamp; returns its age behind the IMU (s).
-    fn aid_age(&self, t_ns: u64) -> Result<f64, InputRejection> {
+    pub(super) fn aid_age(&self, t_ns: u64) -> Result<f64, InputRejection> {
         if t_ns > self.t_ns {
             return Err(InputRejection::AheadOfImu {
                 t_ns,
@@ -95,7 +95,7 @@ impl Navigator {
     /// every correction since), so a late aid is fused at its own time. If the
     /// history does not reach back that far (just after a start), the
     /// position is moved back along the velocity instead.
-    fn state_at(&self, t_ns: u64, age_s: f64) -> AnyNav {
+    pub(super) fn state_at(&self, t_ns: u64, age_s: f64) -> AnyNav {
         if age_s == 0.0 {
             return *self.nominal.nav();
         }
@@ -274,11 +274,32 @@ impl Navigator {
     /// Offers one aid sample: counters, selection, time check, the aid's
     /// model at its own time, fusion.
     pub fn on_aid(&mut self, sample: &AidSample) -> Result<AidOutcome, InputRejection> {
-        msgs::match_aid!(sample, x => self.on_aid_of(x))
+        msgs::match_aid!(sample, x => self.on_aid_of(x, false))
+    }
+
+    /// [`Self::on_aid`] for a sample its integrity test bars from fusion
+    /// (its aid is excluded, or the sample could not be tested): checked
+    /// and counted as any other (a late or invalid sample is refused for
+    /// that), and one that would have reached its gate is counted as
+    /// `rejected_integrity` instead.
+    pub fn on_barred_aid(&mut self, sample: &AidSample) -> Result<AidOutcome, InputRejection> {
+        msgs::match_aid!(sample, x => self.on_aid_of(x, true))
+    }
+
+    /// Whether [`Self::on_aid`] would take `sample` to its aid's model:
+    /// the aid is selected, the stamp within reach and not a repeat of the
+    /// last fused one. What the integrity test is run on.
+    pub fn aid_reaches_model(&self, sample: &AidSample) -> bool {
+        let which = sample.kind();
+        let t_ns = sample.t_ns();
+        let c = &self.aids.controls[which];
+        self.aids.enabled.has(which)
+            && self.aid_age(t_ns).is_ok()
+            && !(t_ns <= c.counters.last_t_ns && c.counters.accepted > 0)
     }
 
     /// [`Self::on_aid`] for one aid's payload.
-    fn on_aid_of<A: OwnOf>(&mut self, x: &A) -> Result<AidOutcome, InputRejection> {
+    fn on_aid_of<A: OwnOf>(&mut self, x: &A, barred: bool) -> Result<AidOutcome, InputRejection> {
         let which = A::KIND;
         let t_ns = x.t_ns();
         self.aids.controls[which].received();
@@ -318,6 +339,17 @@ impl Navigator {
                 return Err(e.into());
             }
         };
+        if barred {
+            let c = &mut self.aids.controls[which];
+            c.counters.rejected_integrity += 1;
+            c.status.fused = 0;
+            return Ok(AidOutcome {
+                gated: false,
+                fused: false,
+                test_ratio: f64::NAN,
+                excluded_body: None,
+            });
+        }
         let mut out = match &m {
             AnyMeasurement::D1(m) => self.fuse(which, t_ns, m),
             AnyMeasurement::D2(m) => self.fuse(which, t_ns, m),

@@ -28,6 +28,7 @@ mod gating;
 mod history;
 mod imu_input;
 mod recovery;
+mod reference;
 pub(crate) mod report;
 pub(crate) mod tape;
 use error_state::ErrorState;
