@@ -23,6 +23,8 @@ FLAG_RESUMED = 1 << 7
 FLAG_AID_RESET = 1 << 8
 FLAG_STAR_FRESH = 1 << 9
 FLAG_SECOND_PUBLISHER = 1 << 10
+FLAG_GNSS_FRESH = 1 << 11
+FLAG_GNSS_EXCLUDED = 1 << 12
 
 # WireFrame
 FRAME_GEOGRAPHIC = 0
@@ -30,7 +32,7 @@ FRAME_GRID = 1
 
 # The aids, in the order of Status.aids (the Rust declaration's, msgs/src/aids.rs:
 # the layout test holds this tuple to it). Status.streams has the IMU first.
-AIDS = ("srs", "cns", "baro", "star")
+AIDS = ("srs", "cns", "baro", "star", "gnss")
 AID_COUNT = len(AIDS)
 STREAM_COUNT = AID_COUNT + 1
 MAX_COMPONENTS = 6
@@ -170,7 +172,7 @@ class Status(ctypes.Structure):
 
     @staticmethod
     def type_name() -> str:
-        return "polarnav::Status_v5"
+        return "polarnav::Status_v6"
 
 
 class StarSample(ctypes.Structure):
@@ -190,10 +192,38 @@ class StarSample(ctypes.Structure):
         return "polarnav::StarSample_v1"
 
 
+class GnssFix(ctypes.Structure):
+    """One GNSS fix of the antenna (`polarnav/gnss`): UBX-NAV-PVT's content in
+    SI units, for a Python receiver driver. fix_type 3 (3D) or 4 (GNSS + dead
+    reckoning) with flags bit 0 (gnssFixOK) set is a usable fix."""
+
+    _fields_ = [
+        ("t_ns", ctypes.c_uint64),
+        ("seq", ctypes.c_uint64),
+        ("lat_rad", ctypes.c_double),
+        ("lon_rad", ctypes.c_double),
+        ("height_m", ctypes.c_double),
+        ("vel_ned_mps", V3),
+        ("h_acc_m", ctypes.c_double),
+        ("v_acc_m", ctypes.c_double),
+        ("s_acc_mps", ctypes.c_double),
+        ("pdop", ctypes.c_double),
+        ("itow_ms", ctypes.c_uint32),
+        ("fix_type", ctypes.c_uint8),
+        ("num_sv", ctypes.c_uint8),
+        ("flags", ctypes.c_uint8),
+        ("_pad", ctypes.c_uint8),
+    ]
+
+    @staticmethod
+    def type_name() -> str:
+        return "polarnav::GnssFix_v1"
+
+
 def layout() -> dict:
     """Sizes and field offsets, for the layout test."""
     out = {}
-    for t in (Solution, StreamCounters, AidStatus, Status, StarSample):
+    for t in (Solution, StreamCounters, AidStatus, Status, StarSample, GnssFix):
         out[t.__name__] = ctypes.sizeof(t)
         for name, _ in t._fields_:
             out[f"{t.__name__}.{name}"] = getattr(t, name).offset

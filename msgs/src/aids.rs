@@ -38,6 +38,7 @@
 //! not expand macros, puts it in the C header; a check below makes the
 //! compiler hold it and the list to the same aids in the same order.
 
+use crate::gnss::GnssFix;
 use crate::payloads::{BaroSample, CnsFix, SrsSample, StarSample};
 use crate::solution_flags;
 
@@ -53,6 +54,8 @@ pub enum AidKind {
     Baro = 2,
     /// Star tracker attitude.
     Star = 3,
+    /// GNSS position and velocity (not autonomous: tested for integrity).
+    Gnss = 4,
 }
 
 /// The most innovation components an aid has (the length of
@@ -64,7 +67,7 @@ pub const MAX_COMPONENTS: usize = 6;
 pub const MAX_CAUSES: usize = 4;
 
 /// Number of aids (the length of `Status::aids`).
-pub const AID_COUNT: usize = 4;
+pub const AID_COUNT: usize = 5;
 /// Number of input streams with counters: the IMU and the aids (the
 /// length of `Status::streams`).
 pub const STREAM_COUNT: usize = AID_COUNT + 1;
@@ -138,6 +141,30 @@ macro_rules! for_each_aid {
                 causes: &["invalid content"],
                 autonomous: true,
                 excluded_flag: 0,
+            }),
+            (Gnss, gnss, GnssFix, {
+                label: "GNSS",
+                title: "GNSS position and velocity",
+                record: 11,
+                fresh_flag: GNSS_FRESH,
+                components: &[
+                    Component::new("east | grid x", Unit::M),
+                    Component::new("north | grid y", Unit::M),
+                    Component::new("up", Unit::M),
+                    Component::new("v east | grid x", Unit::Mps),
+                    Component::new("v north | grid y", Unit::Mps),
+                    Component::new("v up", Unit::Mps),
+                ],
+                gate: 22.458,
+                timeout_s: 3.0,
+                causes: &[
+                    "invalid content",
+                    "fix below 3D",
+                    "accuracy beyond bound",
+                    "PDOP beyond gate",
+                ],
+                autonomous: false,
+                excluded_flag: GNSS_EXCLUDED,
             }),
         ] }
     };
@@ -607,7 +634,11 @@ mod tests {
             assert_eq!(AidKind::from_name(d.name), Some(k));
             assert_eq!(AidKind::from_record(d.record), Some(k));
         }
-        assert_eq!(AidKind::all_fresh_flags(), flags);
+        assert_eq!(
+            AidKind::all_fresh_flags() | AidKind::all_excluded_flags(),
+            flags
+        );
+        assert_eq!(AidKind::all_fresh_flags() & AidKind::all_excluded_flags(), 0);
         // The navlog's other records keep their indices.
         for other in [0, 1, 2, 6, 7, 8, 10] {
             assert!(!records.contains(&other), "record {other} is not an aid's");

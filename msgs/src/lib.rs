@@ -18,6 +18,7 @@
 //! `nav-daemon batch` share.
 
 pub mod aids;
+pub mod gnss;
 pub mod navlog;
 pub mod payloads;
 pub mod service;
@@ -26,5 +27,6 @@ pub mod status;
 pub use aids::{
     AID_COUNT, AidDecl, AidKind, AidPayload, AidSample, PerAid, PerStream, STREAM_COUNT, Stream,
 };
+pub use gnss::GnssFix;
 pub use payloads::*;
 pub use status::{AidStatus, Status, StreamCounters};

@@ -35,7 +35,10 @@ pub const MAGIC: [u8; 8] = *b"POLARNAV";
 /// 6 innovation components, refusals by cause, the integrity test; and
 /// `rejected_integrity` per stream). A status record of format 4 or before
 /// does not decode and is skipped as incompatible; every other record reads.
-pub const FORMAT_VERSION: u16 = 5;
+/// 6: the GNSS record (variant 11, appended) and the `_v6` status record
+/// (a fifth aid in `aids` and `streams`); a status record of format 5 or
+/// before is skipped as incompatible, every other record reads.
+pub const FORMAT_VERSION: u16 = 6;
 /// Frames longer than this are treated as corruption (the largest record is ~1 kB
 /// plus the header's scenario text).
 pub const MAX_FRAME_BYTES: usize = 1 << 20;

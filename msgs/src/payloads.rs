@@ -208,6 +208,11 @@ pub mod solution_flags {
     /// A second publisher sent on an input service in the last status period:
     /// its samples were refused (`StreamCounters::refused_publisher`).
     pub const SECOND_PUBLISHER: u32 = 1 << 10;
+    /// A GNSS fix was fused within its timeout.
+    pub const GNSS_FRESH: u32 = 1 << 11;
+    /// GNSS is excluded by its integrity test (it disagreed with the
+    /// autonomous solution; the solution is the autonomous one).
+    pub const GNSS_EXCLUDED: u32 = 1 << 12;
 }
 
 /// Full navigation solution, one per filter cycle.

@@ -460,6 +460,8 @@ fn init_from_truth(t: &TruthRecord) -> InitState {
         r_e: Vector3::from(t.r_e_m),
         v_e: Vector3::from(t.v_e_mps),
         q_b_e: UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(w, x, y, z)),
+        // The truth file has no rates; an init needs none.
+        omega_ib_b: Vector3::zeros(),
     };
     init_record(t.t_ns, &sample, &IMPORT_INIT_SIGMA, None)
 }

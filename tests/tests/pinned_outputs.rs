@@ -31,7 +31,13 @@ use sha2::{Digest, Sha256};
 
 /// Items that did not exist at the pin, with the change that added them
 /// (prefix match on the item name).
-const ADDED_SINCE_THE_PIN: &[(&str, &str)] = &[];
+const ADDED_SINCE_THE_PIN: &[(&str, &str)] = &[
+    ("mcap metadata polarnav.settings aids.gnss", GNSS),
+];
+
+/// GNSS, the fifth aid (issue 29): its settings, and its name among the
+/// aids fused by default.
+const GNSS: &str = "GNSS, the fifth aid, and its settings (issue 29)";
 
 /// Pinned items whose value has changed on purpose since the pin, each
 /// with the change (exact item names). Everything else they carry is
@@ -42,6 +48,7 @@ const CHANGED_SINCE_THE_PIN: &[(&str, &str)] = &[
     ("navlog record 00 (1 frames)", FORMAT_5),
     ("navlog header format_version", FORMAT_5),
     ("mcap metadata polarnav navlog_format_version", FORMAT_5),
+    ("mcap metadata polarnav.settings aids.fuse", GNSS),
     ("mcap schema polarnav.AidUpdate", SCHEMA),
     ("mcap schema polarnav.BaroSample", SCHEMA),
     ("mcap schema polarnav.CnsFix", SCHEMA),
@@ -56,9 +63,9 @@ const CHANGED_SINCE_THE_PIN: &[(&str, &str)] = &[
     ("mcap schema polarnav.TruthBias", SCHEMA),
 ];
 
-/// The navlog's format version 4 → 5 (the `_v5` status record): the
-/// header's one field and what contains it.
-const FORMAT_5: &str = "navlog format 5, the _v5 status record (issue 29)";
+/// The navlog's format version 4 → 6 (the `_v5` then `_v6` status record,
+/// the GNSS record): the header's one field and what contains it.
+const FORMAT_5: &str = "navlog format 6: the _v6 status record and the GNSS record (issue 29)";
 /// `polarnav.proto` grew: Status.aids (every aid by name),
 /// StreamCounters.rejected_integrity, AidStatus' integrity and refusal
 /// fields (issue 29). Every channel's messages stay pinned.

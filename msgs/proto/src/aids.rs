@@ -115,6 +115,37 @@ impl AidMessage for msgs::StarSample {
     }
 }
 
+// ---- GNSS ---------------------------------------------------------------
+
+impl ProtoName for pb::GnssFix {
+    const NAME: &'static str = "polarnav.GnssFix";
+}
+
+impl AidMessage for msgs::GnssFix {
+    type Proto = pb::GnssFix;
+    fn to_proto(&self) -> pb::GnssFix {
+        let [vel_n_mps, vel_e_mps, vel_d_mps] = self.vel_ned_mps;
+        pb::GnssFix {
+            t_ns: self.t_ns,
+            seq: self.seq,
+            lat_rad: self.lat_rad,
+            lon_rad: self.lon_rad,
+            height_m: self.height_m,
+            vel_n_mps,
+            vel_e_mps,
+            vel_d_mps,
+            h_acc_m: self.h_acc_m,
+            v_acc_m: self.v_acc_m,
+            s_acc_mps: self.s_acc_mps,
+            pdop: self.pdop,
+            itow_ms: self.itow_ms,
+            fix_type: u32::from(self.fix_type),
+            num_sv: u32::from(self.num_sv),
+            flags: u32::from(self.flags),
+        }
+    }
+}
+
 /// Every aid has its message: a registration without one fails here.
 macro_rules! every_aid_has_a_message {
     ([$(($K:ident, $n:ident, $P:ident, $d:tt)),* $(,)?]) => {

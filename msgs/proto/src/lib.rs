@@ -64,6 +64,7 @@ mod tests {
             || name.starts_with("los_")
             || name.starts_with("boresight_")
             || name.ends_with("_ratio")
+            || name.ends_with("dop")
     }
 
     fn messages(fds: &FileDescriptorSet) -> Vec<&DescriptorProto> {

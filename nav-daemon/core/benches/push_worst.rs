@@ -72,6 +72,21 @@ impl Owned {
                 s.sigma_cross_arcsec,
                 s.sigma_boresight_arcsec
             ),
+            Owned::Aid(msgs::AidSample::Gnss(g)) => format!(
+                "GNSS t_ns={} seq={} lat={:e} lon={:e} h={:e} v_ned={:?} acc={:e}/{:e}/{:e} pdop={:e} fix={} flags={}",
+                g.t_ns,
+                g.seq,
+                g.lat_rad,
+                g.lon_rad,
+                g.height_m,
+                g.vel_ned_mps,
+                g.h_acc_m,
+                g.v_acc_m,
+                g.s_acc_mps,
+                g.pdop,
+                g.fix_type,
+                g.flags
+            ),
             Owned::Init(i) => format!(
                 "init t_ns={} seq={} r_e={:?} v_e={:?} q={:?} sigmas=[{:e}, {:e}, {:e}, {:e}, {:e}, {:e}]",
                 i.t_ns,

@@ -4,9 +4,11 @@
 //! declaration's (`msgs::aids`), and [`Streams`] runs every aid of a
 //! scenario, in the declared order, at each IMU epoch.
 
-use msgs::{AidPayload, AidSample, BaroSample, CnsFix, SrsSample, StarSample};
+use msgs::gnss::{fix_flags, fix_type};
+use msgs::{AidPayload, AidSample, BaroSample, CnsFix, GnssFix, SrsSample, StarSample};
 use nalgebra::Vector3;
 use polarnav::earth::{self, isa};
+use polarnav::frames;
 use rand_chacha::ChaCha20Rng;
 use serde::de::DeserializeOwned;
 
@@ -366,6 +368,217 @@ impl SimAid for StarSample {
                 self.q_b_i = [q.w, q.i, q.j, q.k];
             }
             Corruption::Nan => self.q_b_i[0] = f64::NAN,
+        }
+    }
+}
+
+// ---- GNSS -------------------------------------------------------------
+
+/// `[gnss]`: a GNSS receiver fixing its antenna's position and velocity.
+/// Its position error is white noise plus a first-order Gauss–Markov
+/// process per axis (the slowly wandering error of multipath, the
+/// atmosphere and the orbits); it reports as its accuracy the σ of their
+/// sum, as a receiver's estimate does.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GnssSpec {
+    pub rate_hz: f64,
+    /// White position noise, 1-σ per horizontal axis and vertical (m).
+    #[serde(default = "gnss_defaults::sigma_h")]
+    pub sigma_h_m: f64,
+    #[serde(default = "gnss_defaults::sigma_v")]
+    pub sigma_v_m: f64,
+    /// Gauss–Markov position error: stationary 1-σ per horizontal axis and
+    /// vertical (m), and correlation time (s).
+    #[serde(default = "gnss_defaults::gm_h")]
+    pub gm_sigma_h_m: f64,
+    #[serde(default = "gnss_defaults::gm_v")]
+    pub gm_sigma_v_m: f64,
+    #[serde(default = "gnss_defaults::gm_tau")]
+    pub gm_tau_s: f64,
+    /// White velocity noise per axis (m/s).
+    #[serde(default = "gnss_defaults::sigma_vel")]
+    pub sigma_vel_mps: f64,
+    /// The antenna's position from the IMU, body axes (m).
+    #[serde(default)]
+    pub lever_arm_b_m: [f64; 3],
+    /// Reported PDOP and satellites used.
+    #[serde(default = "gnss_defaults::pdop")]
+    pub pdop: f64,
+    #[serde(default = "gnss_defaults::num_sv")]
+    pub num_sv: u8,
+    /// Windows without a fix (the receiver reports fix type 0).
+    #[serde(default, rename = "outage")]
+    pub outages: Vec<GnssOutage>,
+}
+
+/// `[[gnss.outage]]`: a window without a fix.
+#[derive(Debug, Clone, Copy, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GnssOutage {
+    pub start_s: f64,
+    pub duration_s: f64,
+}
+
+mod gnss_defaults {
+    pub fn sigma_h() -> f64 {
+        1.0
+    }
+    pub fn sigma_v() -> f64 {
+        2.0
+    }
+    pub fn gm_h() -> f64 {
+        1.5
+    }
+    pub fn gm_v() -> f64 {
+        3.0
+    }
+    pub fn gm_tau() -> f64 {
+        300.0
+    }
+    pub fn sigma_vel() -> f64 {
+        0.05
+    }
+    pub fn pdop() -> f64 {
+        1.6
+    }
+    pub fn num_sv() -> u8 {
+        14
+    }
+}
+
+impl GnssSpec {
+    /// The σ the receiver reports: white and Gauss–Markov together.
+    pub fn reported(&self) -> (f64, f64, f64) {
+        (
+            self.sigma_h_m.hypot(self.gm_sigma_h_m),
+            self.sigma_v_m.hypot(self.gm_sigma_v_m),
+            self.sigma_vel_mps,
+        )
+    }
+}
+
+/// The GNSS model's state: its Gauss–Markov error (local east, north, up,
+/// m) and the time it was last drawn at.
+#[derive(Debug, Clone, Copy, Default)]
+pub struct GnssState {
+    gm_enu: Vector3<f64>,
+    last_s: Option<f64>,
+}
+
+impl SimAid for GnssFix {
+    type Spec = GnssSpec;
+    type State = GnssState;
+    /// Stream 6: a scenario with `[gnss]` has every other sample exactly
+    /// as the same scenario without.
+    const OWN_STREAM: Option<u64> = Some(6);
+    fn rate_hz(spec: &GnssSpec) -> f64 {
+        spec.rate_hz
+    }
+    fn validate(g: &GnssSpec) -> Result<(), (String, String)> {
+        positive("rate_hz", g.rate_hz)?;
+        for (k, v) in [
+            ("sigma_h_m", g.sigma_h_m),
+            ("sigma_v_m", g.sigma_v_m),
+            ("gm_sigma_h_m", g.gm_sigma_h_m),
+            ("gm_sigma_v_m", g.gm_sigma_v_m),
+            ("sigma_vel_mps", g.sigma_vel_mps),
+        ] {
+            if !(v.is_finite() && (0.0..=1e4).contains(&v)) {
+                return Err((k.into(), format!("expected a 1-σ in [0, 1e4], got {v}")));
+            }
+        }
+        positive("gm_tau_s", g.gm_tau_s)?;
+        if !(g.pdop.is_finite() && g.pdop >= 1.0) {
+            return Err(("pdop".into(), format!("a PDOP is at least 1, got {}", g.pdop)));
+        }
+        for (i, l) in g.lever_arm_b_m.iter().enumerate() {
+            if !(l.is_finite() && l.abs() <= 100.0) {
+                return Err((
+                    format!("lever_arm_b_m[{i}]"),
+                    format!("expected at most 100 m, got {l}"),
+                ));
+            }
+        }
+        for (i, o) in g.outages.iter().enumerate() {
+            if !(o.start_s.is_finite() && o.start_s >= 0.0) {
+                return Err((format!("outage[{i}].start_s"), "expected a time ≥ 0".into()));
+            }
+            positive(&format!("outage[{i}].duration_s"), o.duration_s)?;
+        }
+        Ok(())
+    }
+    fn start(_: &GnssSpec) -> GnssState {
+        GnssState::default()
+    }
+    fn sample(
+        g: &GnssSpec,
+        state: &mut GnssState,
+        rng: &mut ChaCha20Rng,
+        t_ns: u64,
+        seq: u64,
+        truth: &TruthSample,
+        noisy: bool,
+    ) -> Self {
+        let t_s = t_ns as f64 * 1e-9;
+        let c_b_e = truth.q_b_e.to_rotation_matrix().into_inner();
+        let l_b = Vector3::from(g.lever_arm_b_m);
+        let omega_eb_b = truth.omega_ib_b - c_b_e.transpose() * earth::omega_ie_e();
+        let r_ant = truth.r_e + c_b_e * l_b;
+        let v_ant = truth.v_e + c_b_e * omega_eb_b.cross(&l_b);
+        let geo = earth::ecef_to_geodetic(&r_ant);
+        let c_e_g = frames::c_e_g(geo.lat_rad, geo.lon_rad);
+        let mut d_enu = Vector3::zeros();
+        let mut dv_enu = Vector3::zeros();
+        if noisy {
+            // The Gauss–Markov error, exactly discretized over the time since the last draw.
+            let dt = state.last_s.map_or(f64::INFINITY, |t0| t_s - t0);
+            let phi = (-dt / g.gm_tau_s).exp();
+            let sd = [g.gm_sigma_h_m, g.gm_sigma_h_m, g.gm_sigma_v_m];
+            for k in 0..3 {
+                let w = sd[k] * (1.0 - phi * phi).max(0.0).sqrt();
+                state.gm_enu[k] = phi * state.gm_enu[k] + w * sensors::normal(rng);
+            }
+            state.last_s = Some(t_s);
+            let white = [g.sigma_h_m, g.sigma_h_m, g.sigma_v_m];
+            for k in 0..3 {
+                d_enu[k] = state.gm_enu[k] + white[k] * sensors::normal(rng);
+                dv_enu[k] = g.sigma_vel_mps * sensors::normal(rng);
+            }
+        }
+        let r = r_ant + c_e_g.transpose() * d_enu;
+        let fix = earth::ecef_to_geodetic(&r);
+        // The receiver's velocity is north-east-down in the axes of its own fix.
+        let v_enu = frames::c_e_g(fix.lat_rad, fix.lon_rad) * v_ant + dv_enu;
+        let (h_acc, v_acc, s_acc) = g.reported();
+        let outage = g.outages.iter().any(|o| {
+            t_s >= o.start_s && t_s < o.start_s + o.duration_s
+        });
+        let week_ms = 7 * 86_400_000u64;
+        GnssFix {
+            t_ns,
+            seq,
+            lat_rad: fix.lat_rad,
+            lon_rad: fix.lon_rad,
+            height_m: fix.h_m,
+            vel_ned_mps: [v_enu.y, v_enu.x, -v_enu.z],
+            h_acc_m: if outage { 1e4 } else { h_acc },
+            v_acc_m: if outage { 1e4 } else { v_acc },
+            s_acc_mps: if outage { 100.0 } else { s_acc },
+            pdop: if outage { 99.99 } else { g.pdop },
+            itow_ms: ((t_ns / 1_000_000) % week_ms) as u32,
+            fix_type: if outage { fix_type::NONE } else { fix_type::FIX_3D },
+            num_sv: if outage { 0 } else { g.num_sv },
+            flags: if outage { 0 } else { fix_flags::FIX_OK },
+            _pad: 0,
+        }
+    }
+    /// `magnitude` metres north, or a NaN latitude. Jamming and
+    /// spoofing are [`crate::faults`]' own events.
+    fn corrupt(&mut self, c: Corruption) {
+        match c {
+            Corruption::Outlier(magnitude) => self.lat_rad += magnitude / earth::A,
+            Corruption::Nan => self.lat_rad = f64::NAN,
         }
     }
 }

@@ -71,6 +71,9 @@ pub struct TruthSample {
     pub r_e: Vector3<f64>,
     pub v_e: Vector3<f64>,
     pub q_b_e: UnitQuaternion<f64>,
+    /// The body's rate against inertial space, body axes (rad/s): what
+    /// turns a lever arm into the velocity of an antenna.
+    pub omega_ib_b: Vector3<f64>,
 }
 
 /// Speed of light (m/s).

@@ -294,6 +294,7 @@ impl Flight {
             r_e: self.y.r_e,
             v_e: k.v_e,
             q_b_e: q,
+            omega_ib_b: k.omega_ib_b,
         }
     }
 

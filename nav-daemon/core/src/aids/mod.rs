@@ -12,6 +12,7 @@
 pub mod baro;
 pub mod cns;
 pub mod control;
+pub mod gnss;
 pub mod srs;
 pub mod star;
 
