@@ -200,8 +200,9 @@ pub fn upstream_missing(s: &Scenario, injected: &[u64]) -> PerStream<u64> {
     n
 }
 
-/// The windows of a scenario's faults. IMU outages and IMU time jumps (whose
-/// samples are rejected or leave a gap) take information away.
+/// The windows of a scenario's faults. Outages, IMU time jumps (whose
+/// samples are rejected or leave a gap), jamming and spoofing (GNSS lost or
+/// excluded) take information away.
 pub fn windows(s: &Scenario) -> Vec<Window> {
     s.faults
         .iter()
@@ -209,8 +210,10 @@ pub fn windows(s: &Scenario) -> Vec<Window> {
         .map(|e| Window {
             start_s: e.start_s,
             end_s: e.start_s + e.duration_s,
-            outage: e.kind == FaultKind::Outage
-                || (e.kind == FaultKind::TimeJump && e.stream == Stream::Imu),
+            outage: matches!(
+                e.kind,
+                FaultKind::Outage | FaultKind::GnssJam | FaultKind::GnssSpoof
+            ) || (e.kind == FaultKind::TimeJump && e.stream == Stream::Imu),
         })
         .collect()
 }
@@ -386,6 +389,28 @@ pub fn fault_lines(s: &Scenario, injected: &[u64], status: &Status) -> Vec<Fault
                 (FaultKind::Outliers, st) => {
                     let v = c(st).rejected_gate;
                     (Some(("rejected by gate".into(), v)), v >= need)
+                }
+                // After the ramp the receiver has no fix: each such fix is
+                // refused as below 3D.
+                (FaultKind::GnssJam, st) => {
+                    let ramp = e.ramp_s.unwrap_or(0.5 * e.duration_s);
+                    let lost = (n as f64 * (1.0 - ramp / e.duration_s)).floor() as u64;
+                    let v = match st {
+                        Stream::Aid(k) => status.aid(k).refused[1],
+                        Stream::Imu => 0,
+                    };
+                    (
+                        Some(("refused: no 3D fix".into(), v)),
+                        v >= lost.saturating_sub(1),
+                    )
+                }
+                // The integrity test excludes the spoofed receiver.
+                (FaultKind::GnssSpoof, st) => {
+                    let v = match st {
+                        Stream::Aid(k) => status.aid(k).exclusions,
+                        Stream::Imu => 0,
+                    };
+                    (Some(("integrity exclusions".into(), v)), v >= 1)
                 }
             };
             FaultLine {

@@ -127,6 +127,57 @@ fn star_tracker_is_played_fused_live_and_recorded() {
     assert_eq!(last_with_imu.aid(AidKind::Star).fresh, 1);
 }
 
+/// GNSS live (issue 29): the first 60 s of `transpolar-gnss` with a
+/// meaconer 500 m away from 15 s to 30 s, readmission after 10 s of
+/// agreement. The daemon excludes GNSS at the meaconer's first fix and
+/// readmits it at about 40 s, logging each once, and live equals batch bit
+/// for bit across both (the reference navigator, the exclusion's reset and
+/// the readmission all decided on the stamps).
+#[test]
+fn gnss_live_equals_batch_across_an_exclusion_and_a_readmission() {
+    let text = std::fs::read_to_string(repo("config/scenarios/transpolar-gnss.toml"))
+        .expect("scenario")
+        + "\n[[faults.event]]\nkind = \"gnss_spoof\"\nstream = \"gnss\"\nstart_s = 15.0\nduration_s = 15.0\noffset_m = 500.0\ndelay_s = 0.2\n";
+    let dir = std::env::temp_dir().join(format!("polarnav-gnss-scenario-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("dir");
+    let scenario = dir.join("meaconed.toml");
+    std::fs::write(&scenario, text).expect("scenario");
+    let o = soak(
+        "gnss",
+        scenario.to_str().expect("path"),
+        &Load {
+            config: "\n[aids.gnss]\nreadmit_after_s = 10.0\n",
+            ..Load::default()
+        },
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+    let g = o.batch_status.aid(AidKind::Gnss);
+    let c = o.batch_status.aid_counters(AidKind::Gnss);
+    eprintln!(
+        "gnss live: {} exclusions, excluded now {}, {} fixes fused, {} refused by the integrity test",
+        g.exclusions, g.excluded, c.accepted, c.rejected_integrity
+    );
+    assert_eq!((g.exclusions, g.excluded), (1, 0));
+    // 15 s of meaconing and 10 s of agreement at 5 Hz, the first fix of
+    // each window aside.
+    assert!((120..=130).contains(&c.rejected_integrity), "{c:?}");
+    let flagged: Vec<f64> = o
+        .records
+        .iter()
+        .filter_map(|r| match r {
+            Record::Solution(s) if s.flags & msgs::solution_flags::GNSS_EXCLUDED != 0 => {
+                Some(s.t_ns as f64 * 1e-9)
+            }
+            _ => None,
+        })
+        .collect();
+    let (first, last) = (flagged[0], flagged[flagged.len() - 1]);
+    eprintln!("gnss live: GNSS_EXCLUDED from {first} s to {last} s");
+    assert!((15.0..15.3).contains(&first) && (39.9..41.0).contains(&last), "{first} {last}");
+    assert_eq!(o.daemon_log.matches("gnss excluded").count(), 1, "{}", o.daemon_log);
+    assert_eq!(o.daemon_log.matches("gnss readmitted").count(), 1);
+}
+
 /// The same on a machine kept busy by two CPU-bound processes beside the
 /// three of the test, with the daemon stopped (SIGSTOP) for a second in the
 /// middle, long enough to fill its input buffers at 20x: the replay waits
@@ -960,6 +1011,10 @@ fn python_ctypes_mirror_has_the_rust_layout() {
     rust.extend(
         offsets!(StarSample: t_ns, seq, q_b_i, boresight_b, sigma_cross_arcsec,
         sigma_boresight_arcsec),
+    );
+    rust.extend(
+        offsets!(GnssFix: t_ns, seq, lat_rad, lon_rad, height_m, vel_ned_mps, h_acc_m, v_acc_m,
+        s_acc_mps, pdop, itow_ms, fix_type, num_sv, flags, _pad),
     );
     // The mirror's aid names, in the declaration's order.
     rust.extend(AidKind::ALL.map(|k| (format!("aid.{}", k.name()), k as usize)));

@@ -317,6 +317,20 @@ impl Config {
     }
 }
 
+/// Assigns every leaf of `v` under the dotted key `key`: a table (an
+/// aid's own, `aids.gnss`) sets its keys one by one, so that the keys it
+/// does not name keep their values from the configuration.
+fn put_leaves(key: &str, v: &toml::Value, put: &mut impl FnMut(&str, toml::Value)) {
+    match v {
+        toml::Value::Table(t) => {
+            for (k, v) in t {
+                put_leaves(&format!("{key}.{k}"), v, put);
+            }
+        }
+        v => put(key, v.clone()),
+    }
+}
+
 /// The `[navigator]` table a scenario carries in a navlog header's metadata,
 /// and the flight recorder writes from the daemon's effective settings.
 /// The flat keys are the scenarios' short forms; the tables `frame`,
@@ -420,7 +434,7 @@ impl ScenarioOverrides {
             ("init", &self.init),
         ] {
             for (k, v) in t.iter().flatten() {
-                put(&format!("{table}.{k}"), v.clone());
+                put_leaves(&format!("{table}.{k}"), v, &mut put);
             }
         }
         if let Some(v) = self.align_s {
@@ -449,7 +463,11 @@ mod tests {
         let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../config");
         let file = ConfigFile::load(&root.join("nav-daemon.toml")).expect("shipped config");
         let mut n = 0;
-        for dir in [root.join("scenarios"), root.join("scenarios/faults")] {
+        for dir in [
+            root.join("scenarios"),
+            root.join("scenarios/faults"),
+            root.join("scenarios/gnss"),
+        ] {
             for entry in std::fs::read_dir(&dir).expect("scenarios") {
                 let path = entry.expect("entry").path();
                 if path.extension().is_some_and(|e| e == "toml") {
@@ -651,5 +669,23 @@ mod tests {
             "{e}"
         );
         assert!(Config::parse("[aids]\nreset_after_s = 0.0\n", "x.toml").is_ok());
+    }
+
+    /// A scenario's `[navigator.aids.gnss]` (the simulated antenna's lever
+    /// arm) sets its keys one by one: the file's other keys of that table
+    /// keep their values.
+    #[test]
+    #[allow(clippy::float_cmp)] // copies of the same decimal literals: exact
+    fn a_header_sets_an_aids_own_keys_one_by_one() {
+        let file = ConfigFile::parse(
+            "[aids.gnss]\nmax_pdop = 5.0\nlever_arm_b_m = [9.0, 9.0, 9.0]\n",
+            "x.toml",
+        )
+        .expect("file");
+        let meta = "name = 'x'\n[navigator.aids.gnss]\nlever_arm_b_m = [0.0, 1.5, 0.8]\n";
+        let e = effective(&file, Some(meta), &CliOverrides::default()).expect("effective");
+        let g = &e.config.aids.own.gnss;
+        assert_eq!(g.lever_arm_b_m, [0.0, 1.5, 0.8]);
+        assert_eq!(g.max_pdop, 5.0);
     }
 }

@@ -48,10 +48,13 @@ use vehicle::{DT_NS, DT_S, H0_M, LON0_DEG, Owned, T0_NS, Truth};
 /// in at most `MAX_BRIDGE_STEPS` steps plus its own step, each step with at
 /// most one covariance propagation (hence × 2); the aids of the bounded
 /// queue (`AID_QUEUE`) each at most one propagation; plus a few fixed
-/// propagations (resync, coast, frame switch).
-/// = 4 · 2 · 65 + 16 + 8 = 544.
+/// propagations (resync, coast, frame switch); and all that for each of
+/// the session's at most two navigators (the main one and the integrity
+/// test's reference, which takes the same IMU samples and every aid but
+/// GNSS).
+/// = 2 · (4 · 2 · 65 + 16 + 8) = 1088.
 const WORK_BOUND: u64 =
-    TIME_JUMP_CONFIRM as u64 * 2 * (MAX_BRIDGE_STEPS + 1) + AID_QUEUE as u64 + 8;
+    2 * (TIME_JUMP_CONFIRM as u64 * 2 * (MAX_BRIDGE_STEPS + 1) + AID_QUEUE as u64 + 8);
 
 // ---- inputs held by value ---------------------------------------------
 
@@ -207,7 +210,7 @@ impl Harness {
     }
 
     fn push(&mut self, o: Owned) -> Result<(), String> {
-        let before = self.session.navigator().map_or(0, |n| n.work());
+        let before = self.session.work();
         self.session.push(o.input(), &mut self.sink);
         self.pushes += 1;
         match o {
@@ -216,7 +219,7 @@ impl Harness {
             Owned::Init(_) => self.inits += 1,
         }
         self.last = Some(o);
-        let after = self.session.navigator().map_or(0, |n| n.work());
+        let after = self.session.work();
         self.check(after.saturating_sub(before), false)
             .map_err(|e| format!("after push #{} {}: {e}", self.pushes, o.describe()))
     }
@@ -307,9 +310,9 @@ impl Harness {
     }
 
     fn finish(&mut self) -> Result<(), String> {
-        let before = self.session.navigator().map_or(0, |n| n.work());
+        let before = self.session.work();
         self.session.finish(&mut self.sink);
-        let after = self.session.navigator().map_or(0, |n| n.work());
+        let after = self.session.work();
         self.check(after.saturating_sub(before), true)
             .map_err(|e| format!("after finish: {e}"))
     }
@@ -395,6 +398,11 @@ impl Harness {
                 let mut s = self.truth.star(t - DT_NS, k);
                 s.t_ns += off;
                 self.push(Owned::Aid(msgs::AidSample::Star(s)))?;
+            }
+            if k % 40 == 10 {
+                let mut g = self.truth.gnss(t - DT_NS, k);
+                g.t_ns += off;
+                self.push(Owned::Aid(msgs::AidSample::Gnss(g)))?;
             }
         }
         Ok(())
@@ -531,6 +539,22 @@ struct StarSpec {
     sigma_boresight: Option<f64>,
 }
 
+/// A GNSS fix: every field wild or genuine, the fix type and flags any
+/// byte, or the genuine fix moved (a spoofer) by a log-uniform distance.
+#[derive(Debug, Clone)]
+struct GnssSpec {
+    stamp: Stamp,
+    seq: Option<u64>,
+    /// lat, lon, height, v_n, v_e, v_d.
+    values: [Option<f64>; 6],
+    /// h_acc, v_acc, s_acc, pdop.
+    sigmas: [Option<f64>; 4],
+    fix_type: Option<u8>,
+    flags: Option<u8>,
+    /// Moved north by this many metres.
+    moved_m: Option<f64>,
+}
+
 #[derive(Debug, Clone)]
 struct SrsSpec {
     stamp: Stamp,
@@ -571,6 +595,7 @@ enum InputOp {
     Cns(CnsSpec),
     Baro(BaroSpec),
     Star(StarSpec),
+    Gnss(GnssSpec),
     Init(InitSpec),
 }
 
@@ -706,6 +731,34 @@ fn star_spec() -> impl Strategy<Value = StarSpec> {
         )
 }
 
+fn gnss_spec() -> impl Strategy<Value = GnssSpec> {
+    let byte = prop_oneof![3 => Just(None), 1 => any::<u8>().prop_map(Some)];
+    let moved = prop_oneof![
+        2 => Just(None),
+        1 => (-3.0f64..7.0).prop_map(|e| Some(10f64.powf(e))),
+    ];
+    (
+        stamp(),
+        seq(),
+        prop::array::uniform6(field()),
+        prop::array::uniform4(sigma_field()),
+        byte.clone(),
+        byte,
+        moved,
+    )
+        .prop_map(
+            |(stamp, seq, values, sigmas, fix_type, flags, moved_m)| GnssSpec {
+                stamp,
+                seq,
+                values,
+                sigmas,
+                fix_type,
+                flags,
+                moved_m,
+            },
+        )
+}
+
 fn input_op() -> impl Strategy<Value = InputOp> {
     prop_oneof![
         4 => imu_spec().prop_map(InputOp::Imu),
@@ -713,6 +766,7 @@ fn input_op() -> impl Strategy<Value = InputOp> {
         1 => cns_spec().prop_map(InputOp::Cns),
         1 => baro_spec().prop_map(InputOp::Baro),
         1 => star_spec().prop_map(InputOp::Star),
+        1 => gnss_spec().prop_map(InputOp::Gnss),
         2 => init_spec().prop_map(InputOp::Init),
     ]
 }
@@ -808,6 +862,30 @@ impl Harness {
                 x.sigma_cross_arcsec = or(s.sigma_cross, x.sigma_cross_arcsec);
                 x.sigma_boresight_arcsec = or(s.sigma_boresight, x.sigma_boresight_arcsec);
                 Owned::Aid(msgs::AidSample::Star(x))
+            }
+            InputOp::Gnss(s) => {
+                let mut x = tr.gnss(tg, s.seq.unwrap_or(k));
+                x.t_ns = self.resolve(s.stamp);
+                if let Some(m) = s.moved_m {
+                    x.lat_rad += m / earth::A;
+                }
+                let [lat, lon, h, vn, ve, vd] = s.values;
+                x.lat_rad = or(lat, x.lat_rad);
+                x.lon_rad = or(lon, x.lon_rad);
+                x.height_m = or(h, x.height_m);
+                x.vel_ned_mps = [
+                    or(vn, x.vel_ned_mps[0]),
+                    or(ve, x.vel_ned_mps[1]),
+                    or(vd, x.vel_ned_mps[2]),
+                ];
+                let [ha, va, sa, pdop] = s.sigmas;
+                x.h_acc_m = or(ha, x.h_acc_m);
+                x.v_acc_m = or(va, x.v_acc_m);
+                x.s_acc_mps = or(sa, x.s_acc_mps);
+                x.pdop = or(pdop, x.pdop);
+                x.fix_type = s.fix_type.unwrap_or(x.fix_type);
+                x.flags = s.flags.unwrap_or(x.flags);
+                Owned::Aid(msgs::AidSample::Gnss(x))
             }
             InputOp::Srs(s) => {
                 let mut x = tr.srs(tg, s.seq.unwrap_or(k));
@@ -923,9 +1001,9 @@ impl Harness {
                     .map_err(|e| format!("after flush: {e}"))?;
             }
             Op::ImuLost => {
-                let before = self.session.navigator().map_or(0, |n| n.work());
+                let before = self.session.work();
                 self.session.imu_lost(&mut self.sink);
-                let after = self.session.navigator().map_or(0, |n| n.work());
+                let after = self.session.work();
                 self.check(after.saturating_sub(before), false)
                     .map_err(|e| format!("after imu_lost: {e}"))?;
             }

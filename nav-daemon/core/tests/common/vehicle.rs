@@ -4,7 +4,8 @@
 //! the state it describes). Included by both with `#[path]`.
 #![allow(dead_code)] // each includer uses part of it
 
-use msgs::{BaroSample, CnsFix, ImuSample, InitState, SrsLine, SrsSample, StarSample};
+use msgs::gnss::{fix_flags, fix_type};
+use msgs::{BaroSample, CnsFix, GnssFix, ImuSample, InitState, SrsLine, SrsSample, StarSample};
 use nalgebra::{UnitQuaternion, Vector3};
 use polarnav::earth::{self, Geodetic, isa};
 use polarnav::frames;
@@ -135,6 +136,33 @@ impl Truth {
 
     pub fn star(&self, t_ns: u64, seq: u64) -> StarSample {
         self.star_at(t_ns, seq, t_ns)
+    }
+
+    pub fn gnss(&self, t_ns: u64, seq: u64) -> GnssFix {
+        self.gnss_at(t_ns, seq, t_ns)
+    }
+
+    /// The GNSS fix stamped `t_ns` of the vehicle as it is at
+    /// `content_t_ns` (antenna at the IMU: the default lever arm).
+    pub fn gnss_at(&self, t_ns: u64, seq: u64, content_t_ns: u64) -> GnssFix {
+        let g = self.geo(content_t_ns);
+        GnssFix {
+            t_ns,
+            seq,
+            lat_rad: g.lat_rad,
+            lon_rad: g.lon_rad,
+            height_m: g.h_m,
+            vel_ned_mps: [self.speed_mps, 0.0, 0.0],
+            h_acc_m: 2.0,
+            v_acc_m: 3.0,
+            s_acc_mps: 0.1,
+            pdop: 1.5,
+            itow_ms: 0,
+            fix_type: fix_type::FIX_3D,
+            num_sv: 12,
+            flags: fix_flags::FIX_OK,
+            _pad: 0,
+        }
     }
 
     pub fn srs(&self, t_ns: u64, seq: u64) -> SrsSample {
