@@ -32,12 +32,12 @@
 //! the reference's state and covariance (a reset of the solution, flagged
 //! and published as one, whose step removes what the spoofer had dragged),
 //! and the aid's samples are counted as `rejected_integrity` and not fused.
-//! While excluded, each sample goes on being tested (against the main
-//! navigator, which is then the reference's equal); the aid is readmitted
-//! once its samples have agreed (q below the threshold) continuously for
-//! `readmit_after_s` of sensor time, and the reference starts again from
-//! the main navigator. Everything is decided on the samples' stamps, so
-//! live equals `batch`.
+//! While excluded, each sample goes on being tested against the
+//! reference, which keeps running and never takes the aid; the aid is
+//! readmitted once its samples have agreed (q below the threshold)
+//! continuously for `readmit_after_s` of sensor time, and from then the
+//! main navigator fuses it again while the reference goes on without it.
+//! Everything is decided on the samples' stamps, so live equals `batch`.
 
 use serde::{Deserialize, Serialize};
 
