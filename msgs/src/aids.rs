@@ -638,7 +638,10 @@ mod tests {
             AidKind::all_fresh_flags() | AidKind::all_excluded_flags(),
             flags
         );
-        assert_eq!(AidKind::all_fresh_flags() & AidKind::all_excluded_flags(), 0);
+        assert_eq!(
+            AidKind::all_fresh_flags() & AidKind::all_excluded_flags(),
+            0
+        );
         // The navlog's other records keep their indices.
         for other in [0, 1, 2, 6, 7, 8, 10] {
             assert!(!records.contains(&other), "record {other} is not an aid's");

@@ -84,10 +84,7 @@ mod tests {
 
     #[test]
     fn the_fix_has_no_implicit_padding() {
-        assert_eq!(
-            size_of::<GnssFix>(),
-            16 + 24 + 24 + 32 + 4 + 4
-        );
+        assert_eq!(size_of::<GnssFix>(), 16 + 24 + 24 + 32 + 4 + 4);
         assert_eq!(align_of::<GnssFix>(), 8);
     }
 

@@ -331,7 +331,7 @@ pub fn run_to<R: BufRead + Send, W: Write>(
         session.keep_smoother_tape();
     }
     match &mut sink.out {
-        Output::Csv(w) => writeln!(w, "{}", solution_csv::HEADER)?,
+        Output::Csv(w) => writeln!(w, "{}", solution_csv::header())?,
         Output::Mcap(m) => {
             if let Some(Record::Header(h)) = &first {
                 m.header(h)?;

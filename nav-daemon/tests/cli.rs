@@ -81,7 +81,7 @@ fn batch_writes_the_design_header_and_one_row_per_imu_sample() {
     let dir = temp_dir("rows");
     let (code, err, rows) = run_batch(&dir, &stationary_log(500, true), &["--aids", "none"]);
     assert_eq!(code, 0, "{err}");
-    assert_eq!(rows[0], polarnav::solution_csv::HEADER);
+    assert_eq!(rows[0], polarnav::solution_csv::header());
     assert_eq!(rows.len(), 501);
     // Stationary and exact: still at 45° N after 5 s.
     let parsed = polarnav::solution_csv::parse(&rows.join("\n"), "out.csv").expect("rows");

@@ -701,7 +701,7 @@ fn run(cli: Cli) -> Result<(), Fail> {
                     File::create(&p).map_err(|e| Fail(1, format!("{}: {e}", p.display())))?,
                 );
                 let io = |e: std::io::Error| Fail(1, format!("{}: {e}", p.display()));
-                writeln!(f, "{}", polarnav::solution_csv::HEADER).map_err(io)?;
+                writeln!(f, "{}", polarnav::solution_csv::header()).map_err(io)?;
                 for s in &c.solution {
                     polarnav::solution_csv::write_row(&mut f, s).map_err(io)?;
                 }

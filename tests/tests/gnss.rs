@@ -23,10 +23,14 @@ fn scenario(name: &str) -> String {
 /// shipped defaults and the scenario's `[navigator]` table (the antenna's
 /// lever arm). Every aid, GNSS tested for integrity.
 fn with_integrity(scenario: &str) -> NavigatorConfig {
-    effective(&ConfigFile::defaults(), Some(scenario), &CliOverrides::default())
-        .expect("settings")
-        .config
-        .navigator()
+    effective(
+        &ConfigFile::defaults(),
+        Some(scenario),
+        &CliOverrides::default(),
+    )
+    .expect("settings")
+    .config
+    .navigator()
 }
 
 /// GNSS fused whenever its own gate passes it; the autonomous aids still
@@ -118,7 +122,9 @@ fn spoofed_at(drag: &str) {
     let (h_on, h_off, h_none) = (horizontal(&on), horizontal(&off), horizontal(&none));
     let before = max_in(&h_on, SPOOF_START_S, t_x);
     // From the exclusion (the first truth epoch after it) to the readmission.
-    let t_r = readmitted.first().map_or(f64::INFINITY, |t| *t as f64 * 1e-9);
+    let t_r = readmitted
+        .first()
+        .map_or(f64::INFINITY, |t| *t as f64 * 1e-9);
     let mut identical = 0;
     for (a, b) in on.snaps.iter().zip(&none.snaps) {
         let t = a.t_ns as f64 * 1e-9;
@@ -218,7 +224,10 @@ fn meaconing_is_excluded_at_its_first_epoch() {
         .map_or(f64::NAN, |(_, t, _)| t.ratio());
     eprintln!(
         "meaconing 500 m: excluded at {:?} s (first spoofed fix {} s), q/threshold {ratio:.0}",
-        excluded.iter().map(|t| *t as f64 * 1e-9).collect::<Vec<_>>(),
+        excluded
+            .iter()
+            .map(|t| *t as f64 * 1e-9)
+            .collect::<Vec<_>>(),
         first as f64 * 1e-9
     );
     assert_eq!(excluded.first(), Some(&first));
@@ -410,8 +419,14 @@ fn jamming_over_the_pole_falls_back_without_a_transient() {
         back_step.0, back_step.1, g.refused[1], g.exclusions
     );
     assert!(worst_step <= 3.0, "a step of {worst_step}σ");
-    assert!(autonomous <= 1.0, "error outside its 3σ bound ×{autonomous}");
-    assert!(r.decisions(Verdict::Exclude).is_empty(), "jamming is not spoofing");
+    assert!(
+        autonomous <= 1.0,
+        "error outside its 3σ bound ×{autonomous}"
+    );
+    assert!(
+        r.decisions(Verdict::Exclude).is_empty(),
+        "jamming is not spoofing"
+    );
     // No fix from the end of the ramp: stale within the timeout (3 s).
     let lost = lost_flag_at.expect("GNSS never stale");
     assert!(lost <= start + ramp + 3.2, "stale only at {lost} s");
@@ -431,8 +446,10 @@ fn jamming_over_the_pole_falls_back_without_a_transient() {
 #[test]
 fn no_false_alarm_over_22_flight_hours_of_clean_gnss() {
     let base = std::fs::read_to_string(repo("config/scenarios/polar-long.toml")).expect("scenario");
-    let gnss = std::fs::read_to_string(repo("config/scenarios/transpolar-gnss.toml")).expect("scenario");
-    let section = &gnss[gnss.find("[gnss]").expect("[gnss]")..gnss.find("[init_error]").expect("init")];
+    let gnss =
+        std::fs::read_to_string(repo("config/scenarios/transpolar-gnss.toml")).expect("scenario");
+    let section =
+        &gnss[gnss.find("[gnss]").expect("[gnss]")..gnss.find("[init_error]").expect("init")];
     let text = base
         .replace("rate_hz = 200.0", "rate_hz = 100.0")
         .replace("[truth]\nrate_hz = 10.0", "[truth]\nrate_hz = 0.1")
@@ -445,17 +462,28 @@ fn no_false_alarm_over_22_flight_hours_of_clean_gnss() {
                 scope.spawn(move || {
                     (
                         seed,
-                        run(&simulate_records(text, 900 + seed), &with_integrity(text), None),
+                        run(
+                            &simulate_records(text, 900 + seed),
+                            &with_integrity(text),
+                            None,
+                        ),
                     )
                 })
             })
             .collect();
-        handles.into_iter().map(|h| h.join().expect("thread")).collect()
+        handles
+            .into_iter()
+            .map(|h| h.join().expect("thread"))
+            .collect()
     });
     let (mut tests, mut hours, mut worst) = (0usize, 0.0, 0.0f64);
     for (seed, r) in &runs {
         let n = r.integrity.len();
-        let top = r.integrity.iter().map(|(_, t, _)| t.ratio()).fold(0.0, f64::max);
+        let top = r
+            .integrity
+            .iter()
+            .map(|(_, t, _)| t.ratio())
+            .fold(0.0, f64::max);
         let mean_q = r.integrity.iter().map(|(_, t, _)| t.q).sum::<f64>() / n.max(1) as f64;
         let h = r.truth.last().map_or(0.0, |t| t.t_ns as f64 / 3.6e12);
         eprintln!(
@@ -465,8 +493,16 @@ fn no_false_alarm_over_22_flight_hours_of_clean_gnss() {
         tests += n;
         hours += h;
         worst = worst.max(top);
-        assert!(r.decisions(Verdict::Exclude).is_empty(), "seed {seed}: a false alarm");
+        assert!(
+            r.decisions(Verdict::Exclude).is_empty(),
+            "seed {seed}: a false alarm"
+        );
     }
-    eprintln!("no false alarm: {hours:.1} flight hours, {tests} tests, largest q/threshold {worst:.3}");
-    assert!(hours >= 20.0 && tests >= 350_000, "{hours} h, {tests} tests");
+    eprintln!(
+        "no false alarm: {hours:.1} flight hours, {tests} tests, largest q/threshold {worst:.3}"
+    );
+    assert!(
+        hours >= 20.0 && tests >= 350_000,
+        "{hours} h, {tests} tests"
+    );
 }

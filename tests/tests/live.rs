@@ -146,7 +146,9 @@ fn gnss_live_equals_batch_across_an_exclusion_and_a_readmission() {
         "gnss",
         scenario.to_str().expect("path"),
         &Load {
-            config: "\n[aids.gnss]\nreadmit_after_s = 10.0\n",
+            // The daemon's own settings carry the antenna's lever arm, as
+            // on an aircraft; batch takes it from the log's header too.
+            config: "\n[aids.gnss]\nreadmit_after_s = 10.0\nlever_arm_b_m = [0.0, 1.5, 0.8]\n",
             ..Load::default()
         },
     );
@@ -173,8 +175,16 @@ fn gnss_live_equals_batch_across_an_exclusion_and_a_readmission() {
         .collect();
     let (first, last) = (flagged[0], flagged[flagged.len() - 1]);
     eprintln!("gnss live: GNSS_EXCLUDED from {first} s to {last} s");
-    assert!((15.0..15.3).contains(&first) && (39.9..41.0).contains(&last), "{first} {last}");
-    assert_eq!(o.daemon_log.matches("gnss excluded").count(), 1, "{}", o.daemon_log);
+    assert!(
+        (15.0..15.3).contains(&first) && (39.9..41.0).contains(&last),
+        "{first} {last}"
+    );
+    assert_eq!(
+        o.daemon_log.matches("gnss excluded").count(),
+        1,
+        "{}",
+        o.daemon_log
+    );
     assert_eq!(o.daemon_log.matches("gnss readmitted").count(), 1);
 }
 
@@ -1296,7 +1306,7 @@ fn fault_campaign_through_the_live_daemon() {
         }
         let text = format!(
             "{}\n{}",
-            solution_csv::HEADER,
+            solution_csv::header(),
             String::from_utf8(csv).expect("utf8")
         );
         let rows = solution_csv::parse(&text, "live").expect("rows");

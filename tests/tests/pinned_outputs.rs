@@ -33,7 +33,14 @@ use sha2::{Digest, Sha256};
 /// (prefix match on the item name).
 const ADDED_SINCE_THE_PIN: &[(&str, &str)] = &[
     ("mcap metadata polarnav.settings aids.gnss", GNSS),
+    ("csv column star_fresh", AID_COLUMNS),
+    ("csv column gnss_fresh", AID_COLUMNS),
+    ("csv column gnss_excluded", AID_COLUMNS),
 ];
+
+/// The solution CSV's aid group (issue 29): a freshness column for each
+/// aid that had none (star, GNSS) and GNSS's exclusion, after the bias σ.
+const AID_COLUMNS: &str = "the CSV's aid group: star_fresh, gnss_fresh, gnss_excluded (issue 29)";
 
 /// GNSS, the fifth aid (issue 29): its settings, and its name among the
 /// aids fused by default.
@@ -44,6 +51,7 @@ const GNSS: &str = "GNSS, the fifth aid, and its settings (issue 29)";
 /// pinned by finer items: the navlog's frames after its header and the
 /// header's fields, each MCAP channel's messages.
 const CHANGED_SINCE_THE_PIN: &[(&str, &str)] = &[
+    ("csv header", AID_COLUMNS),
     ("navlog file", FORMAT_5),
     ("navlog record 00 (1 frames)", FORMAT_5),
     ("navlog header format_version", FORMAT_5),
@@ -71,10 +79,19 @@ const FORMAT_5: &str = "navlog format 6: the _v6 status record and the GNSS reco
 /// fields (issue 29). Every channel's messages stay pinned.
 const SCHEMA: &str = "polarnav.proto grew with the aids' status (issue 29)";
 
-/// The fields of `polarnav.Status` added since the pin, cleared before a
-/// `/status` message is hashed: every byte the message had at the pin
+/// The fields of `polarnav.Status` and `polarnav.Solution` added since the pin, cleared before a
+/// `/status` or `/solution` message is hashed: every byte the message had at the pin
 /// must be the same.
 fn canonical(topic: &str, data: &[u8]) -> Vec<u8> {
+    if topic == "/solution" {
+        // The aid group's fields (AID_COLUMNS), bits of `flags` repeated.
+        let mut s: polarnav_proto::Solution =
+            prost::Message::decode(data).expect("a polarnav.Solution");
+        s.star_fresh = false;
+        s.gnss_fresh = false;
+        s.gnss_excluded = false;
+        return prost::Message::encode_to_vec(&s);
+    }
     if topic != "/status" {
         return data.to_vec();
     }

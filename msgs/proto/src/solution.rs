@@ -87,6 +87,9 @@ impl pb::Solution {
             reset_dvy_mps,
             reset_dvz_mps,
             reset_dheading_deg: s.reset_delta_heading_rad.to_degrees(),
+            star_fresh: bit(solution_flags::STAR_FRESH),
+            gnss_fresh: bit(solution_flags::GNSS_FRESH),
+            gnss_excluded: bit(solution_flags::GNSS_EXCLUDED),
         }
     }
 

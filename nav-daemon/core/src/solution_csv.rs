@@ -49,8 +49,48 @@ pub const HEADER_REQUIRED: &str = "t_s,frame,lat_deg,lon_deg,h_m,x_m,y_m,z_m,vx_
 pub const HEADER_BIAS_SIGMA: &str =
     "sig_bg_x_rps,sig_bg_y_rps,sig_bg_z_rps,sig_ba_x_mps2,sig_ba_y_mps2,sig_ba_z_mps2";
 
-/// The header line: [`HEADER_REQUIRED`], then [`HEADER_BIAS_SIGMA`].
+/// The columns read: [`HEADER_REQUIRED`], then [`HEADER_BIAS_SIGMA`].
+/// A written file has the aid group ([`aid_columns`]) after them.
 pub const HEADER: &str = "t_s,frame,lat_deg,lon_deg,h_m,x_m,y_m,z_m,vx_mps,vy_mps,vz_mps,ve_mps,vn_mps,vu_mps,qw,qx,qy,qz,heading_deg,pitch_deg,roll_deg,sig_e_m,sig_n_m,sig_u_m,sig_vnav_x_mps,sig_vnav_y_mps,sig_vnav_z_mps,sig_att_x_deg,sig_att_y_deg,sig_att_z_deg,bg_x_rps,bg_y_rps,bg_z_rps,ba_x_mps2,ba_y_mps2,ba_z_mps2,grid_heading_deg,flags,srs_fresh,cns_fresh,baro_fresh,imu_lost,coasting,switch_count,reset_count,sig_bg_x_rps,sig_bg_y_rps,sig_bg_z_rps,sig_ba_x_mps2,sig_ba_y_mps2,sig_ba_z_mps2";
+
+/// The aid group, derived from the aid declaration (`msgs::for_each_aid!`):
+/// `NAME_fresh` (0/1) for every aid whose freshness has no column among
+/// [`HEADER_REQUIRED`] (the first three aids have theirs there), then
+/// `NAME_excluded` (0/1) for every aid that is not autonomous (its
+/// integrity test excludes it). So a pandas or MATLAB user reads which
+/// aids navigated at each epoch by name, e.g. `star_fresh`, `gnss_fresh`,
+/// `gnss_excluded`. Each column repeats one bit of `flags`, which is what
+/// [`parse`] reads: the group is ignored on reading, and a file written
+/// before it reads the same. Paired with each column's bit of `flags`.
+pub fn aid_columns() -> &'static [(String, u32)] {
+    static GROUP: std::sync::OnceLock<Vec<(String, u32)>> = std::sync::OnceLock::new();
+    GROUP.get_or_init(|| {
+        let decls = msgs::AidKind::ALL.map(|k| k.decl());
+        let fresh = decls.iter().filter_map(|d| {
+            let name = format!("{}_fresh", d.name);
+            (!HEADER_REQUIRED.split(',').any(|c| c == name)).then_some((name, d.fresh_flag))
+        });
+        let excluded = decls
+            .iter()
+            .filter(|d| !d.autonomous)
+            .map(|d| (format!("{}_excluded", d.name), d.excluded_flag));
+        fresh.chain(excluded).collect()
+    })
+}
+
+/// The header line a writer writes: [`HEADER`], then the aid group
+/// ([`aid_columns`]).
+pub fn header() -> &'static str {
+    static LINE: std::sync::OnceLock<String> = std::sync::OnceLock::new();
+    LINE.get_or_init(|| {
+        let mut line = String::from(HEADER);
+        for (name, _) in aid_columns() {
+            line.push(',');
+            line.push_str(name);
+        }
+        line
+    })
+}
 
 /// Number of columns of [`HEADER_REQUIRED`].
 pub const COLUMNS_REQUIRED: usize = 45;
@@ -72,8 +112,9 @@ pub fn write_row<W: Write>(out: &mut W, s: &Solution) -> std::io::Result<()> {
 /// after the integers.
 const FLOAT_COLUMNS: usize = 35 + COLUMNS_BIAS_SIGMA;
 
-/// Longest line: every column at most 24 bytes, separators and newline.
-const LINE_CAP: usize = COLUMNS * 25 + 16;
+/// Longest line: every column at most 24 bytes, separators and newline,
+/// and at most two 0/1 columns per aid in the aid group.
+const LINE_CAP: usize = COLUMNS * 25 + 16 + 4 * msgs::AID_COUNT;
 
 /// The last value written in a column and its text.
 #[derive(Clone, Copy)]
@@ -92,6 +133,8 @@ struct Formatted {
 pub struct RowWriter {
     line: [u8; LINE_CAP],
     last: [Formatted; FLOAT_COLUMNS],
+    /// The aid group's bits of `flags`, in column order.
+    aid_bits: &'static [(String, u32)],
 }
 
 impl std::fmt::Debug for RowWriter {
@@ -122,6 +165,7 @@ impl RowWriter {
         Self {
             line: [0; LINE_CAP],
             last: [zero; FLOAT_COLUMNS],
+            aid_bits: aid_columns(),
         }
     }
 
@@ -220,6 +264,11 @@ impl RowWriter {
             put(line, &mut n, ibuf.format(v));
         }
         put_floats(line, &mut n, &mut buf, tail, last_tail);
+        for (_, b) in self.aid_bits {
+            line[n] = b',';
+            line[n + 1] = if s.flags & b != 0 { b'1' } else { b'0' };
+            n += 2;
+        }
         line[n] = b'\n';
         n + 1
     }
@@ -600,6 +649,11 @@ pub fn parse(text: &str, p: &str) -> Result<Vec<Row>, ReadCsvError> {
 mod tests {
     use super::*;
 
+    /// Columns of a written row.
+    fn written() -> usize {
+        header().split(',').count()
+    }
+
     #[test]
     fn row_has_every_header_column_and_reads_back() {
         let mut s = Solution {
@@ -614,11 +668,11 @@ mod tests {
         let mut buf = Vec::new();
         write_row(&mut buf, &s).expect("write");
         let line = String::from_utf8(buf).expect("utf8");
-        assert_eq!(line.trim().split(',').count(), HEADER.split(',').count());
+        assert_eq!(line.trim().split(',').count(), header().split(',').count());
         let dir = std::env::temp_dir().join(format!("polarnav-csv-{}", std::process::id()));
         std::fs::create_dir_all(&dir).expect("dir");
         let path = dir.join("s.csv");
-        std::fs::write(&path, format!("{HEADER}\n{line}")).expect("write file");
+        std::fs::write(&path, format!("{}\n{line}", header())).expect("write file");
         let rows = read(&path).expect("read");
         assert_eq!(rows.len(), 1);
         assert_eq!(rows[0].frame, 'G');
@@ -665,7 +719,7 @@ mod tests {
         s.lat_rad = 1.4;
         let mut buf = Vec::new();
         write_row(&mut buf, &s).expect("write");
-        let plain = format!("{HEADER}\n{}", String::from_utf8(buf).expect("utf8"));
+        let plain = format!("{}\n{}", header(), String::from_utf8(buf).expect("utf8"));
         let dir = std::env::temp_dir().join(format!("polarnav-bom-{}", std::process::id()));
         std::fs::create_dir_all(&dir).expect("dir");
         let (with, without) = (dir.join("bom.csv"), dir.join("plain.csv"));
@@ -752,12 +806,60 @@ mod tests {
     fn csv_of(s: &Solution) -> String {
         let mut buf = Vec::new();
         write_row(&mut buf, s).expect("write");
-        format!("{HEADER}\n{}", String::from_utf8(buf).expect("utf8"))
+        format!("{}\n{}", header(), String::from_utf8(buf).expect("utf8"))
+    }
+
+    #[test]
+    fn the_aid_group_names_each_aid_that_has_no_column_and_reads_its_flag_bit() {
+        // Written out here, independently of the derivation: the aids after
+        // the first three have no freshness column among the required ones,
+        // and GNSS alone is not autonomous.
+        let names: Vec<&str> = aid_columns().iter().map(|(n, _)| n.as_str()).collect();
+        assert_eq!(names, ["star_fresh", "gnss_fresh", "gnss_excluded"]);
+        let bits: Vec<u32> = aid_columns().iter().map(|&(_, b)| b).collect();
+        assert_eq!(
+            bits,
+            [
+                solution_flags::STAR_FRESH,
+                solution_flags::GNSS_FRESH,
+                solution_flags::GNSS_EXCLUDED
+            ]
+        );
+        let head: Vec<&str> = header().split(',').collect();
+        for (flags, want) in [
+            (0, ["0", "0", "0"]),
+            (
+                solution_flags::STAR_FRESH | solution_flags::SRS_FRESH,
+                ["1", "0", "0"],
+            ),
+            (solution_flags::GNSS_FRESH, ["0", "1", "0"]),
+            (
+                solution_flags::GNSS_EXCLUDED | solution_flags::STAR_FRESH,
+                ["1", "0", "1"],
+            ),
+        ] {
+            let s = Solution { flags, ..sample() };
+            let text = csv_of(&s);
+            let row: Vec<&str> = text.lines().nth(1).expect("row").split(',').collect();
+            assert_eq!(row.len(), head.len());
+            for (name, w) in ["star_fresh", "gnss_fresh", "gnss_excluded"]
+                .iter()
+                .zip(want)
+            {
+                let k = head.iter().position(|h| h == name).expect("column");
+                assert_eq!(row[k], w, "{name} of flags {flags:#x}");
+            }
+            // The group repeats bits of flags: the row reads back the same.
+            assert_eq!(
+                parse(&text, "f.csv").expect("parse")[0],
+                Row::from_solution(&s)
+            );
+        }
     }
 
     #[test]
     fn header_has_the_declared_columns_and_keeps_the_original_24_first() {
-        assert_eq!(HEADER.split(',').count(), COLUMNS);
+        assert_eq!(header().split(',').count(), COLUMNS + aid_columns().len());
         assert!(HEADER.starts_with(&format!("{HEADER_BASE},")));
         assert_eq!(HEADER_BASE.split(',').count(), 24);
     }
@@ -771,7 +873,7 @@ mod tests {
         // Independent of the reader: split the written line by hand.
         let line = text.lines().nth(1).expect("row");
         let f: Vec<&str> = line.split(',').collect();
-        assert_eq!(f.len(), COLUMNS);
+        assert_eq!(f.len(), written());
         let num = |k: usize| f[k].parse::<f64>().expect("number");
         assert_eq!(num(24), 0.1);
         assert_eq!(num(26), 0.3);
@@ -819,6 +921,17 @@ mod tests {
             ]
         );
         assert_eq!(HEADER, format!("{HEADER_REQUIRED},{HEADER_BIAS_SIGMA}"));
+        assert_eq!(
+            header(),
+            format!(
+                "{HEADER},{}",
+                aid_columns()
+                    .iter()
+                    .map(|(n, _)| n.as_str())
+                    .collect::<Vec<_>>()
+                    .join(",")
+            )
+        );
         let mut s = sample();
         let text = csv_of(&s);
         // By hand, independent of the reader.
@@ -826,6 +939,7 @@ mod tests {
         let f: Vec<f64> = line
             .split(',')
             .skip(45)
+            .take(COLUMNS_BIAS_SIGMA)
             .map(|x| x.parse().expect("number"))
             .collect();
         assert_eq!(f, [4.8e-8, 5e-8, 1.25e-7, 9.8e-4, 1e-3, 2.5e-3]);
@@ -841,6 +955,7 @@ mod tests {
             .trim_end()
             .split(',')
             .skip(48)
+            .take(3)
             .map(|x| x.parse().expect("number"))
             .collect();
         assert_eq!(second, [9.8e-4, 1e-3, 7.5e-4]);
@@ -874,7 +989,7 @@ mod tests {
             r
         );
         // Part of the group is a damaged header, named.
-        let order: Vec<usize> = (0..COLUMNS).filter(|&i| i != 47).collect();
+        let order: Vec<usize> = (0..written()).filter(|&i| i != 47).collect();
         let e = parse(&permute(&text, &order, None), "cut.csv").expect_err("partial group");
         let m = e.to_string();
         assert!(
@@ -920,10 +1035,10 @@ mod tests {
         let s = sample();
         let text = csv_of(&s);
         let want = parse(&text, "a").expect("rows");
-        let reversed: Vec<usize> = (0..COLUMNS).rev().collect();
+        let reversed: Vec<usize> = (0..written()).rev().collect();
         let got = parse(&permute(&text, &reversed, None), "b").expect("reordered");
         assert_eq!(got, want);
-        let ident: Vec<usize> = (0..COLUMNS).collect();
+        let ident: Vec<usize> = (0..written()).collect();
         let got = parse(&permute(&text, &ident, Some("operator_note")), "c").expect("extra");
         assert_eq!(got, want);
     }
@@ -932,8 +1047,8 @@ mod tests {
     fn a_missing_column_is_named_with_the_file() {
         let text = csv_of(&sample());
         for drop in ["sig_u_m", "baro_fresh", "t_s", "reset_count"] {
-            let k = HEADER.split(',').position(|n| n == drop).expect("known");
-            let order: Vec<usize> = (0..COLUMNS).filter(|&i| i != k).collect();
+            let k = header().split(',').position(|n| n == drop).expect("known");
+            let order: Vec<usize> = (0..written()).filter(|&i| i != k).collect();
             let err = parse(&permute(&text, &order, None), "flight.csv").expect_err("missing");
             assert_eq!(
                 err.to_string(),
@@ -962,7 +1077,7 @@ mod tests {
 
     #[test]
     fn velocity_columns_are_written_with_their_unit() {
-        let names: Vec<&str> = HEADER.split(',').collect();
+        let names: Vec<&str> = header().split(',').collect();
         assert_eq!(
             &names[8..14],
             ["vx_mps", "vy_mps", "vz_mps", "ve_mps", "vn_mps", "vu_mps"]
@@ -974,7 +1089,7 @@ mod tests {
         }
         assert_eq!(former_name("h_m"), None);
         // What the writer's users put first in a file is this header.
-        assert!(csv_of(&moving()).starts_with(&format!("{HEADER}\n")));
+        assert!(csv_of(&moving()).starts_with(&format!("{}\n", header())));
         // The values under the new names are the velocities, as written.
         let text = csv_of(&moving());
         let f: Vec<&str> = text.lines().nth(1).expect("row").split(',').collect();
@@ -1002,7 +1117,7 @@ mod tests {
             format!("{:?}", got[0]),
             format!("{:?}", Row::from_solution(&s))
         );
-        let reversed: Vec<usize> = (0..COLUMNS).rev().collect();
+        let reversed: Vec<usize> = (0..written()).rev().collect();
         let got = parse(&permute(&old, &reversed, None), "old-reversed.csv").expect("reordered");
         assert_eq!(format!("{got:?}"), format!("{want:?}"));
         // One file may mix the names (a hand-edited header).
@@ -1038,7 +1153,7 @@ mod tests {
             .split(',')
             .position(|n| n == "vn_mps")
             .expect("known");
-        let order: Vec<usize> = (0..COLUMNS).filter(|&i| i != k).collect();
+        let order: Vec<usize> = (0..written()).filter(|&i| i != k).collect();
         let err = parse(&permute(&text, &order, None), "flight.csv").expect_err("missing");
         assert_eq!(
             err.to_string(),
@@ -1146,7 +1261,7 @@ mod tests {
             #[test]
             fn write_then_parse_is_bit_identical(ss in prop::collection::vec(any_solution(), 1..6)) {
                 let mut w = RowWriter::new();
-                let mut text = format!("{HEADER}\n");
+                let mut text = format!("{}\n", header());
                 for s in &ss {
                     text.push_str(w.row(s));
                 }

@@ -1035,7 +1035,7 @@ mod tests {
             (state >> 11) as f64 / (1u64 << 53) as f64
         };
         let mut msgs = Vec::new();
-        let mut csv = String::from(solution_csv::HEADER);
+        let mut csv = String::from(solution_csv::header());
         csv.push('\n');
         let mut writer = solution_csv::RowWriter::new();
         let mut moved = 0;

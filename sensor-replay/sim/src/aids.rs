@@ -490,7 +490,10 @@ impl SimAid for GnssFix {
         }
         positive("gm_tau_s", g.gm_tau_s)?;
         if !(g.pdop.is_finite() && g.pdop >= 1.0) {
-            return Err(("pdop".into(), format!("a PDOP is at least 1, got {}", g.pdop)));
+            return Err((
+                "pdop".into(),
+                format!("a PDOP is at least 1, got {}", g.pdop),
+            ));
         }
         for (i, l) in g.lever_arm_b_m.iter().enumerate() {
             if !(l.is_finite() && l.abs() <= 100.0) {
@@ -535,9 +538,9 @@ impl SimAid for GnssFix {
             let dt = state.last_s.map_or(f64::INFINITY, |t0| t_s - t0);
             let phi = (-dt / g.gm_tau_s).exp();
             let sd = [g.gm_sigma_h_m, g.gm_sigma_h_m, g.gm_sigma_v_m];
-            for k in 0..3 {
-                let w = sd[k] * (1.0 - phi * phi).max(0.0).sqrt();
-                state.gm_enu[k] = phi * state.gm_enu[k] + w * sensors::normal(rng);
+            for (gm, sd) in state.gm_enu.iter_mut().zip(sd) {
+                let w = sd * (1.0 - phi * phi).max(0.0).sqrt();
+                *gm = phi * *gm + w * sensors::normal(rng);
             }
             state.last_s = Some(t_s);
             let white = [g.sigma_h_m, g.sigma_h_m, g.sigma_v_m];
@@ -551,9 +554,10 @@ impl SimAid for GnssFix {
         // The receiver's velocity is north-east-down in the axes of its own fix.
         let v_enu = frames::c_e_g(fix.lat_rad, fix.lon_rad) * v_ant + dv_enu;
         let (h_acc, v_acc, s_acc) = g.reported();
-        let outage = g.outages.iter().any(|o| {
-            t_s >= o.start_s && t_s < o.start_s + o.duration_s
-        });
+        let outage = g
+            .outages
+            .iter()
+            .any(|o| t_s >= o.start_s && t_s < o.start_s + o.duration_s);
         let week_ms = 7 * 86_400_000u64;
         GnssFix {
             t_ns,
@@ -567,7 +571,11 @@ impl SimAid for GnssFix {
             s_acc_mps: if outage { 100.0 } else { s_acc },
             pdop: if outage { 99.99 } else { g.pdop },
             itow_ms: ((t_ns / 1_000_000) % week_ms) as u32,
-            fix_type: if outage { fix_type::NONE } else { fix_type::FIX_3D },
+            fix_type: if outage {
+                fix_type::NONE
+            } else {
+                fix_type::FIX_3D
+            },
             num_sv: if outage { 0 } else { g.num_sv },
             flags: if outage { 0 } else { fix_flags::FIX_OK },
             _pad: 0,

@@ -293,7 +293,9 @@ impl Injector {
         self.active(Stream::Aid(s.kind()), t, |e, since_s, dir, rng| {
             Self::common(e, s.t_ns_mut(), &mut times);
             match (e.kind, &mut *s) {
-                (FaultKind::Outliers, s) => crate::aids::corrupt(s, Corruption::Outlier(e.magnitude)),
+                (FaultKind::Outliers, s) => {
+                    crate::aids::corrupt(s, Corruption::Outlier(e.magnitude))
+                }
                 (FaultKind::Nan, s) => crate::aids::corrupt(s, Corruption::Nan),
                 (FaultKind::GnssJam, AidSample::Gnss(g)) => jam(g, e, since_s, rng),
                 (FaultKind::GnssSpoof, AidSample::Gnss(g)) => spoof(g, e, since_s, dir),
@@ -333,7 +335,10 @@ fn jam(g: &mut GnssFix, e: &FaultEvent, since_s: f64, rng: &mut ChaCha20Rng) {
     g.h_acc_m *= k;
     g.v_acc_m *= k;
     g.s_acc_mps *= k;
-    g.num_sv = g.num_sv.saturating_sub((since_s / ramp_s * 8.0) as u8).max(4);
+    g.num_sv = g
+        .num_sv
+        .saturating_sub((since_s / ramp_s * 8.0) as u8)
+        .max(4);
 }
 
 /// Spoofing, `since_s` into the event (see the module documentation).

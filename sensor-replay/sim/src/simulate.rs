@@ -306,7 +306,8 @@ pub fn simulate<W: Write>(
     let mut aids = Streams::new(s, opts.seed);
     let mut sum = SimSummary::default();
     let noisy = !opts.perfect;
-    let mut inject = crate::faults::Injector::new(s.faults.as_ref().filter(|_| opts.faults), opts.seed);
+    let mut inject =
+        crate::faults::Injector::new(s.faults.as_ref().filter(|_| opts.faults), opts.seed);
     // Written records count as published; a faulted sample may be written 0, 1 or 2 times.
     let put = |w: &mut NavlogWriter<W>, r: Record, times: u32| -> Result<u64, WriteError> {
         for _ in 0..times {

@@ -46,8 +46,8 @@ use super::{
 };
 use crate::earth::{self, Geodetic};
 use crate::error_model::idx;
-use crate::integrity::IntegritySettings;
 use crate::frames::{self, skew};
+use crate::integrity::IntegritySettings;
 use crate::mech::AnyNav;
 use crate::settings::{Bound, SettingsError};
 
@@ -401,9 +401,7 @@ mod tests {
                     x[j] = sign * step;
                     // The gyro bias estimate's error shows in ω_ib^b.
                     let w = omega - Vector3::new(x[idx::BG], x[idx::BG + 1], x[idx::BG + 2]);
-                    measurement(&computed(&t, &x), &fix, &w, &g)
-                        .expect("fix")
-                        .z
+                    measurement(&computed(&t, &x), &fix, &w, &g).expect("fix").z
                 };
                 let col = (z_at(1.0) - z_at(-1.0)) / (2.0 * step);
                 for block in [0, 3] {
@@ -462,17 +460,71 @@ mod tests {
         };
         assert_eq!(cause_of(good), None);
         for (bad, want) in [
-            (GnssFix { fix_type: fix_type::FIX_2D, ..good }, cause::NO_3D_FIX),
-            (GnssFix { fix_type: fix_type::NONE, ..good }, cause::NO_3D_FIX),
+            (
+                GnssFix {
+                    fix_type: fix_type::FIX_2D,
+                    ..good
+                },
+                cause::NO_3D_FIX,
+            ),
+            (
+                GnssFix {
+                    fix_type: fix_type::NONE,
+                    ..good
+                },
+                cause::NO_3D_FIX,
+            ),
             (GnssFix { flags: 0, ..good }, cause::NO_3D_FIX),
-            (GnssFix { h_acc_m: 50.1, ..good }, cause::ACCURACY),
-            (GnssFix { v_acc_m: 1e300, ..good }, cause::ACCURACY),
-            (GnssFix { s_acc_mps: -1.0, ..good }, cause::ACCURACY),
+            (
+                GnssFix {
+                    h_acc_m: 50.1,
+                    ..good
+                },
+                cause::ACCURACY,
+            ),
+            (
+                GnssFix {
+                    v_acc_m: 1e300,
+                    ..good
+                },
+                cause::ACCURACY,
+            ),
+            (
+                GnssFix {
+                    s_acc_mps: -1.0,
+                    ..good
+                },
+                cause::ACCURACY,
+            ),
             (GnssFix { pdop: 10.5, ..good }, cause::DOP),
-            (GnssFix { lat_rad: f64::NAN, ..good }, cause::INVALID),
-            (GnssFix { h_acc_m: f64::INFINITY, ..good }, cause::INVALID),
-            (GnssFix { lat_rad: 2.0, ..good }, cause::INVALID),
-            (GnssFix { height_m: 1e7, ..good }, cause::INVALID),
+            (
+                GnssFix {
+                    lat_rad: f64::NAN,
+                    ..good
+                },
+                cause::INVALID,
+            ),
+            (
+                GnssFix {
+                    h_acc_m: f64::INFINITY,
+                    ..good
+                },
+                cause::INVALID,
+            ),
+            (
+                GnssFix {
+                    lat_rad: 2.0,
+                    ..good
+                },
+                cause::INVALID,
+            ),
+            (
+                GnssFix {
+                    height_m: 1e7,
+                    ..good
+                },
+                cause::INVALID,
+            ),
         ] {
             assert_eq!(cause_of(bad), Some(want), "{bad:?}");
         }

@@ -41,11 +41,7 @@ impl Navigator {
         msgs::match_aid!(sample, x => self.test_of(x, settings))
     }
 
-    fn test_of<A: OwnOf>(
-        &self,
-        x: &A,
-        settings: &integrity::IntegritySettings,
-    ) -> Option<Test> {
+    fn test_of<A: OwnOf>(&self, x: &A, settings: &integrity::IntegritySettings) -> Option<Test> {
         let t_ns = x.t_ns();
         let age = self.aid_age(t_ns).ok()?;
         let at = self.state_at(t_ns, age);
