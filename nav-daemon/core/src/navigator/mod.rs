@@ -288,25 +288,10 @@ impl Navigator {
     pub fn reinitialize(&mut self, init: &InitState, config: &NavigatorConfig) {
         let old = self.solution();
         let mut fresh = Navigator::new(init, config);
-        fresh.seq = self.seq;
-        fresh.switch_count = self.switch_count;
-        fresh.last_switch_t_ns = self.last_switch_t_ns;
-        fresh.imu = self.imu;
-        fresh.imu_gap_count = self.imu_gap_count;
-        fresh.coasted_ns = self.coasted_ns;
-        fresh.err.repairs = self.err.repairs;
-        fresh.err.propagations = self.err.propagations;
-        fresh.work = self.work;
-        for ((_, n), (_, o)) in fresh
-            .aids
-            .controls
-            .iter_mut()
-            .zip(self.aids.controls.iter())
-        {
-            n.counters = o.counters;
+        self.carry_accounting(&mut fresh);
+        for (_, n) in fresh.aids.controls.iter_mut() {
             n.counters.last_t_ns = 0;
         }
-        fresh.reset = self.reset;
         // The smoother's record goes on, broken here: nothing learned after
         // a new init says anything about the state before it.
         self.err.tape_break();
@@ -314,6 +299,26 @@ impl Navigator {
         fresh.err.set_clock(fresh.t_ns, true);
         *self = fresh;
         self.record_reset(&old);
+    }
+
+    /// What a navigator that replaces this one (a new init, or the
+    /// integrity test's reference adopted) carries on: sequence numbers,
+    /// switch count, the IMU's and every aid's counters, gaps and coasting,
+    /// work, and the last reset.
+    pub(super) fn carry_accounting(&self, new: &mut Navigator) {
+        new.seq = self.seq;
+        new.switch_count = self.switch_count;
+        new.last_switch_t_ns = self.last_switch_t_ns;
+        new.imu = self.imu;
+        new.imu_gap_count = self.imu_gap_count;
+        new.coasted_ns = self.coasted_ns;
+        new.err.repairs = self.err.repairs;
+        new.err.propagations = self.err.propagations;
+        new.work = self.work;
+        for ((_, n), (_, o)) in new.aids.controls.iter_mut().zip(self.aids.controls.iter()) {
+            n.counters = o.counters;
+        }
+        new.reset = self.reset;
     }
 
     /// Keeps the smoother's record from now on ([`crate::smoother`]),

@@ -76,22 +76,12 @@ impl Navigator {
         let old = self.solution();
         let from = self.nominal.nav().kind();
         let mut new = reference;
-        new.seq = self.seq;
-        new.switch_count = self.switch_count;
-        new.last_switch_t_ns = self.last_switch_t_ns;
-        new.imu = self.imu;
-        new.imu_gap_count = self.imu_gap_count;
-        new.coasted_ns = self.coasted_ns;
-        new.work = self.work;
-        new.err.repairs = self.err.repairs;
-        new.err.propagations = self.err.propagations;
+        self.carry_accounting(&mut new);
         for ((_, n), (_, o)) in new.aids.controls.iter_mut().zip(self.aids.controls.iter()) {
-            n.counters = o.counters;
             n.status = o.status;
         }
         new.aids.resets = self.aids.resets;
         new.aids.enabled = self.aids.enabled;
-        new.reset = self.reset;
         self.err.tape_break();
         new.err.tape = self.err.tape.take();
         new.err.tape_break();
