@@ -41,7 +41,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::settings::{Bound, SettingsError};
+use crate::bounds::{Bound, SettingsError};
 
 /// The integrity test of a non-autonomous aid (in the aid's own settings).
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
@@ -84,7 +84,7 @@ impl IntegritySettings {
         )?;
         Bound {
             lo: 1.0,
-            hi: crate::settings::MAX_FLIGHT_S,
+            hi: crate::bounds::MAX_FLIGHT_S,
             unit: "s",
             below: "an aid must agree for at least a second before it is trusted again",
             above: "longer than any flight: an excluded aid would never come back",

@@ -44,12 +44,12 @@ use super::{
     Aid, AidError, Context, Measured, Measurement, OwnSettings, ecef_per_position_error,
     frame_rotation_per_position_error,
 };
+use crate::bounds::{Bound, SettingsError};
 use crate::earth::{self, Geodetic};
 use crate::error_model::idx;
 use crate::frames::{self, skew};
 use crate::integrity::IntegritySettings;
 use crate::mech::AnyNav;
-use crate::settings::{Bound, SettingsError};
 
 /// Why a fix is refused before fusion (its cause counters, in order).
 pub mod cause {
