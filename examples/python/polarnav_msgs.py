@@ -195,7 +195,8 @@ class StarSample(ctypes.Structure):
 class GnssFix(ctypes.Structure):
     """One GNSS fix of the antenna (`polarnav/gnss`): UBX-NAV-PVT's content in
     SI units, for a Python receiver driver. fix_type 3 (3D) or 4 (GNSS + dead
-    reckoning) with flags bit 0 (gnssFixOK) set is a usable fix."""
+    reckoning) with flags bit 0 (gnssFixOK) set is a usable fix; flags bit 7
+    (no velocity) marks a position-only source, whose position alone is fused."""
 
     _fields_ = [
         ("t_ns", ctypes.c_uint64),

@@ -66,6 +66,14 @@
 #define DIFF_SOLN (1 << 1)
 
 /**
+ * The source reports no velocity (a position-only solution file, such
+ * as KF-GINS's 7-column GNSS file): `vel_ned_mps` and `s_acc_mps`
+ * are not a measurement and only the position is fused. NAV-PVT has
+ * no such bit (a u-blox receiver always reports its velocity).
+ */
+#define NO_VELOCITY (1 << 7)
+
+/**
  * Maximum number of spectral lines in one SRS message.
  */
 #define POLARNAV_SRS_MAX_LINES 8

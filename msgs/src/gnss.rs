@@ -21,12 +21,19 @@ pub mod fix_type {
     pub const TIME_ONLY: u8 = 5;
 }
 
-/// Bits of [`GnssFix::flags`] (NAV-PVT `flags`, its low byte).
+/// Bits of [`GnssFix::flags`]: bits 0 and 1 are NAV-PVT `flags`' (a
+/// driver copies those two only: NAV-PVT's other bits, psmState,
+/// headVehValid and carrSoln, are not carried); bit 7 is polarnav's own.
 pub mod fix_flags {
     /// `gnssFixOK`: the fix is valid (within the receiver's DOP and accuracy masks).
     pub const FIX_OK: u8 = 1 << 0;
     /// `diffSoln`: differential corrections were applied.
     pub const DIFF_SOLN: u8 = 1 << 1;
+    /// The source reports no velocity (a position-only solution file, such
+    /// as KF-GINS's 7-column GNSS file): `vel_ned_mps` and `s_acc_mps`
+    /// are not a measurement and only the position is fused. NAV-PVT has
+    /// no such bit (a u-blox receiver always reports its velocity).
+    pub const NO_VELOCITY: u8 = 1 << 7;
 }
 
 /// One GNSS fix: the position and velocity of the receiver's antenna,
@@ -75,6 +82,11 @@ impl GnssFix {
             self.fix_type,
             fix_type::FIX_3D | fix_type::GNSS_DEAD_RECKONING
         ) && self.flags & fix_flags::FIX_OK != 0
+    }
+
+    /// The fix carries a velocity (not [`fix_flags::NO_VELOCITY`]).
+    pub fn has_velocity(&self) -> bool {
+        self.flags & fix_flags::NO_VELOCITY == 0
     }
 }
 

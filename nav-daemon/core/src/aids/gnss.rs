@@ -224,6 +224,9 @@ fn measured(s: &GnssFix, g: &GnssSettings) -> Result<(Vector3<f64>, Vector3<f64>
         ("gnss.v_acc_m", s.v_acc_m, g.max_v_acc_m),
         ("gnss.s_acc_mps", s.s_acc_mps, g.max_s_acc_mps),
     ] {
+        if what == "gnss.s_acc_mps" && !s.has_velocity() {
+            continue;
+        }
         if !(0.0..=max).contains(&v) {
             return Err(AidError::Refused {
                 cause: cause::ACCURACY,
@@ -310,13 +313,30 @@ impl Aid for GnssFix {
     /// Position and velocity.
     const OBSERVED: &'static [usize] = &[idx::DP, idx::DV];
     fn measure(&self, nav: &AnyNav, ctx: &Context, g: &GnssSettings) -> Result<Measured, AidError> {
-        measurement(nav, self, &ctx.omega_ib_b, g).map(Measured::from)
+        let m = measurement(nav, self, &ctx.omega_ib_b, g)?;
+        Ok(if self.has_velocity() {
+            Measured::from(m)
+        } else {
+            Measured::from(position_only(&m))
+        })
+    }
+}
+
+/// The position rows of a fix that reports no velocity
+/// ([`msgs::gnss::fix_flags::NO_VELOCITY`]): its velocity rows are no
+/// measurement, so they are dropped rather than given a large R.
+fn position_only(m: &Measurement<6>) -> Measurement<3> {
+    Measurement {
+        z: m.z.fixed_rows::<3>(0).into_owned(),
+        h: m.h.fixed_rows::<3>(0).into_owned(),
+        r: m.r.fixed_view::<3, 3>(0, 0).into_owned(),
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::aids::AnyMeasurement;
     use crate::aids::tests::{computed, truth};
     use crate::mech::FrameKind;
     use msgs::gnss::{fix_flags, fix_type};
@@ -527,6 +547,37 @@ mod tests {
             ),
         ] {
             assert_eq!(cause_of(bad), Some(want), "{bad:?}");
+        }
+    }
+
+    /// A fix without velocity is its position rows alone, whatever its
+    /// velocity fields hold, and its speed accuracy is not checked.
+    #[test]
+    fn a_fix_without_velocity_fuses_its_position_only() {
+        let g = settings();
+        let t = truth(FrameKind::Geographic, 30.0, 114.0);
+        let good = fix_of(&t, &Vector3::from(g.lever_arm_b_m), &Vector3::zeros());
+        let ctx = Context {
+            omega_ib_b: Vector3::zeros(),
+        };
+        let full = measurement(&t, &good, &Vector3::zeros(), &g).expect("fix");
+        let no_vel = GnssFix {
+            flags: fix_flags::FIX_OK | fix_flags::NO_VELOCITY,
+            vel_ned_mps: [0.0; 3],
+            s_acc_mps: 1e9,
+            ..good
+        };
+        match good.measure(&t, &ctx, &g).expect("fix").m {
+            AnyMeasurement::D6(m) => assert_eq!(m, full),
+            other => panic!("{other:?}"),
+        }
+        match no_vel.measure(&t, &ctx, &g).expect("fix").m {
+            AnyMeasurement::D3(m) => {
+                assert_eq!(m.z, full.z.fixed_rows::<3>(0));
+                assert_eq!(m.h, full.h.fixed_rows::<3>(0));
+                assert_eq!(m.r, full.r.fixed_view::<3, 3>(0, 0));
+            }
+            other => panic!("{other:?}"),
         }
     }
 
