@@ -3,6 +3,10 @@
 //! - KF-GINS: IMU `time Δθx Δθy Δθz Δvx Δvy Δvz` (rad, m/s; body
 //!   forward-right-down) and truth `week time lat lon h vN vE vD roll pitch yaw`
 //!   (deg, m, m/s; NED). Converted to our body right-forward-up and ENU.
+//!   GNSS `time lat lon h σN σE σD` (s, deg, m; KF-GINS's own file, read by
+//!   its `GnssFileLoader`), or 13 columns `time lat lon h vN vE vD σN σE σD
+//!   σvN σvE σvD`: GNSS records ([`gnss_fix_of_kfgins`] says how the σ map
+//!   onto the fix's accuracies).
 //! - PSINS text IMU (`../shared/datasets/psins-lasergyro`): header lines,
 //!   then integer gyro/accelerometer counts, body right-forward-up.
 //!
@@ -12,8 +16,9 @@
 
 use std::io::Write;
 
+use msgs::gnss::{fix_flags, fix_type};
 use msgs::navlog::{Header, NavlogWriter, Record, WriteError};
-use msgs::{ImuSample, InitState, TruthRecord};
+use msgs::{GnssFix, ImuSample, InitState, TruthRecord};
 use nalgebra::{Matrix3, UnitQuaternion, Vector3};
 use polarnav::earth::{self, Geodetic};
 use polarnav::frames;
@@ -44,6 +49,8 @@ pub enum ImportError {
         format: &'static str,
         why: String,
     },
+    #[error("no initial state: {0}")]
+    NoInit(String),
     #[error("writing the navlog: {0}")]
     Write(#[from] WriteError),
 }
@@ -312,6 +319,10 @@ pub struct ImportSummary {
     pub cns: u64,
     pub baro: u64,
     pub srs: u64,
+    /// GNSS fixes imported (`import-kfgins --gnss`).
+    pub gnss: u64,
+    /// Good GNSS lines before the first truth epoch (the init), not imported.
+    pub gnss_unused: u64,
     pub skipped: Skipped,
 }
 
@@ -475,30 +486,207 @@ fn write_log<W: Write>(out: W, header: Header, records: &[Record]) -> Result<(),
     Ok(())
 }
 
-/// Imports a KF-GINS IMU file and truth file into a navlog. Time base:
-/// t_ns = 0 at the first truth epoch (the init record); IMU samples ending
-/// at or before it are dropped.
-pub fn import_kfgins<W: Write>(
-    imu_path: &std::path::Path,
-    truth_path: &std::path::Path,
-    aids: &AidSynthesis,
-    out: W,
-) -> Result<ImportSummary, ImportError> {
-    let mut sum = ImportSummary::default();
-    let imu_name = imu_path.display().to_string();
-    let truth_name = truth_path.display().to_string();
-    let m = frd_to_rfu();
+/// The KF-GINS files of an import and, without truth, the initial state.
+#[derive(Debug, Clone, Copy)]
+pub struct KfginsFiles<'a> {
+    /// `imu.txt`: time, angle and velocity increments (body FRD).
+    pub imu: &'a std::path::Path,
+    /// `truth.nav`: its first epoch is the init and the time base.
+    pub truth: Option<&'a std::path::Path>,
+    /// KF-GINS's GNSS file, on the IMU file's clock.
+    pub gnss: Option<&'a std::path::Path>,
+    /// Without truth, the init: the first GNSS fix's position with this
+    /// attitude and velocity (KF-GINS's `initatt` and `initvel`).
+    pub init: Option<GivenInit>,
+}
 
-    let mut truth: Vec<TruthRecord> = Vec::new();
-    let mut t0: Option<f64> = None;
-    let mut valid_truth = 0usize;
+/// The initial attitude and velocity of a flight without truth, as KF-GINS's
+/// configuration gives them (`initatt`, `initvel` and their σ); the
+/// position is the first GNSS fix's, with that fix's σ.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct GivenInit {
+    /// Roll, pitch, yaw of the FRD body against NED (deg), KF-GINS `initatt`.
+    pub att_rpy_deg: [f64; 3],
+    /// Velocity north, east, down (m/s), KF-GINS `initvel`.
+    pub vel_ned_mps: [f64; 3],
+    /// 1-σ of roll and pitch (per axis) and of yaw (deg).
+    pub sigma_tilt_deg: f64,
+    pub sigma_heading_deg: f64,
+    /// 1-σ of the velocity, horizontal (per axis) and vertical (m/s).
+    pub sigma_vel_h_mps: f64,
+    pub sigma_vel_v_mps: f64,
+}
+
+impl GivenInit {
+    /// Checks every value for physical sense; the message names the value.
+    pub fn check(&self) -> Result<(), String> {
+        if let Some(a) = self
+            .att_rpy_deg
+            .iter()
+            .find(|a| !(a.is_finite() && a.abs() <= MAX_ANGLE_DEG))
+        {
+            return Err(format!("attitude angle {a}° not within ±{MAX_ANGLE_DEG}°"));
+        }
+        if let Some(v) = self
+            .vel_ned_mps
+            .iter()
+            .find(|v| !(v.is_finite() && v.abs() <= MAX_SPEED_MPS))
+        {
+            return Err(format!("velocity {v} m/s not within ±{MAX_SPEED_MPS} m/s"));
+        }
+        for (what, v, max) in [
+            ("tilt σ (deg)", self.sigma_tilt_deg, 90.0),
+            ("heading σ (deg)", self.sigma_heading_deg, 180.0),
+            (
+                "horizontal velocity σ (m/s)",
+                self.sigma_vel_h_mps,
+                MAX_SPEED_MPS,
+            ),
+            (
+                "vertical velocity σ (m/s)",
+                self.sigma_vel_v_mps,
+                MAX_SPEED_MPS,
+            ),
+        ] {
+            if !(v > 0.0 && v <= max) {
+                return Err(format!("{what} {v} not in (0, {max}]"));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Largest speed an imported line may state (m/s).
+const MAX_SPEED_MPS: f64 = 1.0e4;
+
+/// Largest position σ of a GNSS line (m): a fix less certain than this
+/// carries nothing, and its square would swamp the innovation covariance.
+const GNSS_MAX_SIGMA_M: f64 = 1.0e4;
+/// Largest velocity σ of a GNSS line (m/s).
+const GNSS_MAX_SIGMA_MPS: f64 = 1.0e3;
+
+/// The fix of one KF-GINS GNSS line: `v` is `time lat lon h σN σE σD` (7
+/// columns) or `time lat lon h vN vE vD σN σE σD σvN σvE σvD` (13).
+///
+/// The payload has one horizontal accuracy, taken by the GNSS model as
+/// the σ of each horizontal axis (R = diag(h², h², v²) in the level axes).
+/// So h_acc = √((σN² + σE²)/2): R's north and east variances are then
+/// σN² and σE² exactly when σN = σE, and their sum (the horizontal error's
+/// mean square) is kept always; what is lost is the split between north and
+/// east when they differ (KF-GINS's own R is diag(σN², σE², σD²)).
+/// v_acc = σD. With velocity, s_acc = √((σvN² + σvE² + σvD²)/3) likewise;
+/// without it the fix is flagged [`fix_flags::NO_VELOCITY`] and only its
+/// position is fused, as KF-GINS fuses only position. The file has no DOP
+/// nor satellite count: both are 0 (not known; the DOP gate passes 0).
+pub fn gnss_fix_of_kfgins(v: &[f64]) -> Result<(f64, GnssFix), String> {
+    let (vel, sig, sig_v) = match v.len() {
+        7 => (None, &v[4..7], None),
+        13 => (Some(&v[4..7]), &v[7..10], Some(&v[10..13])),
+        n => return Err(format!("{n} fields, expected 7 or 13")),
+    };
+    if let Some(x) = v.iter().find(|x| !x.is_finite()) {
+        return Err(format!("a field is not finite: {x}"));
+    }
+    check_position(v[1], v[2], v[3])?;
+    for (name, s) in ["σ north", "σ east", "σ down"].iter().zip(sig) {
+        if !(*s > 0.0 && *s <= GNSS_MAX_SIGMA_M) {
+            return Err(format!("{name} {s} m not in (0, {GNSS_MAX_SIGMA_M}] m"));
+        }
+    }
+    let mut fix = GnssFix {
+        lat_rad: v[1].to_radians(),
+        lon_rad: v[2].to_radians(),
+        height_m: v[3],
+        h_acc_m: ((sig[0] * sig[0] + sig[1] * sig[1]) / 2.0).sqrt(),
+        v_acc_m: sig[2],
+        // GPS time of week (ms); the file's time is GPS seconds of week.
+        itow_ms: (v[0].rem_euclid(604_800.0) * 1e3).round() as u32,
+        fix_type: fix_type::FIX_3D,
+        flags: fix_flags::FIX_OK | fix_flags::NO_VELOCITY,
+        ..Default::default()
+    };
+    if let (Some(vel), Some(sig_v)) = (vel, sig_v) {
+        if let Some(x) = vel.iter().find(|x| x.abs() > MAX_SPEED_MPS) {
+            return Err(format!("velocity {x} m/s beyond ±{MAX_SPEED_MPS} m/s"));
+        }
+        for (name, s) in ["σ vN", "σ vE", "σ vD"].iter().zip(sig_v) {
+            if !(*s > 0.0 && *s <= GNSS_MAX_SIGMA_MPS) {
+                return Err(format!(
+                    "{name} {s} m/s not in (0, {GNSS_MAX_SIGMA_MPS}] m/s"
+                ));
+            }
+        }
+        fix.vel_ned_mps = [vel[0], vel[1], vel[2]];
+        fix.s_acc_mps = (sig_v.iter().map(|s| s * s).sum::<f64>() / 3.0).sqrt();
+        fix.flags = fix_flags::FIX_OK;
+    }
+    Ok((v[0], fix))
+}
+
+/// Reads a KF-GINS GNSS file: every good line with its time (s), bad ones
+/// noted in `skipped`.
+fn read_kfgins_gnss(
+    path: &std::path::Path,
+    skipped: &mut Skipped,
+) -> Result<Vec<(f64, GnssFix)>, ImportError> {
+    let name = path.display().to_string();
+    let mut out = Vec::new();
+    let mut valid = 0usize;
     let mut timeline = Timeline::new(0.0, TRUTH_MAX_GAP_S);
-    let mut lines = TextLines::open(truth_path)?;
+    let mut lines = TextLines::open(path)?;
     while let Some((no, line)) = lines.next_line()? {
         let line = match line {
             Ok(l) => l.trim(),
             Err(why) => {
-                sum.skipped.note(&truth_name, no, why);
+                skipped.note(&name, no, why);
+                continue;
+            }
+        };
+        if line.is_empty() || line.starts_with('#') || line.starts_with('%') {
+            continue;
+        }
+        let fields = line
+            .split(|c: char| c.is_whitespace() || c == ',')
+            .filter(|s| !s.is_empty())
+            .count();
+        let fix = match parse_fields(line, fields).and_then(|v| gnss_fix_of_kfgins(&v)) {
+            Ok(f) => f,
+            Err(why) => {
+                skipped.note(&name, no, why);
+                continue;
+            }
+        };
+        valid += 1;
+        timeline.push(no, fix.0, fix.1, &name, skipped, |_, t, _, f| {
+            out.push((t, f));
+        });
+    }
+    timeline.finish(&name, skipped);
+    if valid == 0 {
+        return Err(ImportError::NotFormat {
+            path: name,
+            format: "KF-GINS GNSS",
+            why: "no valid 7- or 13-column line".into(),
+        });
+    }
+    Ok(out)
+}
+
+/// Reads a KF-GINS truth file: every good epoch with its time (s).
+fn read_kfgins_truth(
+    path: &std::path::Path,
+    skipped: &mut Skipped,
+) -> Result<Vec<(f64, TruthRecord)>, ImportError> {
+    let name = path.display().to_string();
+    let mut truth = Vec::new();
+    let mut valid_truth = 0usize;
+    let mut timeline = Timeline::new(0.0, TRUTH_MAX_GAP_S);
+    let mut lines = TextLines::open(path)?;
+    while let Some((no, line)) = lines.next_line()? {
+        let line = match line {
+            Ok(l) => l.trim(),
+            Err(why) => {
+                skipped.note(&name, no, why);
                 continue;
             }
         };
@@ -514,7 +702,7 @@ pub fn import_kfgins<W: Write>(
         }) {
             Ok(v) => v,
             Err(why) => {
-                sum.skipped.note(&truth_name, no, why);
+                skipped.note(&name, no, why);
                 continue;
             }
         };
@@ -522,23 +710,14 @@ pub fn import_kfgins<W: Write>(
         let geo = Geodetic::from_deg(v[2], v[3], v[4]);
         let rpy = Vector3::new(v[8], v[9], v[10]).map(f64::to_radians);
         let rec = truth_from_kfgins(0, &geo, &Vector3::new(v[5], v[6], v[7]), &rpy);
-        timeline.push(
-            no,
-            v[1],
-            rec,
-            &truth_name,
-            &mut sum.skipped,
-            |_, t, _, mut rec| {
-                let t0 = *t0.get_or_insert(t);
-                rec.t_ns = to_ns(t - t0);
-                truth.push(rec);
-            },
-        );
+        timeline.push(no, v[1], rec, &name, skipped, |_, t, _, rec| {
+            truth.push((t, rec));
+        });
     }
-    timeline.finish(&truth_name, &mut sum.skipped);
-    let Some(t0) = t0 else {
+    timeline.finish(&name, skipped);
+    if truth.is_empty() {
         return Err(ImportError::NotFormat {
-            path: truth_name,
+            path: name,
             format: "KF-GINS truth",
             why: if valid_truth == 0 {
                 "no valid 11-column line".into()
@@ -546,7 +725,115 @@ pub fn import_kfgins<W: Write>(
                 "no line with a usable time".into()
             },
         });
+    }
+    Ok(truth)
+}
+
+/// The init of a flight without truth: the first fix's position (its σ
+/// from the fix's accuracies) with the given attitude and velocity.
+fn init_from_fix(fix: &GnssFix, given: &GivenInit) -> InitState {
+    let geo = Geodetic::new(fix.lat_rad, fix.lon_rad, fix.height_m);
+    let rpy = Vector3::from(given.att_rpy_deg).map(f64::to_radians);
+    let t = truth_from_kfgins(fix.t_ns, &geo, &Vector3::from(given.vel_ned_mps), &rpy);
+    let [w, x, y, z] = t.q_b_e;
+    let sample = TruthSample {
+        r_e: Vector3::from(t.r_e_m),
+        v_e: Vector3::from(t.v_e_mps),
+        q_b_e: UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(w, x, y, z)),
+        omega_ib_b: Vector3::zeros(),
     };
+    let sigma = InitErrors {
+        pos_h_m: fix.h_acc_m,
+        pos_v_m: fix.v_acc_m,
+        vel_h_mps: given.sigma_vel_h_mps,
+        vel_v_mps: given.sigma_vel_v_mps,
+        tilt_rad: given.sigma_tilt_deg.to_radians(),
+        heading_rad: given.sigma_heading_deg.to_radians(),
+    };
+    init_record(t.t_ns, &sample, &sigma, None)
+}
+
+/// Imports a KF-GINS IMU file and truth file into a navlog. Time base:
+/// t_ns = 0 at the first truth epoch (the init record); IMU samples ending
+/// at or before it are dropped.
+pub fn import_kfgins<W: Write>(
+    imu_path: &std::path::Path,
+    truth_path: &std::path::Path,
+    aids: &AidSynthesis,
+    out: W,
+) -> Result<ImportSummary, ImportError> {
+    import_kfgins_files(
+        &KfginsFiles {
+            imu: imu_path,
+            truth: Some(truth_path),
+            gnss: None,
+            init: None,
+        },
+        aids,
+        out,
+    )
+}
+
+/// Imports KF-GINS files into a navlog: the IMU, the truth and/or KF-GINS's
+/// GNSS file. Time base: t_ns = 0 at the first truth epoch, or without
+/// truth at the first GNSS fix, which is then the init's position (with
+/// [`KfginsFiles::init`]'s attitude and velocity). IMU samples whose
+/// interval starts before it and GNSS fixes before it are not imported.
+/// Aids can be synthesized only from a truth.
+pub fn import_kfgins_files<W: Write>(
+    files: &KfginsFiles,
+    aids: &AidSynthesis,
+    out: W,
+) -> Result<ImportSummary, ImportError> {
+    if files.truth.is_none() && aids.any() {
+        return Err(ImportError::NoInit(
+            "aids are synthesized from a truth file, and none was given".into(),
+        ));
+    }
+    let mut sum = ImportSummary::default();
+    let imu_path = files.imu;
+    let imu_name = imu_path.display().to_string();
+    let m = frd_to_rfu();
+
+    let truth = match files.truth {
+        Some(p) => read_kfgins_truth(p, &mut sum.skipped)?,
+        None => Vec::new(),
+    };
+    let gnss = match files.gnss {
+        Some(p) => read_kfgins_gnss(p, &mut sum.skipped)?,
+        None => Vec::new(),
+    };
+    let t0 = match (truth.first(), gnss.first(), &files.init) {
+        (Some(&(t, _)), _, _) => t,
+        (None, Some(&(t, _)), Some(_)) => t,
+        (None, Some(_), None) => {
+            return Err(ImportError::NoInit(
+                "without a truth file the initial attitude and velocity must be given".into(),
+            ));
+        }
+        (None, None, _) => {
+            return Err(ImportError::NoInit(
+                "a truth file or a GNSS file is needed (the init and the time base)".into(),
+            ));
+        }
+    };
+    let truth: Vec<TruthRecord> = truth
+        .into_iter()
+        .map(|(t, mut rec)| {
+            rec.t_ns = to_ns(t - t0);
+            rec
+        })
+        .collect();
+    let mut fixes: Vec<GnssFix> = Vec::with_capacity(gnss.len());
+    for (t, mut fix) in gnss {
+        if t < t0 {
+            sum.gnss_unused += 1;
+            continue;
+        }
+        fix.t_ns = to_ns(t - t0);
+        fix.seq = fixes.len() as u64;
+        fixes.push(fix);
+    }
     let mut records: Vec<Record> = Vec::new();
 
     let mut timeline = Timeline::new(IMU_DT_RANGE_S.0, IMU_DT_RANGE_S.1);
@@ -656,14 +943,34 @@ pub fn import_kfgins<W: Write>(
     sum.imu = seq;
     sum.imu_unused = unused;
     sum.truth = truth.len() as u64;
-    records.push(Record::Init(init_from_truth(&truth[0])));
+    sum.gnss = fixes.len() as u64;
+    let init = match (truth.first(), fixes.first(), &files.init) {
+        (Some(t), _, _) => init_from_truth(t),
+        (None, Some(f), Some(given)) => init_from_fix(f, given),
+        // t0 above came from one of them.
+        _ => unreachable!("the time base has an init"),
+    };
+    records.push(Record::Init(init));
     records.extend(synthesize_aids(&truth, aids, &mut sum));
     records.extend(truth.iter().copied().map(Record::Truth));
+    records.extend(fixes.into_iter().map(Record::aid));
     sort_records(&mut records);
-    let meta = format!(
-        "imported from KF-GINS\nimu = {imu_name:?}\ntruth = {truth_name:?}\ntime_offset_s = {t0}\naids = {aids:?}\nskipped_lines = {}\n",
+    let path_or_none = |p: Option<&std::path::Path>| {
+        p.map_or("none".to_owned(), |p| {
+            format!("{:?}", p.display().to_string())
+        })
+    };
+    let mut meta = format!(
+        "imported from KF-GINS\nimu = {imu_name:?}\ntruth = {}\ngnss = {}\ntime_offset_s = {t0}\naids = {aids:?}\nskipped_lines = {}\n",
+        path_or_none(files.truth),
+        path_or_none(files.gnss),
         sum.skipped.count
     );
+    if files.truth.is_none()
+        && let Some(g) = &files.init
+    {
+        meta += &format!("init = first GNSS fix with {g:?}\n");
+    }
     write_log(
         out,
         Header::new(

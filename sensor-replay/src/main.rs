@@ -171,9 +171,22 @@ enum Cmd {
         /// KF-GINS imu.txt: time, angle and velocity increments (body FRD).
         #[arg(long)]
         imu: PathBuf,
-        /// KF-GINS truth.nav: time, latitude, longitude, height, NED velocity, roll, pitch, yaw.
+        /// KF-GINS truth.nav: time, latitude, longitude, height, NED velocity,
+        /// roll, pitch, yaw. Its first epoch is the init and the time base.
+        /// Optional with --gnss (a real flight has no truth): the init is then
+        /// the first fix with --init-att and --init-vel.
+        #[arg(long, required_unless_present = "gnss")]
+        truth: Option<PathBuf>,
+        /// KF-GINS's GNSS file, on the IMU file's clock: time (s), latitude,
+        /// longitude (deg), ellipsoidal height (m), σ north, east, down (m);
+        /// or 13 columns with the NED velocity (m/s) after the height and
+        /// its σ (m/s) last. Written as GNSS records: h_acc = √((σN²+σE²)/2),
+        /// v_acc = σD; a 7-column fix is flagged as having no velocity and
+        /// only its position is fused.
         #[arg(long)]
-        truth: PathBuf,
+        gnss: Option<PathBuf>,
+        #[command(flatten)]
+        init: InitArgs,
         /// The navlog to write.
         #[arg(long)]
         out: PathBuf,
@@ -257,6 +270,78 @@ struct AidArgs {
     preset: Option<String>,
 }
 
+/// The initial state of an import without truth (KF-GINS's `initatt`,
+/// `initvel` and their σ); the position is the first GNSS fix's.
+#[derive(clap::Args, Debug)]
+struct InitArgs {
+    /// Without --truth: initial roll, pitch, yaw of the FRD body against
+    /// NED (deg), as KF-GINS's `initatt`.
+    #[arg(
+        long,
+        value_name = "ROLL,PITCH,YAW",
+        value_delimiter = ',',
+        allow_negative_numbers = true,
+        required_unless_present = "truth",
+        conflicts_with = "truth"
+    )]
+    init_att: Option<Vec<f64>>,
+    /// Without --truth: initial velocity north, east, down (m/s), as
+    /// KF-GINS's `initvel`.
+    #[arg(
+        long,
+        value_name = "VN,VE,VD",
+        value_delimiter = ',',
+        allow_negative_numbers = true,
+        required_unless_present = "truth",
+        conflicts_with = "truth"
+    )]
+    init_vel: Option<Vec<f64>>,
+    /// 1-σ of the initial roll and pitch, and of the yaw (deg).
+    #[arg(long, value_name = "TILT,YAW", value_delimiter = ',',
+          default_values_t = [1.0, 5.0], conflicts_with = "truth")]
+    init_att_sigma: Vec<f64>,
+    /// 1-σ of the initial velocity, horizontal and vertical (m/s).
+    #[arg(long, value_name = "H,V", value_delimiter = ',',
+          default_values_t = [0.1, 0.1], conflicts_with = "truth")]
+    init_vel_sigma: Vec<f64>,
+}
+
+impl InitArgs {
+    fn given(&self) -> Result<Option<interop::GivenInit>, Fail> {
+        let (Some(att), Some(vel)) = (&self.init_att, &self.init_vel) else {
+            return Ok(None);
+        };
+        for (name, v, n) in [
+            ("--init-att", att.as_slice(), 3),
+            ("--init-vel", vel.as_slice(), 3),
+            ("--init-att-sigma", self.init_att_sigma.as_slice(), 2),
+            ("--init-vel-sigma", self.init_vel_sigma.as_slice(), 2),
+        ] {
+            if v.len() != n {
+                return Err(Fail(
+                    2,
+                    format!(
+                        "{name}: expected {n} comma-separated numbers, got {}",
+                        v.len()
+                    ),
+                ));
+            }
+        }
+        let three = |v: &[f64]| [v[0], v[1], v[2]];
+        let g = interop::GivenInit {
+            att_rpy_deg: three(att),
+            vel_ned_mps: three(vel),
+            sigma_tilt_deg: self.init_att_sigma[0],
+            sigma_heading_deg: self.init_att_sigma[1],
+            sigma_vel_h_mps: self.init_vel_sigma[0],
+            sigma_vel_v_mps: self.init_vel_sigma[1],
+        };
+        g.check()
+            .map_err(|m| Fail(2, format!("--init-att/--init-vel: {m}")))?;
+        Ok(Some(g))
+    }
+}
+
 impl AidArgs {
     fn synthesis(&self) -> Result<AidSynthesis, Fail> {
         for (name, v) in [
@@ -300,15 +385,17 @@ fn report_import(out: &std::path::Path, s: &interop::ImportSummary) {
         );
     }
     polarnav_ipc::note!(
-        "import: wrote {}: {} IMU, {} truth, {} CNS, {} baro, {} SRS records; {} line(s) skipped; {} IMU line(s) unused (the time base, or before the first truth epoch)",
+        "import: wrote {}: {} IMU, {} truth, {} CNS, {} baro, {} SRS, {} GNSS records; {} line(s) skipped; {} IMU line(s) unused (the time base, or before the init); {} GNSS fix(es) before the init unused",
         out.display(),
         s.imu,
         s.truth,
         s.cns,
         s.baro,
         s.srs,
+        s.gnss,
         s.skipped.count,
-        s.imu_unused
+        s.imu_unused,
+        s.gnss_unused
     );
 }
 
@@ -647,13 +734,27 @@ fn run(cli: Cli) -> Result<(), Fail> {
         Cmd::ImportKfgins {
             imu,
             truth,
+            gnss,
+            init,
             out,
             aids,
         } => {
             let aids = aids.synthesis()?;
+            if truth.is_none() && aids.any() {
+                return Err(bad(
+                    "--cns-sigma, --baro-sigma and --srs-sigma synthesize aids from the truth: give --truth"
+                        .into(),
+                ));
+            }
+            let files = interop::KfginsFiles {
+                imu: &imu,
+                truth: truth.as_deref(),
+                gnss: gnss.as_deref(),
+                init: init.given()?,
+            };
             let f = File::create(&out)
                 .map_err(|e| Fail(1, format!("{}: cannot create: {e}", out.display())))?;
-            let s = interop::import_kfgins(&imu, &truth, &aids, BufWriter::new(f))
+            let s = interop::import_kfgins_files(&files, &aids, BufWriter::new(f))
                 .map_err(import_fail)?;
             report_import(&out, &s);
             Ok(())

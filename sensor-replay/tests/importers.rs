@@ -615,3 +615,263 @@ fn the_command_line_keeps_memory_bounded_and_fails_without_a_backtrace() {
     );
     std::fs::remove_dir_all(&dir).ok();
 }
+
+// ------------------------------------------------------- KF-GINS GNSS
+
+/// KF-GINS's GNSS file as its GnssFileLoader reads it: 7 columns (time,
+/// lat, lon, h, σN, σE, σD), or 13 with the NED velocity after the height
+/// and its σ last; the times on the IMU file's clock (T0 on). Wild lines
+/// are marked with the reason they must be skipped.
+const GNSS_FILE: &str = "\
+# KF-GINS GNSS, hand-written
+999.000    30.4447858054   114.4718661162     21.095    0.010    0.009    0.019
+1000.000   30.4447858054   114.4718661162     21.095    0.030    0.040    0.050
+1000.250   30.4447857891   114.4718661133     21.091    0.010    0.020    0.019
+1000.500   NaN             114.4718661133     21.091    0.010    0.010    0.019
+1000.750   30.4447857891   114.4718661133     21.091    1e300    0.010    0.019
+1001.000   30.4447857891   114.4718661133     21.091    0.010    -0.01    0.019
+1000.100   30.4447857891   114.4718661133     21.091    0.010    0.010    0.019
+1000.250   30.4447857891   114.4718661133     21.091    0.010    0.010    0.019
+1001.250   30.4447857891   114.4718661133
+1001.500   91.0            114.4718661133     21.091    0.010    0.010    0.019
+1001.750   30.4447858189   114.4718661201     21.087    1.5 -2.0 0.25   0.010 0.010 0.020   0.05 0.05 0.08
+1002.000   30.4447858189   114.4718661201     21.087    1.5 -2.0 0.25   0.010 0.010 0.020   0.05 -0.05 0.08
+1002.250   30.4447858189   114.4718661201     21.087    0.010    0.010    0.0
+";
+
+fn gnss_import(
+    dir: &Path,
+    truth: Option<&[u8]>,
+    init: Option<interop::GivenInit>,
+) -> Result<(ImportSummary, Vec<Record>), ImportError> {
+    let (imu_path, truth_path, gnss_path) = (
+        dir.join("imu.txt"),
+        dir.join("truth.nav"),
+        dir.join("gnss.txt"),
+    );
+    std::fs::write(&imu_path, good_imu(600).concat()).expect("write imu");
+    std::fs::write(&gnss_path, GNSS_FILE).expect("write gnss");
+    if let Some(t) = truth {
+        std::fs::write(&truth_path, t).expect("write truth");
+    }
+    let files = interop::KfginsFiles {
+        imu: &imu_path,
+        truth: truth.map(|_| truth_path.as_path()),
+        gnss: Some(&gnss_path),
+        init,
+    };
+    let mut buf = Vec::new();
+    let sum = interop::import_kfgins_files(&files, &AidSynthesis::default(), &mut buf)?;
+    let (records, report) = read_all(&buf);
+    assert!(report.is_clean(), "{report:?}");
+    Ok((sum, records))
+}
+
+fn fixes(records: &[Record]) -> Vec<msgs::GnssFix> {
+    records
+        .iter()
+        .filter_map(|r| match r {
+            Record::Aid(msgs::AidSample::Gnss(g)) => Some(*g),
+            _ => None,
+        })
+        .collect()
+}
+
+#[test]
+fn kfgins_gnss_lines_become_fixes_on_the_imu_time_base_and_wild_lines_are_named() {
+    use msgs::gnss::{fix_flags, fix_type};
+    let dir = temp_dir("gnss");
+    let (sum, records) = gnss_import(&dir, Some(&good_truth(30)), None).expect("import");
+    let skipped: Vec<(usize, &str)> = sum
+        .skipped
+        .lines
+        .iter()
+        .map(|(f, l, why)| {
+            assert!(f.ends_with("gnss.txt"), "{f}");
+            (*l, why.as_str())
+        })
+        .collect();
+    let lines: Vec<usize> = skipped.iter().map(|s| s.0).collect();
+    assert_eq!(lines, [5, 6, 7, 8, 9, 10, 11, 13, 14], "{skipped:?}");
+    for (line, why) in [
+        (5, "not finite"),
+        (6, "σ north"),
+        (7, "σ east -0.01 m"),
+        (8, "time 1000.1 not after 1000.25"),
+        (9, "time 1000.25 not after 1000.25"),
+        (10, "4 fields, expected 7 or 13"),
+        (11, "latitude 91"),
+        (13, "σ vE -0.05 m/s"),
+        (14, "σ down 0 m"),
+    ] {
+        let got = skipped.iter().find(|s| s.0 == line).expect("named").1;
+        assert!(got.contains(why), "line {line}: {got}");
+    }
+    // The fix at 999 s is before the truth's first epoch (the init).
+    assert_eq!((sum.gnss, sum.gnss_unused), (3, 1));
+    let f = fixes(&records);
+    assert_eq!(f.len(), 3);
+    assert_eq!(
+        f.iter().map(|f| (f.t_ns, f.seq)).collect::<Vec<_>>(),
+        [(0, 0), (250_000_000, 1), (1_750_000_000, 2)]
+    );
+    assert_eq!(f[0].lat_rad, 30.4447858054f64.to_radians());
+    assert_eq!(f[0].lon_rad, 114.4718661162f64.to_radians());
+    assert_eq!(f[0].height_m, 21.095);
+    // R's north and east variances sum to σN² + σE²; vertical σD.
+    assert!((f[0].h_acc_m - (0.5f64 * (0.03 * 0.03 + 0.04 * 0.04)).sqrt()).abs() < 1e-15);
+    assert_eq!(f[0].v_acc_m, 0.05);
+    assert_eq!(f[0].itow_ms, 1_000_000);
+    for g in &f {
+        assert_eq!(g.fix_type, fix_type::FIX_3D);
+        assert!(g.is_3d());
+    }
+    // 7 columns: no velocity; 13: the velocity and its accuracy.
+    assert_eq!(f[0].flags, fix_flags::FIX_OK | fix_flags::NO_VELOCITY);
+    assert!(!f[1].has_velocity());
+    assert!(f[2].has_velocity());
+    assert_eq!(f[2].vel_ned_mps, [1.5, -2.0, 0.25]);
+    assert!(
+        (f[2].s_acc_mps - ((0.05f64.powi(2) * 2.0 + 0.08f64.powi(2)) / 3.0).sqrt()).abs() < 1e-15
+    );
+    assert_eq!(f[2].v_acc_m, 0.02);
+    // The truth's init and every truth epoch are still there.
+    assert!(
+        records
+            .iter()
+            .any(|r| matches!(r, Record::Init(i) if i.t_ns == 0))
+    );
+    assert_eq!(sum.truth, 30);
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn without_truth_the_first_fix_is_the_init_and_the_time_base() {
+    let dir = temp_dir("gnss-init");
+    let given = interop::GivenInit {
+        att_rpy_deg: [1.0, -2.0, 185.7],
+        vel_ned_mps: [3.0, -4.0, 0.5],
+        sigma_tilt_deg: 2.0,
+        sigma_heading_deg: 10.0,
+        sigma_vel_h_mps: 0.2,
+        sigma_vel_v_mps: 0.3,
+    };
+    let (sum, records) = gnss_import(&dir, None, Some(given)).expect("import");
+    assert_eq!((sum.truth, sum.gnss, sum.gnss_unused), (0, 4, 0));
+    let f = fixes(&records);
+    assert_eq!(f[0].t_ns, 0, "the first fix (999 s) is the time base");
+    let init = records
+        .iter()
+        .find_map(|r| match r {
+            Record::Init(i) => Some(*i),
+            _ => None,
+        })
+        .expect("init");
+    assert_eq!(init.t_ns, 0);
+    let geo = polarnav::earth::ecef_to_geodetic(&nalgebra::Vector3::from(init.r_e_m));
+    assert!((geo.lat_rad.to_degrees() - 30.4447858054).abs() < 1e-10);
+    assert!((geo.lon_rad.to_degrees() - 114.4718661162).abs() < 1e-10);
+    assert!((geo.h_m - 21.095).abs() < 1e-6);
+    assert_eq!(init.sigma_pos_v_m, 0.019);
+    assert!((init.sigma_pos_h_m - (0.5f64 * (0.01 * 0.01 + 0.009 * 0.009)).sqrt()).abs() < 1e-15);
+    assert_eq!(init.sigma_vel_h_mps, 0.2);
+    assert!((init.sigma_heading_rad - 10f64.to_radians()).abs() < 1e-15);
+    // Velocity: NED given, ENU in the local axes.
+    let c_e_g = polarnav::frames::c_e_g(geo.lat_rad, geo.lon_rad);
+    let v_enu = c_e_g * nalgebra::Vector3::from(init.v_e_mps);
+    assert!(
+        (v_enu - nalgebra::Vector3::new(-4.0, 3.0, -0.5)).amax() < 1e-9,
+        "{v_enu}"
+    );
+    // Heading 185.7° (yaw of the FRD body), as the KF-GINS truth would say it.
+    let [w, x, y, z] = init.q_b_e;
+    let c_b_e = nalgebra::UnitQuaternion::from_quaternion(nalgebra::Quaternion::new(w, x, y, z))
+        .to_rotation_matrix()
+        .into_inner();
+    let fwd = c_e_g * c_b_e * nalgebra::Vector3::new(0.0, 1.0, 0.0);
+    let heading = fwd.x.atan2(fwd.y).to_degrees().rem_euclid(360.0);
+    assert!((heading - 185.7).abs() < 1e-9, "{heading}");
+    // IMU samples on the same base: the sample ending at 1000.005 s is at 1.005 s.
+    let first_imu = records
+        .iter()
+        .find_map(|r| match r {
+            Record::Imu(s) => Some(*s),
+            _ => None,
+        })
+        .expect("imu");
+    assert_eq!(first_imu.t_ns, 1_005_000_000);
+    assert!(!records.iter().any(|r| matches!(r, Record::Truth(_))));
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn without_truth_or_an_initial_attitude_there_is_no_init() {
+    let dir = temp_dir("gnss-noinit");
+    match gnss_import(&dir, None, None) {
+        Err(ImportError::NoInit(why)) => assert!(why.contains("attitude"), "{why}"),
+        other => panic!("expected NoInit, got {:?}", other.map(|o| o.0)),
+    }
+    std::fs::remove_dir_all(&dir).ok();
+}
+
+#[test]
+fn the_command_line_refuses_a_missing_or_garbage_gnss_file_naming_it() {
+    let dir = temp_dir("gnss-cli");
+    let (imu, truth, gnss, out) = (
+        dir.join("imu.txt"),
+        dir.join("truth.nav"),
+        dir.join("gnss.txt"),
+        dir.join("out.navlog"),
+    );
+    std::fs::write(&imu, good_imu(100).concat()).expect("write");
+    std::fs::write(&truth, good_truth(3)).expect("write");
+    let s = |p: &PathBuf| p.to_str().expect("utf-8").to_owned();
+    let run = |extra: &[String]| {
+        let (imu_s, out_s) = (s(&imu), s(&out));
+        let mut args = vec!["import-kfgins", "--imu", &imu_s, "--out", &out_s];
+        args.extend(extra.iter().map(String::as_str));
+        let o = run_limited(&args);
+        (
+            o.status.code(),
+            String::from_utf8_lossy(&o.stderr).into_owned(),
+        )
+    };
+    let att = ["--init-att", "0,0,90", "--init-vel", "0,0,0"];
+    let (g, t) = (s(&gnss), s(&truth));
+    let with = |a: &[&str]| -> Vec<String> {
+        a.iter()
+            .chain(att.iter())
+            .map(|x| (*x).to_owned())
+            .collect()
+    };
+    // Missing.
+    let (code, err) = run(&with(&["--gnss", &g]));
+    assert_eq!(code, Some(2), "{err}");
+    assert!(err.contains("gnss.txt: cannot read"), "{err}");
+    // Garbage.
+    let bin: Vec<u8> = (0..4096u32)
+        .map(|i| (i.wrapping_mul(2_654_435_761) >> 24) as u8)
+        .collect();
+    std::fs::write(&gnss, &bin).expect("write");
+    let (code, err) = run(&with(&["--gnss", &g]));
+    assert_eq!(code, Some(2), "{err}");
+    assert!(err.contains("gnss.txt: not a KF-GINS GNSS file"), "{err}");
+    assert!(!err.contains("panicked"), "{err}");
+    // Good, without truth: written.
+    std::fs::write(&gnss, GNSS_FILE).expect("write");
+    let (code, err) = run(&with(&["--gnss", &g]));
+    assert_eq!(code, Some(0), "{err}");
+    assert!(err.contains("gnss.txt:5: skipped"), "{err}");
+    assert!(err.contains("4 GNSS records"), "{err}");
+    // No truth and no initial attitude; truth beside an initial attitude.
+    let (code, err) = run(&["--gnss".to_owned(), g.clone()]);
+    assert_eq!(code, Some(2), "{err}");
+    assert!(err.contains("--init-att"), "{err}");
+    let (code, err) = run(&with(&["--gnss", &g, "--truth", &t]));
+    assert_eq!(code, Some(2), "{err}");
+    // Aids synthesized from a truth that is not there.
+    let (code, err) = run(&with(&["--gnss", &g, "--cns-sigma", "10"]));
+    assert_eq!(code, Some(2), "{err}");
+    assert!(err.contains("give --truth"), "{err}");
+    std::fs::remove_dir_all(&dir).ok();
+}
