@@ -681,6 +681,7 @@ fn fixes(records: &[Record]) -> Vec<msgs::GnssFix> {
 }
 
 #[test]
+#[allow(clippy::float_cmp)] // the values are the file's text, parsed: equal to the bit
 fn kfgins_gnss_lines_become_fixes_on_the_imu_time_base_and_wild_lines_are_named() {
     use msgs::gnss::{fix_flags, fix_type};
     let dir = temp_dir("gnss");
@@ -749,6 +750,7 @@ fn kfgins_gnss_lines_become_fixes_on_the_imu_time_base_and_wild_lines_are_named(
 }
 
 #[test]
+#[allow(clippy::float_cmp)] // the values are the file's text, parsed: equal to the bit
 fn without_truth_the_first_fix_is_the_init_and_the_time_base() {
     let dir = temp_dir("gnss-init");
     let given = interop::GivenInit {
