@@ -1,18 +1,19 @@
 //! Wall-clock replay and the flight recorder over iceoryx2.
 
+use std::path::Path;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
-use msgs::navlog::Record;
+use msgs::navlog::{ReadReport, Record};
 use msgs::service::Topic;
 use msgs::{
-    AidKind, AidSample, EffectiveSettings, ImuSample, InitState, PerStream, STREAM_COUNT, Solution,
-    Status, Stream,
+    AidSample, EffectiveSettings, ImuSample, InitState, PerStream, STREAM_COUNT, Solution, Status,
+    Stream,
 };
 use polarnav_ipc::{TopicPublisher, TopicSubscriber, TransportConfig, TransportError};
 
 use crate::pieces::{McapProvenance, Opener, Output, Pieces};
-use polarnav_eval::logfile::{LogContents, SensorRef};
+use polarnav_eval::logfile::{LoadError, LogReader};
 
 /// Pacing statistics of a replay (lateness of each publication behind its deadline).
 #[derive(Debug, Clone, Copy, Default, PartialEq)]
@@ -71,27 +72,37 @@ impl Pacing {
     }
 }
 
-/// A sensor record of the log: an IMU sample, or an aid's (by value, out
-/// of the log's per-aid vectors).
-#[derive(Debug, Clone, Copy)]
-enum Sensor<'a> {
-    Imu(&'a ImuSample),
-    Aid(&'a LogContents, AidKind, usize),
+/// A sensor record of the log, owned (an aid's sample stays boxed, as the
+/// record has it).
+#[derive(Debug, Clone)]
+enum Sensor {
+    Imu(ImuSample),
+    Aid(Box<AidSample>),
 }
 
-impl Sensor<'_> {
-    fn aid(&self) -> Option<AidSample> {
-        match self {
-            Sensor::Imu(_) => None,
-            Sensor::Aid(log, k, i) => log.aids.get(*k, *i),
+impl Sensor {
+    /// The sensor record of `r`; `None` for any other record.
+    fn of(r: Record) -> Option<Self> {
+        match r {
+            Record::Imu(x) => Some(Sensor::Imu(x)),
+            Record::Aid(x) => Some(Sensor::Aid(x)),
+            _ => None,
         }
     }
-}
 
-fn sensor_t(s: &Sensor<'_>) -> u64 {
-    match s {
-        Sensor::Imu(x) => x.t_ns,
-        Sensor::Aid(..) => s.aid().map_or(0, |x| x.t_ns()),
+    fn t_ns(&self) -> u64 {
+        match self {
+            Sensor::Imu(x) => x.t_ns,
+            Sensor::Aid(x) => x.t_ns(),
+        }
+    }
+
+    /// Its stream.
+    fn stream(&self) -> Stream {
+        match self {
+            Sensor::Imu(_) => Stream::Imu,
+            Sensor::Aid(x) => Stream::Aid(x.kind()),
+        }
     }
 }
 
@@ -111,36 +122,178 @@ fn wait_until(deadline: Instant) {
     }
 }
 
-/// The sensor records in log order: the order a recorder saw them arrive or
-/// the simulator emitted them. A sample whose time stamp jumped back stays
-/// where the log has it, as it would arrive.
-/// One exception: aids stamped exactly at an IMU sample's time go out just
-/// before it (a log may have them after it), so that the solution at that
-/// time includes them, as `batch` computes it.
-fn in_log_order(log: &LogContents) -> Vec<Sensor<'_>> {
-    let mut out: Vec<Sensor<'_>> = log
-        .order
-        .iter()
-        .map(|r| match *r {
-            SensorRef::Imu(k) => Sensor::Imu(&log.imu[k]),
-            SensorRef::Aid(a, k) => Sensor::Aid(log, a, k),
-        })
-        .collect();
-    let mut k = 0;
-    while k < out.len() {
-        if let Sensor::Imu(x) = out[k] {
-            let t = x.t_ns;
-            let aids = out[k + 1..]
-                .iter()
-                .take_while(|s| !matches!(s, Sensor::Imu(_)) && sensor_t(s) == t)
-                .count();
-            // Rotate the IMU sample behind its aids.
-            out[k..=k + aids].rotate_left(1);
-            k += aids;
+/// What `play` needs of a log before its first pass, from one streaming
+/// read of the file (memory holds one record at a time).
+#[derive(Debug, Clone, Default, PartialEq)]
+pub struct LogOutline {
+    /// The first init record: every pass publishes it first.
+    pub init: Option<InitState>,
+    /// IMU records: each pass moves the IMU sequence numbers on by this many.
+    pub imu: u64,
+    /// The latest time stamp of a sensor record (the passes' length).
+    pub last_sensor_t_ns: Option<u64>,
+    /// What the read skipped (every pass reads the same intact records).
+    pub report: ReadReport,
+}
+
+impl LogOutline {
+    /// Reads `path` through once.
+    pub fn read(path: &Path) -> Result<Self, LoadError> {
+        let mut r = LogReader::open(path)?;
+        let mut o = Self::default();
+        while let Some(rec) = r.next_record()? {
+            if let Record::Init(x) = &rec {
+                o.init.get_or_insert(*x);
+            }
+            if let Some(s) = Sensor::of(rec) {
+                o.imu += u64::from(matches!(s, Sensor::Imu(_)));
+                let t = s.t_ns();
+                o.last_sensor_t_ns = Some(o.last_sensor_t_ns.map_or(t, |l| l.max(t)));
+            }
         }
-        k += 1;
+        o.report = r.report().clone();
+        Ok(o)
     }
-    out
+}
+
+/// The sensor records of a log in log order, read one at a time: the
+/// order a recorder saw them arrive or the simulator emitted them. A
+/// sample whose time stamp jumped back stays where the log has it, as it
+/// would arrive.
+/// One exception: aids stamped exactly at an IMU sample's time that follow
+/// it in the log go out just before it, so that the solution at that time
+/// includes them, as `batch` computes it. Only that IMU sample is held
+/// back meanwhile (the aids go out as they are read), so memory holds one
+/// sample whatever the log's length.
+#[derive(Debug)]
+struct InLogOrder<F> {
+    /// The next record of the log, `None` at its end.
+    next_record: F,
+    /// An IMU sample waiting for the aids stamped at its time that follow it.
+    held: Option<ImuSample>,
+    /// A sensor read after the held sample and due after it.
+    pending: Option<Sensor>,
+}
+
+impl<F: FnMut() -> Result<Option<Record>, LoadError>> InLogOrder<F> {
+    fn new(next_record: F) -> Self {
+        Self {
+            next_record,
+            held: None,
+            pending: None,
+        }
+    }
+
+    fn next_sensor(&mut self) -> Result<Option<Sensor>, LoadError> {
+        while let Some(r) = (self.next_record)()? {
+            if let Some(s) = Sensor::of(r) {
+                return Ok(Some(s));
+            }
+        }
+        Ok(None)
+    }
+
+    /// The next sensor to publish; `None` after the last.
+    fn next(&mut self) -> Result<Option<Sensor>, LoadError> {
+        if let Some(p) = self.pending.take() {
+            return Ok(Some(p));
+        }
+        loop {
+            let read = self.next_sensor()?;
+            match (self.held.take(), read) {
+                // An aid at the held sample's time goes out before it.
+                (Some(imu), Some(aid))
+                    if !matches!(aid, Sensor::Imu(_)) && aid.t_ns() == imu.t_ns =>
+                {
+                    self.held = Some(imu);
+                    return Ok(Some(aid));
+                }
+                // Anything else releases the held sample first.
+                (Some(imu), read) => {
+                    match read {
+                        Some(Sensor::Imu(x)) => self.held = Some(x),
+                        other => self.pending = other,
+                    }
+                    return Ok(Some(Sensor::Imu(imu)));
+                }
+                (None, Some(Sensor::Imu(x))) => self.held = Some(x),
+                (None, read) => return Ok(read),
+            }
+        }
+    }
+}
+
+/// Publication lateness (ns) of a replay in bounded memory: exact below
+/// 2048 ns, above it in buckets 1/2048 of their value wide (a quantile is
+/// the lower edge of its bucket, at most 0.05 % below the exact one; the
+/// maximum is exact). About 0.9 MB whatever the number of samples.
+#[derive(Debug, Clone)]
+struct Lateness {
+    counts: Vec<u64>,
+    n: u64,
+    max: u64,
+}
+
+/// Bits of a lateness kept exactly in its bucket (2^11 = 2048).
+const LATENESS_BITS: u32 = 11;
+
+impl Lateness {
+    fn new() -> Self {
+        let sub = 1usize << LATENESS_BITS;
+        Self {
+            counts: vec![0; sub * (64 - LATENESS_BITS as usize + 1)],
+            n: 0,
+            max: 0,
+        }
+    }
+
+    fn bucket(v: u64) -> usize {
+        let sub = 1u64 << LATENESS_BITS;
+        if v < sub {
+            return v as usize;
+        }
+        // v in [2^e, 2^(e+1)), e >= LATENESS_BITS: its top LATENESS_BITS + 1 bits.
+        let e = 63 - v.leading_zeros();
+        let shift = e - LATENESS_BITS;
+        ((u64::from(shift) + 1) * sub + ((v >> shift) - sub)) as usize
+    }
+
+    /// The lower edge of bucket `b`.
+    fn lower_edge(b: usize) -> u64 {
+        let sub = 1u64 << LATENESS_BITS;
+        let b = b as u64;
+        if b < sub {
+            return b;
+        }
+        let shift = b / sub - 1;
+        (sub + b % sub) << shift
+    }
+
+    fn push(&mut self, ns: u64) {
+        self.counts[Self::bucket(ns)] += 1;
+        self.n += 1;
+        self.max = self.max.max(ns);
+    }
+
+    /// The value of rank round((n − 1)·f) in increasing order (µs), as of
+    /// the sorted samples; 0 without samples.
+    fn quantile_us(&self, f: f64) -> f64 {
+        if self.n == 0 {
+            return 0.0;
+        }
+        let rank = ((self.n as f64 - 1.0) * f).round() as u64;
+        if rank >= self.n - 1 {
+            return self.max as f64 * 1e-3;
+        }
+        let mut seen = 0;
+        for (b, c) in self.counts.iter().enumerate() {
+            seen += c;
+            if seen > rank {
+                return Self::lower_edge(b) as f64 * 1e-3;
+            }
+        }
+        self.max as f64 * 1e-3
+    }
 }
 
 /// A stalled IMU driver (`play --stall-imu AT:FOR`): from sensor time `at_s`
@@ -175,19 +328,35 @@ impl ImuStall {
     }
 }
 
-/// Publishes the log at wall-clock rate (scaled by `speed`) against absolute
-/// deadlines, in log order (a record never goes out before the one the log
-/// has before it). Each pass starts with an init message; with `loops` > 1
-/// the time base keeps increasing from pass to pass. `stalls` (first pass
-/// only) hold the IMU stream back for a while, as a delayed driver would.
+/// Errors of a replay.
+#[derive(Debug, thiserror::Error)]
+pub enum PlayError {
+    #[error(transparent)]
+    Transport(#[from] TransportError),
+    /// The log could not be read again for a pass (each pass reads the
+    /// file from its start; the error names it).
+    #[error(transparent)]
+    Log(#[from] LoadError),
+}
+
+/// Publishes the log at `path` at wall-clock rate (scaled by `speed`)
+/// against absolute deadlines, in log order (a record never goes out
+/// before the one the log has before it). Each pass starts with an init
+/// message and reads the file again from its start, one record at a time,
+/// so memory is bounded whatever the log's length (`outline` is what the
+/// caller read of it first, [`LogOutline::read`]); with `loops` > 1 the
+/// time base keeps increasing from pass to pass. `stalls` (first pass only)
+/// hold the IMU stream back for a while, as a delayed driver would (the
+/// samples held are those of the stall's wall-clock time).
 pub fn play(
-    log: &LogContents,
+    path: &Path,
+    outline: &LogOutline,
     cfg: &TransportConfig,
     speed: f64,
     loops: u64,
     stalls: &[ImuStall],
     stop: &AtomicBool,
-) -> Result<Pacing, TransportError> {
+) -> Result<Pacing, PlayError> {
     let node = polarnav_ipc::node(cfg, "sensor-replay-play")?;
     // A replay waits for a slow reader rather than lose its inputs (a
     // sensor driver in flight would use Delivery::Discard and count).
@@ -196,19 +365,13 @@ pub fn play(
     let aids = polarnav_ipc::aid_publishers(&node, cfg, wait)?;
     let init_pub = TopicPublisher::<InitState>::new(&node, cfg, Topic::Init)?;
 
-    let sensors = in_log_order(log);
-    let init = log.init.first().copied().unwrap_or_default();
+    let init = outline.init.unwrap_or_default();
     let t0 = init.t_ns;
-    let span = sensors
-        .iter()
-        .map(|s| sensor_t(s).saturating_sub(t0))
-        .max()
-        .unwrap_or(0)
-        + 1_000_000;
+    let span = outline.last_sensor_t_ns.map_or(0, |t| t.saturating_sub(t0)) + 1_000_000;
 
     let sidereal_ns = (std::f64::consts::TAU / polarnav::earth::OMEGA_IE * 1e9).round() as u64;
     let span_sidereal = span.div_ceil(sidereal_ns) * sidereal_ns;
-    let mut lateness: Vec<u64> = Vec::with_capacity(sensors.len());
+    let mut lateness = Lateness::new();
     let mut per_stream = PerStream::<u64>::default();
     let progress_every = (span / 10).max(1);
     let mut next_progress = progress_every;
@@ -230,6 +393,8 @@ pub fn play(
         let at = |t_ns: u64| {
             start + Duration::from_secs_f64((t_ns - t0 + wall_offset) as f64 * 1e-9 / speed)
         };
+        let mut log = LogReader::open(path)?;
+        let mut sensors = InLogOrder::new(|| log.next_record());
         wait_until(at(t0));
         let mut last_deadline = at(t0);
         init_pub.publish(&InitState {
@@ -237,13 +402,13 @@ pub fn play(
             seq: pass,
             ..init
         })?;
-        for s in &sensors {
+        while let Some(s) = sensors.next()? {
             if stop.load(Ordering::Relaxed) {
                 break 'passes;
             }
             // Never earlier than the previous sample: a time stamp that jumped
             // back goes out at once, in log order.
-            let deadline = at(sensor_t(s).max(t0)).max(last_deadline);
+            let deadline = at(s.t_ns().max(t0)).max(last_deadline);
             last_deadline = deadline;
             wait_until(deadline);
             // A stall ends: the held IMU samples go out at once, in order.
@@ -256,7 +421,7 @@ pub fn play(
                     lateness.push(end.elapsed().as_nanos() as u64);
                 }
             }
-            if let Sensor::Imu(x) = s
+            if let Sensor::Imu(x) = &s
                 && pass == 0
             {
                 let t_s = x.t_ns.saturating_sub(t0) as f64 * 1e-9;
@@ -274,35 +439,32 @@ pub fn play(
                     per_stream[Stream::Imu] += 1;
                     held.push(ImuSample {
                         t_ns: x.t_ns + offset,
-                        seq: x.seq + pass * log.imu.len() as u64,
-                        ..**x
+                        seq: x.seq + pass * outline.imu,
+                        ..*x
                     });
                     continue;
                 }
             }
-            per_stream[match s {
-                Sensor::Imu(_) => Stream::Imu,
-                Sensor::Aid(_, k, _) => Stream::Aid(*k),
-            }] += 1;
+            per_stream[s.stream()] += 1;
             // A daemon that subscribed after this pass's init went out gets
             // it now, from the init topic's history, before the IMU it needs.
             init_pub.update_connections()?;
-            match s {
+            match &s {
                 Sensor::Imu(x) => imu.publish(&ImuSample {
                     t_ns: x.t_ns + offset,
-                    seq: x.seq + pass * log.imu.len() as u64,
-                    ..**x
+                    seq: x.seq + pass * outline.imu,
+                    ..*x
                 })?,
                 // Whole sidereal days later an inertial observation (SRS,
                 // star tracker) is the same.
-                Sensor::Aid(..) => {
-                    let Some(mut x) = s.aid() else { continue };
+                Sensor::Aid(x) => {
+                    let mut x = **x;
                     *x.t_ns_mut() += offset;
                     aids[x.kind()].publish_sample(&x)?
                 }
             };
             lateness.push(deadline.elapsed().as_nanos() as u64);
-            let done = sensor_t(s).saturating_sub(t0);
+            let done = s.t_ns().saturating_sub(t0);
             if done >= next_progress {
                 next_progress += progress_every;
                 polarnav_ipc::note!(
@@ -323,12 +485,6 @@ pub fn play(
             lateness.push(end.elapsed().as_nanos() as u64);
         }
     }
-    lateness.sort_unstable();
-    let q = |f: f64| {
-        lateness
-            .get(((lateness.len() as f64 - 1.0) * f).round() as usize)
-            .map_or(0.0, |v| *v as f64 * 1e-3)
-    };
     let (mut waits, mut max_wait, mut lost) = (0, Duration::ZERO, 0);
     let per_publisher = std::iter::once((imu.waits().0, imu.waits().1, imu.lost())).chain(
         aids.iter()
@@ -340,11 +496,11 @@ pub fn play(
         lost += l;
     }
     Ok(Pacing {
-        published: lateness.len() as u64,
+        published: lateness.n,
         per_stream,
-        p50_us: q(0.5),
-        p99_us: q(0.99),
-        max_us: q(1.0),
+        p50_us: lateness.quantile_us(0.5),
+        p99_us: lateness.quantile_us(0.99),
+        max_us: lateness.quantile_us(1.0),
         waits,
         max_wait_us: max_wait.as_secs_f64() * 1e6,
         lost,
@@ -525,7 +681,175 @@ pub enum RecordError {
 
 #[cfg(test)]
 mod tests {
-    use super::{ImuStall, Pacing, PerStream};
+    use super::{ImuStall, InLogOrder, Lateness, LogOutline, Pacing, PerStream, Sensor};
+    use msgs::navlog::{Header, NavlogWriter, Record};
+    use msgs::{BaroSample, CnsFix, ImuSample, InitState, StarSample, TruthRecord};
+
+    fn imu(t_ns: u64, seq: u64) -> Record {
+        Record::Imu(ImuSample {
+            t_ns,
+            seq,
+            ..Default::default()
+        })
+    }
+
+    fn baro(t_ns: u64, seq: u64) -> Record {
+        Record::aid(BaroSample {
+            t_ns,
+            seq,
+            ..Default::default()
+        })
+    }
+
+    /// (stream, t, seq) of each sensor as `play` sends it.
+    fn sent(records: Vec<Record>) -> Vec<(&'static str, u64, u64)> {
+        let mut it = records.into_iter();
+        let mut order = InLogOrder::new(|| Ok(it.next()));
+        let mut out = Vec::new();
+        while let Some(s) = order.next().expect("in memory") {
+            let seq = match &s {
+                Sensor::Imu(x) => x.seq,
+                Sensor::Aid(x) => x.seq(),
+            };
+            out.push((s.stream().name(), s.t_ns(), seq));
+        }
+        out
+    }
+
+    /// The aids stamped at an IMU sample's time that follow it in the log
+    /// go out before it (the records between them that are no sensor's do
+    /// not part them); anything else keeps the log's order, a time stamp
+    /// that jumped back included. Worked out by hand from the rule.
+    #[test]
+    fn aids_at_an_imu_samples_time_go_out_before_it_and_nothing_else_moves() {
+        let log = vec![
+            Record::Header(Box::new(Header::new("test", "order", 0, ""))),
+            Record::Init(InitState::default()),
+            imu(10, 0),
+            baro(10, 1),
+            Record::Truth(TruthRecord {
+                t_ns: 10,
+                ..Default::default()
+            }),
+            Record::aid(CnsFix {
+                t_ns: 10,
+                seq: 2,
+                ..Default::default()
+            }),
+            baro(15, 3),
+            imu(20, 4),
+            imu(20, 5),
+            Record::aid(StarSample {
+                t_ns: 20,
+                seq: 6,
+                ..Default::default()
+            }),
+            baro(5, 7),
+            imu(30, 8),
+        ];
+        assert_eq!(
+            sent(log),
+            [
+                ("baro", 10, 1),
+                ("cns", 10, 2),
+                ("imu", 10, 0),
+                ("baro", 15, 3),
+                ("imu", 20, 4),
+                ("star", 20, 6),
+                ("imu", 20, 5),
+                ("baro", 5, 7),
+                ("imu", 30, 8),
+            ]
+        );
+        assert!(sent(Vec::new()).is_empty());
+        assert_eq!(sent(vec![imu(1, 0)]), [("imu", 1, 0)]);
+    }
+
+    /// The quantiles of the bounded lateness histogram against those of
+    /// the sorted samples: exact below 2048 ns and for the maximum, at
+    /// most 1/2048 below the exact value above.
+    #[test]
+    #[allow(
+        clippy::float_cmp,
+        reason = "both sides are whole nanoseconds times 1e-3, computed alike"
+    )]
+    fn lateness_quantiles_are_within_a_2048th_of_the_sorted_samples() {
+        let mut state = 0x9e37_79b9_7f4a_7c15u64;
+        let mut next = move || {
+            state ^= state << 13;
+            state ^= state >> 7;
+            state ^= state << 17;
+            state
+        };
+        for scale in [1_000u64, 100_000, 10_000_000_000] {
+            let mut h = Lateness::new();
+            let mut v: Vec<u64> = (0..20_001).map(|_| next() % scale).collect();
+            v.push(u64::MAX);
+            for x in &v {
+                h.push(*x);
+            }
+            v.sort_unstable();
+            for f in [0.0, 0.25, 0.5, 0.99, 1.0] {
+                let exact = v[((v.len() as f64 - 1.0) * f).round() as usize] as f64 * 1e-3;
+                let got = h.quantile_us(f);
+                let tol = if exact < 2.048 || f >= 1.0 {
+                    0.0
+                } else {
+                    exact / 2048.0
+                };
+                assert!(
+                    got <= exact && exact - got <= tol,
+                    "scale {scale} f {f}: {got} µs against {exact} µs"
+                );
+            }
+        }
+        assert_eq!(Lateness::new().quantile_us(0.5), 0.0);
+        for v in [0, 1, 2047, 2048, 2049, 4095, 4096, 1 << 40, u64::MAX] {
+            let b = Lateness::bucket(v);
+            assert!(Lateness::lower_edge(b) <= v, "{v}");
+            assert!(v - Lateness::lower_edge(b) <= v / 2048, "{v}");
+        }
+    }
+
+    /// The outline of a log file: its first init, its IMU records and its
+    /// latest sensor time (a truth record later than it does not count).
+    #[test]
+    fn the_outline_has_the_first_init_the_imu_count_and_the_last_sensor_time() {
+        let p =
+            std::env::temp_dir().join(format!("polarnav-outline-{}.navlog", std::process::id()));
+        let mut w = NavlogWriter::new(
+            std::fs::File::create(&p).expect("create"),
+            Header::new("test", "outline", 0, ""),
+        )
+        .expect("header");
+        for r in [
+            imu(5, 0),
+            Record::Init(InitState {
+                t_ns: 7,
+                ..Default::default()
+            }),
+            baro(90, 1),
+            imu(50, 2),
+            Record::Init(InitState {
+                t_ns: 8,
+                ..Default::default()
+            }),
+            Record::Truth(TruthRecord {
+                t_ns: 500,
+                ..Default::default()
+            }),
+        ] {
+            w.write(&r).expect("write");
+        }
+        w.finish().expect("finish");
+        let o = LogOutline::read(&p).expect("outline");
+        assert_eq!(o.init.map(|i| i.t_ns), Some(7));
+        assert_eq!((o.imu, o.last_sensor_t_ns), (2, Some(90)));
+        assert!(o.report.is_clean());
+        let _ = std::fs::remove_file(&p);
+        let e = LogOutline::read(&p).expect_err("gone");
+        assert!(e.to_string().contains(&p.display().to_string()), "{e}");
+    }
 
     #[test]
     fn imu_stalls_parse_and_absurd_ones_are_refused_naming_the_part() {

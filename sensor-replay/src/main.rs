@@ -538,11 +538,13 @@ fn run(cli: Cli) -> Result<(), Fail> {
                     "--speed: expected a positive number, got {speed}"
                 )));
             }
-            let c = logfile::load(&log).map_err(|e| bad(e.to_string()))?;
+            // Read through once here (the init, the IMU count, the length);
+            // each pass reads the file again: memory is bounded whatever its length.
+            let c = sensor_replay::live::LogOutline::read(&log).map_err(|e| bad(e.to_string()))?;
             if !c.report.is_clean() {
                 polarnav_ipc::note!("warning: {}: {}", log.display(), c.report);
             }
-            if c.init.is_empty() {
+            if c.init.is_none() {
                 return Err(bad(format!("{}: no init record to publish", log.display())));
             }
             let stop = stop_flag()?;
@@ -555,9 +557,9 @@ fn run(cli: Cli) -> Result<(), Fail> {
             polarnav_ipc::note!(
                 "play: {} ({} IMU samples) on {prefix}/... at {speed}x",
                 log.display(),
-                c.imu.len()
+                c.imu
             );
-            let p = sensor_replay::live::play(&c, &cfg, speed, loops, &stall_imu, &stop)
+            let p = sensor_replay::live::play(&log, &c, &cfg, speed, loops, &stall_imu, &stop)
                 .map_err(|e| Fail(1, e.to_string()))?;
             print_stdout(&format!("{}\n", p.summary()))?;
             Ok(())

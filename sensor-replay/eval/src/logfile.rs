@@ -92,19 +92,53 @@ pub enum LoadError {
     },
 }
 
+/// A navlog read one record at a time: memory holds one record and the
+/// read buffer, whatever the file's length. Errors name the file.
+#[derive(Debug)]
+pub struct LogReader {
+    path: String,
+    reader: NavlogReader<BufReader<File>>,
+}
+
+impl LogReader {
+    /// Opens `path` for reading from its first record.
+    pub fn open(path: &Path) -> Result<Self, LoadError> {
+        let p = path.display().to_string();
+        let f = File::open(path).map_err(|source| LoadError::Open {
+            path: p.clone(),
+            source,
+        })?;
+        Ok(Self {
+            path: p,
+            reader: NavlogReader::new(BufReader::with_capacity(1 << 20, f)),
+        })
+    }
+
+    /// The next intact record (damaged frames are counted in
+    /// [`LogReader::report`] and skipped); `None` at the end.
+    pub fn next_record(&mut self) -> Result<Option<Record>, LoadError> {
+        self.reader.next_record().map_err(|source| LoadError::Read {
+            path: self.path.clone(),
+            source,
+        })
+    }
+
+    /// What was read and skipped so far (complete at the end).
+    pub fn report(&self) -> &ReadReport {
+        self.reader.report()
+    }
+
+    /// The file, as errors name it.
+    pub fn path(&self) -> &str {
+        &self.path
+    }
+}
+
 /// Loads a navlog; the report says what was skipped.
 pub fn load(path: &Path) -> Result<LogContents, LoadError> {
-    let p = path.display().to_string();
-    let f = File::open(path).map_err(|source| LoadError::Open {
-        path: p.clone(),
-        source,
-    })?;
-    let mut r = NavlogReader::new(BufReader::with_capacity(1 << 20, f));
+    let mut r = LogReader::open(path)?;
     let mut c = LogContents::default();
-    while let Some(rec) = r.next_record().map_err(|source| LoadError::Read {
-        path: p.clone(),
-        source,
-    })? {
+    while let Some(rec) = r.next_record()? {
         match rec {
             Record::Header(h) => c.header = Some(*h),
             Record::Init(x) => c.init.push(x),
