@@ -11,3 +11,4 @@ pub mod logfile;
 pub mod plots;
 pub mod review;
 pub mod solution_file;
+pub mod spill;
