@@ -321,7 +321,7 @@ fn aid_series(aids: &Aids, at: &Where) -> Vec<AidSeries> {
 /// The last update of each aid as the log's status records report it
 /// (a live recording: one per status, 1 Hz), one point per new update.
 pub fn aids_from_status(status: &[Status]) -> Option<Aids> {
-    let mut a = Aids::default();
+    let mut a: Aids = Aids::default();
     let mut last: PerAid<Option<(u64, [u64; MAX_COMPONENTS])>> = PerAid::default();
     for st in status {
         for (k, c, s) in st.each_aid() {

@@ -13,11 +13,13 @@ use mcap::sans_io::linear_reader::{LinearReadEvent, LinearReader, LinearReaderOp
 
 use msgs::Solution;
 use msgs::aids::{MAX_COMPONENTS, Unit};
-use msgs::{AidKind, PerAid};
+use msgs::{AID_COUNT, AidKind, PerAid};
 use polarnav::solution_csv::{self, Row};
 use polarnav_proto as pb;
 use prost::Message as _;
 use serde::Deserialize;
+
+use crate::spill::{Sealed, Spill};
 
 /// One gated aid update, as an aid's `/aid/NAME` channel carries it or as
 /// a status record reports it.
@@ -48,7 +50,7 @@ pub struct AidPoint {
 impl AidPoint {
     /// The same update as `other`, whatever the time it is reported at:
     /// equal bit for bit in every other field (NaN test ratios too).
-    fn same_update(&self, other: &Self) -> bool {
+    pub(crate) fn same_update(&self, other: &Self) -> bool {
         let bits = |p: &Self| {
             (
                 p.innovation.map(f64::to_bits),
@@ -155,8 +157,104 @@ fn row_of_proto(s: &pb::Solution) -> Row {
     }
 }
 
-/// The aid updates of a run, per aid.
-pub type Aids = PerAid<Vec<AidPoint>>;
+/// Words (8 bytes) of an [`AidPoint`] on disk: the time, the innovation
+/// and its variance (`MAX_COMPONENTS` each), the test ratio, `fused`, and
+/// `physical` with `made_in_frame`.
+pub const AID_WORDS: usize = 4 + 2 * MAX_COMPONENTS;
+
+/// One aid's updates on disk, in time order.
+pub type UpdatesOnDisk = Sealed<AID_WORDS>;
+
+/// The first word of the innovation, of its variance, and of what follows.
+const INNOVATION: usize = 1;
+const VARIANCE: usize = INNOVATION + MAX_COMPONENTS;
+const REST: usize = VARIANCE + MAX_COMPONENTS;
+
+impl AidPoint {
+    /// The point as words, every field kept bit for bit.
+    pub fn to_words(&self) -> [u64; AID_WORDS] {
+        let mut w = [0u64; AID_WORDS];
+        w[0] = self.t_ns;
+        for k in 0..MAX_COMPONENTS {
+            w[INNOVATION + k] = self.innovation[k].to_bits();
+            w[VARIANCE + k] = self.innovation_var[k].to_bits();
+        }
+        w[REST] = self.test_ratio.to_bits();
+        w[REST + 1] = u64::from(self.fused);
+        w[REST + 2] = u64::from(self.physical) | u64::from(self.made_in_frame) << 8;
+        w
+    }
+
+    /// The point of [`AidPoint::to_words`].
+    pub fn from_words(w: &[u64; AID_WORDS]) -> Self {
+        Self {
+            t_ns: w[0],
+            innovation: std::array::from_fn(|k| f64::from_bits(w[INNOVATION + k])),
+            innovation_var: std::array::from_fn(|k| f64::from_bits(w[VARIANCE + k])),
+            test_ratio: f64::from_bits(w[REST]),
+            fused: w[REST + 1] as u8,
+            physical: w[REST + 2] & 1 != 0,
+            made_in_frame: (w[REST + 2] >> 8) as u8,
+        }
+    }
+}
+
+/// Calls `f` with every update of `a`, in order.
+pub fn for_each_update(a: &UpdatesOnDisk, mut f: impl FnMut(AidPoint)) -> std::io::Result<()> {
+    for w in a.iter() {
+        f(AidPoint::from_words(&w?));
+    }
+    Ok(())
+}
+
+/// Aid updates held in memory, written to disk as a streamed flight's are.
+pub fn aids_to_disk(a: Aids) -> Result<Aids<UpdatesOnDisk>, String> {
+    try_map_aids(a, |v| {
+        let mut s = Spill::new()?;
+        for p in v {
+            s.put(p)?;
+        }
+        s.seal()
+    })
+    .map_err(|e: std::io::Error| e.to_string())
+}
+
+/// Where aid updates go: a vector in memory or a spill on disk.
+pub trait AidSink {
+    fn put(&mut self, p: AidPoint) -> std::io::Result<()>;
+}
+
+impl AidSink for Vec<AidPoint> {
+    fn put(&mut self, p: AidPoint) -> std::io::Result<()> {
+        self.push(p);
+        Ok(())
+    }
+}
+
+impl AidSink for Spill<AID_WORDS> {
+    fn put(&mut self, p: AidPoint) -> std::io::Result<()> {
+        self.push(&p.to_words())
+    }
+}
+
+/// The aid updates of a run, per aid: in memory, or (`P` a spill) on disk.
+pub type Aids<P = Vec<AidPoint>> = PerAid<P>;
+
+/// Each aid's updates through `f`, in the aids' order; the first error
+/// stops it.
+pub fn try_map_aids<P, Q, E>(
+    a: Aids<P>,
+    mut f: impl FnMut(P) -> Result<Q, E>,
+) -> Result<Aids<Q>, E> {
+    let mut done = Vec::with_capacity(AID_COUNT);
+    for p in a.0 {
+        done.push(f(p)?);
+    }
+    match <[Q; AID_COUNT]>::try_from(done) {
+        Ok(q) => Ok(PerAid(q)),
+        Err(_) => unreachable!("one value per aid, from one per aid"),
+    }
+}
 
 /// A loaded solution.
 #[derive(Debug, Clone, Default)]
@@ -230,58 +328,18 @@ pub fn load(path: &Path) -> Result<Loaded, String> {
     let p = path.display();
     let mut rows = Vec::new();
     let mut bias_sigma = Vec::new();
-    let mut aids = Aids::default();
-    for_each_message(path, |m| {
-        let bad = |e: &dyn std::fmt::Display| {
-            format!(
-                "{p}: {} message {} ({}): {e}",
-                m.topic, m.sequence, m.encoding
-            )
-        };
-        let json = m.encoding == "json";
-        let aid_of = AidKind::ALL
-            .into_iter()
-            .find(|k| k.decl().update_topic == m.topic);
-        let wanted = m.topic == "/solution" || aid_of.is_some();
-        if wanted && !json && m.encoding != "protobuf" {
-            return Err(bad(
-                &"not protobuf (polarnav.proto) nor JSON: cannot read it",
-            ));
-        }
-        let aid = match m.topic {
-            "/solution" => {
-                let (row, sig) = if json {
-                    let (s, sig) = solution_of_json(m.data).map_err(|e| bad(&e))?;
-                    (Row::from_solution(&s), sig)
-                } else {
-                    let s = pb::Solution::decode(m.data).map_err(|e| bad(&e))?;
-                    let sig = [
-                        s.sig_bg_x_rps,
-                        s.sig_bg_y_rps,
-                        s.sig_bg_z_rps,
-                        s.sig_ba_x_mps2,
-                        s.sig_ba_y_mps2,
-                        s.sig_ba_z_mps2,
-                    ];
-                    (row_of_proto(&s), Some(sig))
-                };
+    let mut aids: Aids = Aids::default();
+    let mut messages = McapMessages::open(path)?;
+    while let Some(m) = messages.next_message()? {
+        match item_of(&m, &p)? {
+            Some(SolutionItem::Row(row, sig)) => {
                 rows.push(row);
                 bias_sigma.push(sig);
-                return Ok(());
             }
-            _ => match aid_of {
-                Some(k) => k,
-                None => return Ok(()),
-            },
-        };
-        aids[aid].push(if json {
-            serde_json::from_slice(m.data).map_err(|e| bad(&e))?
-        } else {
-            AidPoint::from_proto(&pb::AidUpdate::decode(m.data).map_err(|e| bad(&e))?, aid)
-                .map_err(|e| bad(&e))?
-        });
-        Ok(())
-    })?;
+            Some(SolutionItem::Aid(k, a)) => aids[k].push(a),
+            None => {}
+        }
+    }
     if rows.is_empty() {
         return Err(format!(
             "{p}: no /solution message (write it with nav-daemon batch --out FILE.mcap)"
@@ -326,57 +384,225 @@ pub fn for_each_message(
     path: &Path,
     mut f: impl FnMut(McapMessage<'_>) -> Result<(), String>,
 ) -> Result<(), String> {
-    let p = path.display();
-    let mut file = std::fs::File::open(path).map_err(|e| format!("{p}: {e}"))?;
-    let size = file.metadata().map_err(|e| format!("{p}: {e}"))?.len();
-    let limit = size
-        .saturating_mul(MAX_MCAP_EXPANSION)
-        .saturating_add(MCAP_EXPANSION_ALLOWANCE);
-    let mut expanded = 0u64;
-    let mut channel_of: HashMap<u16, (String, String)> = HashMap::new();
-    let mut reader = LinearReader::new_with_options(
-        LinearReaderOptions::default().with_record_length_limit(MAX_MCAP_RECORD_BYTES),
-    );
-    while let Some(event) = reader.next_event() {
-        match event.map_err(|e| format!("{p}: MCAP: {e}"))? {
-            LinearReadEvent::ReadRequest(need) => {
-                let n = file
-                    .read(reader.insert(need))
-                    .map_err(|e| format!("{p}: {e}"))?;
-                reader.notify_read(n);
-            }
-            LinearReadEvent::Record { opcode, data } => {
-                match mcap::parse_record(opcode, data).map_err(|e| format!("{p}: MCAP: {e}"))? {
-                    Record::Channel(c) => {
-                        channel_of.insert(c.id, (c.topic, c.message_encoding));
-                    }
-                    Record::Message { header, data } => {
-                        expanded =
-                            expanded.saturating_add(data.len() as u64 + MESSAGE_RECORD_OVERHEAD);
-                        if expanded > limit {
-                            return Err(format!(
-                                "{p}: MCAP: its messages expand to more than {limit} bytes, \
-                                 {MAX_MCAP_EXPANSION} times the file's {size} (and {MCAP_EXPANSION_ALLOWANCE} more): \
-                                 not a file of polarnav's (whose chunks expand about 2.4 times); \
-                                 refused before it fills memory"
-                            ));
+    let mut messages = McapMessages::open(path)?;
+    while let Some(m) = messages.next_message()? {
+        f(m)?;
+    }
+    Ok(())
+}
+
+/// The messages of an MCAP file one at a time, in file order (see
+/// [`for_each_message`]: one chunk in memory, lengths and expansion bounded).
+pub struct McapMessages {
+    path: String,
+    file: std::fs::File,
+    size: u64,
+    limit: u64,
+    expanded: u64,
+    channel_of: HashMap<u16, (String, String)>,
+    reader: LinearReader,
+    /// The current message: its channel, sequence and bytes.
+    channel: u16,
+    sequence: u32,
+    data: Vec<u8>,
+}
+
+impl std::fmt::Debug for McapMessages {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("McapMessages")
+            .field("path", &self.path)
+            .field("expanded", &self.expanded)
+            .finish_non_exhaustive()
+    }
+}
+
+impl McapMessages {
+    /// Opens `path` (errors name it).
+    pub fn open(path: &Path) -> Result<Self, String> {
+        let p = path.display().to_string();
+        let file = std::fs::File::open(path).map_err(|e| format!("{p}: {e}"))?;
+        let size = file.metadata().map_err(|e| format!("{p}: {e}"))?.len();
+        Ok(Self {
+            limit: size
+                .saturating_mul(MAX_MCAP_EXPANSION)
+                .saturating_add(MCAP_EXPANSION_ALLOWANCE),
+            path: p,
+            file,
+            size,
+            expanded: 0,
+            channel_of: HashMap::new(),
+            reader: LinearReader::new_with_options(
+                LinearReaderOptions::default().with_record_length_limit(MAX_MCAP_RECORD_BYTES),
+            ),
+            channel: 0,
+            sequence: 0,
+            data: Vec::new(),
+        })
+    }
+
+    /// The next message; `None` at the end of the file.
+    pub fn next_message(&mut self) -> Result<Option<McapMessage<'_>>, String> {
+        let p = &self.path;
+        loop {
+            let Some(event) = self.reader.next_event() else {
+                return Ok(None);
+            };
+            match event.map_err(|e| format!("{p}: MCAP: {e}"))? {
+                LinearReadEvent::ReadRequest(need) => {
+                    let n = self
+                        .file
+                        .read(self.reader.insert(need))
+                        .map_err(|e| format!("{p}: {e}"))?;
+                    self.reader.notify_read(n);
+                }
+                LinearReadEvent::Record { opcode, data } => {
+                    match mcap::parse_record(opcode, data).map_err(|e| format!("{p}: MCAP: {e}"))? {
+                        Record::Channel(c) => {
+                            self.channel_of.insert(c.id, (c.topic, c.message_encoding));
                         }
-                        let (topic, encoding) = channel_of
-                            .get(&header.channel_id)
-                            .map_or(("", ""), |(t, e)| (t.as_str(), e.as_str()));
-                        f(McapMessage {
-                            topic,
-                            encoding,
-                            data: &data,
-                            sequence: header.sequence,
-                        })?;
+                        Record::Message { header, data } => {
+                            self.expanded = self
+                                .expanded
+                                .saturating_add(data.len() as u64 + MESSAGE_RECORD_OVERHEAD);
+                            if self.expanded > self.limit {
+                                let (limit, size) = (self.limit, self.size);
+                                return Err(format!(
+                                    "{p}: MCAP: its messages expand to more than {limit} bytes, \
+                                     {MAX_MCAP_EXPANSION} times the file's {size} (and {MCAP_EXPANSION_ALLOWANCE} more): \
+                                     not a file of polarnav's (whose chunks expand about 2.4 times); \
+                                     refused before it fills memory"
+                                ));
+                            }
+                            self.channel = header.channel_id;
+                            self.sequence = header.sequence;
+                            self.data.clear();
+                            self.data.extend_from_slice(&data);
+                            break;
+                        }
+                        _ => {}
                     }
-                    _ => {}
                 }
             }
         }
+        let (topic, encoding) = self
+            .channel_of
+            .get(&self.channel)
+            .map_or(("", ""), |(t, e)| (t.as_str(), e.as_str()));
+        Ok(Some(McapMessage {
+            topic,
+            encoding,
+            data: &self.data,
+            sequence: self.sequence,
+        }))
     }
-    Ok(())
+}
+
+/// What a solution file gives, one item at a time in file order.
+#[derive(Debug, Clone, PartialEq)]
+#[allow(
+    clippy::large_enum_variant,
+    reason = "rows are nearly every item: boxing them would allocate per row"
+)]
+pub enum SolutionItem {
+    /// A row, with its bias σ where the solution carries it.
+    Row(Row, Option<[f64; 6]>),
+    /// An aid update of an MCAP solution, with its aid.
+    Aid(AidKind, AidPoint),
+}
+
+/// The item of an MCAP message of file `p`; `None` for a channel eval
+/// does not read. A message it cannot read is refused, naming the file,
+/// topic, sequence and encoding.
+fn item_of(m: &McapMessage<'_>, p: &dyn std::fmt::Display) -> Result<Option<SolutionItem>, String> {
+    let bad = |e: &dyn std::fmt::Display| {
+        format!(
+            "{p}: {} message {} ({}): {e}",
+            m.topic, m.sequence, m.encoding
+        )
+    };
+    let json = m.encoding == "json";
+    let aid_of = AidKind::ALL
+        .into_iter()
+        .find(|k| k.decl().update_topic == m.topic);
+    let wanted = m.topic == "/solution" || aid_of.is_some();
+    if wanted && !json && m.encoding != "protobuf" {
+        return Err(bad(
+            &"not protobuf (polarnav.proto) nor JSON: cannot read it",
+        ));
+    }
+    if m.topic == "/solution" {
+        let (row, sig) = if json {
+            let (s, sig) = solution_of_json(m.data).map_err(|e| bad(&e))?;
+            (Row::from_solution(&s), sig)
+        } else {
+            let s = pb::Solution::decode(m.data).map_err(|e| bad(&e))?;
+            let sig = [
+                s.sig_bg_x_rps,
+                s.sig_bg_y_rps,
+                s.sig_bg_z_rps,
+                s.sig_ba_x_mps2,
+                s.sig_ba_y_mps2,
+                s.sig_ba_z_mps2,
+            ];
+            (row_of_proto(&s), Some(sig))
+        };
+        return Ok(Some(SolutionItem::Row(row, sig)));
+    }
+    let Some(aid) = aid_of else {
+        return Ok(None);
+    };
+    let a = if json {
+        serde_json::from_slice(m.data).map_err(|e| bad(&e))?
+    } else {
+        AidPoint::from_proto(&pb::AidUpdate::decode(m.data).map_err(|e| bad(&e))?, aid)
+            .map_err(|e| bad(&e))?
+    };
+    Ok(Some(SolutionItem::Aid(aid, a)))
+}
+
+/// A solution file read one item at a time: a CSV a chunk of rows at a
+/// time ([`CsvRows`]), an MCAP file a chunk at a time ([`McapMessages`]),
+/// in file order (unlike [`load`], which sorts an MCAP file's rows and aid
+/// updates by time and drops repeated updates).
+#[derive(Debug)]
+pub struct SolutionStream(Source);
+
+#[derive(Debug)]
+enum Source {
+    Csv(Box<CsvRows>),
+    Mcap(String, Box<McapMessages>),
+}
+
+impl SolutionStream {
+    /// Opens `path`: MCAP by its extension, else CSV (errors name the file).
+    pub fn open(path: &Path) -> Result<Self, String> {
+        Ok(Self(if is_mcap(path) {
+            Source::Mcap(
+                path.display().to_string(),
+                Box::new(McapMessages::open(path)?),
+            )
+        } else {
+            Source::Csv(Box::new(CsvRows::open(path)?))
+        }))
+    }
+
+    /// The next item; `None` at the end of the file.
+    pub fn next_item(&mut self) -> Result<Option<SolutionItem>, String> {
+        match &mut self.0 {
+            Source::Csv(c) => c
+                .next()
+                .transpose()
+                .map(|r| r.map(|(row, sig)| SolutionItem::Row(row, sig))),
+            Source::Mcap(path, m) => loop {
+                let Some(msg) = m.next_message()? else {
+                    return Ok(None);
+                };
+                if let Some(item) = item_of(&msg, path)? {
+                    return Ok(Some(item));
+                }
+            },
+        }
+    }
 }
 
 /// A `/solution` JSON message of an earlier version (every `Solution`
