@@ -16,6 +16,7 @@ use std::fmt::Write as _;
 use std::path::Path;
 
 use msgs::aids::{MAX_COMPONENTS, Unit};
+use msgs::navlog::{Header, Record};
 use msgs::{AidKind, PerAid, Status, TruthRecord, solution_flags};
 use plotters::coord::Shift;
 use plotters::prelude::*;
@@ -29,7 +30,11 @@ use crate::plots::{
     self, ARCMIN, AXIS_COLORS, BLUE, DEG_PER_H, Figure, Format, GREY, MICRO_G, Mark, Panel, RED_,
     Switch, legend, time_panel,
 };
-use crate::solution_file::{self, AidPoint, Aids, CsvRows};
+use crate::solution_file::{
+    self, AID_WORDS, AidPoint, AidSink, Aids, CsvRows, UpdatesOnDisk, aids_to_disk,
+    for_each_update, try_map_aids,
+};
+use crate::spill::{Sealed, Spill, from_total_order_key, kth_smallest, total_order_key};
 
 /// What to review.
 #[derive(Debug, Clone, Copy)]
@@ -116,51 +121,93 @@ pub struct NisTest {
 /// above [`REJECTED_MAX`] is too optimistic on its own (the gate hides the
 /// large NIS of an overconfident model).
 pub fn nis_test(nis: &[(f64, bool)], dim: usize) -> Option<NisTest> {
-    // An infinite NIS (a variance so small its square overflows) is the
-    // most overconfident update there is: it counts, and its mean is
-    // infinite. Only NaN (no valid component) is no update to test.
-    let accepted: Vec<f64> = nis
-        .iter()
-        .filter(|x| x.1 && !x.0.is_nan())
-        .map(|x| x.0)
-        .collect();
-    let rejected = nis.iter().filter(|x| !x.1).count();
-    let n = accepted.len();
-    if n + rejected == 0 || dim == 0 {
-        return None;
+    let mut acc = NisAcc::new(dim);
+    for (x, fused) in nis {
+        acc.push(*x, *fused);
     }
-    let m = dim as f64;
-    let nf = n as f64;
-    // No accepted update: no mean (NaN), and every update rejected.
-    let mean = accepted.iter().sum::<f64>() / nf;
-    let lo95 = chi2::quantile(0.025, nf * m) / nf;
-    let hi95 = chi2::quantile(0.975, nf * m) / nf;
-    let lo = lo95.min(m / NIS_TOLERANCE);
-    let hi = hi95.max(m * NIS_TOLERANCE);
-    let (a, b) = (chi2::quantile(0.025, m), chi2::quantile(0.975, m));
-    let tested: Vec<f64> = nis.iter().map(|x| x.0).filter(|x| !x.is_nan()).collect();
-    let inside =
-        tested.iter().filter(|&&x| x >= a && x <= b).count() as f64 / tested.len().max(1) as f64;
-    let rej_frac = rejected as f64 / (n + rejected) as f64;
-    let verdict = if mean > hi || rej_frac > REJECTED_MAX {
-        Verdict::TooOptimistic
-    } else if mean < lo {
-        Verdict::TooPessimistic
-    } else {
-        Verdict::Consistent
-    };
-    Some(NisTest {
-        dim,
-        accepted: n,
-        rejected,
-        mean,
-        lo95,
-        hi95,
-        lo,
-        hi,
-        inside,
-        verdict,
-    })
+    acc.finish()
+}
+
+/// [`nis_test`] fed one update at a time (the same sums in the same order).
+#[derive(Debug, Clone)]
+struct NisAcc {
+    dim: usize,
+    /// Per-update 95 % interval of χ²(dim).
+    a: f64,
+    b: f64,
+    accepted: usize,
+    sum: f64,
+    rejected: usize,
+    tested: usize,
+    inside: usize,
+}
+
+impl NisAcc {
+    fn new(dim: usize) -> Self {
+        let m = dim as f64;
+        Self {
+            dim,
+            a: chi2::quantile(0.025, m),
+            b: chi2::quantile(0.975, m),
+            accepted: 0,
+            // The sum of no value, as `Iterator::sum` starts it.
+            sum: std::iter::empty::<f64>().sum(),
+            rejected: 0,
+            tested: 0,
+            inside: 0,
+        }
+    }
+
+    fn push(&mut self, nis: f64, fused: bool) {
+        // An infinite NIS (a variance so small its square overflows) is the
+        // most overconfident update there is: it counts, and its mean is
+        // infinite. Only NaN (no valid component) is no update to test.
+        if fused && !nis.is_nan() {
+            self.accepted += 1;
+            self.sum += nis;
+        }
+        self.rejected += usize::from(!fused);
+        if !nis.is_nan() {
+            self.tested += 1;
+            self.inside += usize::from(nis >= self.a && nis <= self.b);
+        }
+    }
+
+    fn finish(&self) -> Option<NisTest> {
+        let (n, rejected, dim) = (self.accepted, self.rejected, self.dim);
+        if n + rejected == 0 || dim == 0 {
+            return None;
+        }
+        let m = dim as f64;
+        let nf = n as f64;
+        // No accepted update: no mean (NaN), and every update rejected.
+        let mean = self.sum / nf;
+        let lo95 = chi2::quantile(0.025, nf * m) / nf;
+        let hi95 = chi2::quantile(0.975, nf * m) / nf;
+        let lo = lo95.min(m / NIS_TOLERANCE);
+        let hi = hi95.max(m * NIS_TOLERANCE);
+        let inside = self.inside as f64 / self.tested.max(1) as f64;
+        let rej_frac = rejected as f64 / (n + rejected) as f64;
+        let verdict = if mean > hi || rej_frac > REJECTED_MAX {
+            Verdict::TooOptimistic
+        } else if mean < lo {
+            Verdict::TooPessimistic
+        } else {
+            Verdict::Consistent
+        };
+        Some(NisTest {
+            dim,
+            accepted: n,
+            rejected,
+            mean,
+            lo95,
+            hi95,
+            lo,
+            hi,
+            inside,
+            verdict,
+        })
+    }
 }
 
 /// One update: (t, innovation per component, σ per component, accepted, NIS).
@@ -173,7 +220,9 @@ type Halves<DB> = (DrawingArea<DB, Shift>, DrawingArea<DB, Shift>);
 type DrawPng<'a> = &'a dyn Fn(&DrawingArea<BitMapBackend<'_>, Shift>) -> Result<(), String>;
 type DrawSvg<'a> = &'a dyn Fn(&DrawingArea<SVGBackend<'_>, Shift>) -> Result<(), String>;
 
-/// One aid's updates in physical units.
+/// One aid's updates in physical units, reduced to what the summary and
+/// its figure show: the NIS test and, per component, the envelopes of the
+/// accepted and rejected innovations and of their σ, and of the NIS.
 #[derive(Debug, Clone)]
 struct AidSeries {
     kind: AidKind,
@@ -184,8 +233,17 @@ struct AidSeries {
     /// The unit each component is drawn in.
     units: [&'static str; MAX_COMPONENTS],
     comps: [&'static str; MAX_COMPONENTS],
-    points: Vec<AidSample>,
+    /// Updates.
+    n: u64,
     dim: usize,
+    test: Option<NisTest>,
+    /// Per component: accepted (innovation, σ), rejected innovation, σ of all.
+    acc: [Envelope; MAX_COMPONENTS],
+    rej: [Envelope; MAX_COMPONENTS],
+    sig: [Envelope; MAX_COMPONENTS],
+    /// log10 of the NIS (floored), accepted and rejected.
+    nis_acc: Envelope,
+    nis_rej: Envelope,
 }
 
 impl AidSeries {
@@ -213,7 +271,7 @@ impl AidSeries {
 
 /// The unit a component is drawn in, and the factor from the wire's unit
 /// to it (attitude in arcsec; a geographic-frame angle of position is
-/// converted where it was made, see [`aid_series`]).
+/// converted where it was made, see [`aid_sample`]).
 fn drawn(unit: Unit) -> (&'static str, f64) {
     match unit {
         Unit::M | Unit::LatitudeInG | Unit::LongitudeInG => ("m", 1.0),
@@ -225,31 +283,186 @@ fn drawn(unit: Unit) -> (&'static str, f64) {
 /// Where the solution was in time: thinned (t, frame, lat rad, h) for the
 /// conversion of CNS innovations in g (radians) to metres, where they come
 /// in the wire's measurement space (status records, JSON MCAP files of
-/// earlier versions; the protobuf ones are metres already).
-#[derive(Debug, Default)]
-struct Where {
-    at: Vec<(f64, char, f64, f64)>,
+/// earlier versions; the protobuf ones are metres already). In memory, or
+/// on disk for a flight streamed in time order (then looked up from a
+/// cursor, as the updates come mostly in time order).
+#[derive(Debug)]
+enum Where {
+    Memory(Vec<(f64, char, f64, f64)>),
+    Disk {
+        spill: Spill<4>,
+        last: Option<(f64, char)>,
+    },
+}
+
+impl Default for Where {
+    fn default() -> Self {
+        Self::Memory(Vec::new())
+    }
 }
 
 impl Where {
-    fn push(&mut self, r: &Row) {
-        match self.at.last() {
-            Some(l) if r.t_s - l.0 < 0.5 && r.frame == l.1 => {}
-            _ => self
-                .at
-                .push((r.t_s, r.frame, r.lat_deg.to_radians(), r.h_m)),
-        }
+    fn on_disk() -> Result<Self, String> {
+        Ok(Self::Disk {
+            spill: Spill::new().map_err(|e| e.to_string())?,
+            last: None,
+        })
     }
 
-    fn get(&self, t: f64) -> Option<(char, f64, f64)> {
-        let k = self.at.partition_point(|x| x.0 <= t);
-        let i = k.checked_sub(1).or((!self.at.is_empty()).then_some(0))?;
-        self.at.get(i).map(|x| (x.1, x.2, x.3))
+    fn push(&mut self, r: &Row) -> Result<(), String> {
+        let last = match self {
+            Self::Memory(at) => at.last().map(|l| (l.0, l.1)),
+            Self::Disk { last, .. } => *last,
+        };
+        match last {
+            Some(l) if r.t_s - l.0 < 0.5 && r.frame == l.1 => {}
+            _ => {
+                let x = (r.t_s, r.frame, r.lat_deg.to_radians(), r.h_m);
+                match self {
+                    Self::Memory(at) => at.push(x),
+                    Self::Disk { spill, last } => {
+                        spill
+                            .push_f64(&[x.0, f64::from(u32::from(x.1)), x.2, x.3])
+                            .map_err(|e| e.to_string())?;
+                        *last = Some((x.0, x.1));
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+
+    fn seal(self) -> Result<WhereAt, String> {
+        Ok(match self {
+            Self::Memory(at) => WhereAt::Memory(at),
+            Self::Disk { spill, .. } => WhereAt::Disk {
+                at: spill.seal().map_err(|e| e.to_string())?,
+                cursor: 0,
+            },
+        })
     }
 }
 
-fn aid_series(aids: &Aids, at: &Where) -> Vec<AidSeries> {
+/// A sealed [`Where`] to look times up in.
+#[derive(Debug)]
+enum WhereAt {
+    Memory(Vec<(f64, char, f64, f64)>),
+    Disk { at: Sealed<4>, cursor: u64 },
+}
+
+impl WhereAt {
+    /// (frame, lat rad, h) of the last entry at or before `t`, else of the
+    /// first; `None` without entries.
+    fn get(&mut self, t: f64) -> Result<Option<(char, f64, f64)>, String> {
+        match self {
+            Self::Memory(at) => {
+                let k = at.partition_point(|x| x.0 <= t);
+                let Some(i) = k.checked_sub(1).or((!at.is_empty()).then_some(0)) else {
+                    return Ok(None);
+                };
+                Ok(at.get(i).map(|x| (x.1, x.2, x.3)))
+            }
+            Self::Disk { at, cursor } => {
+                let n = at.len();
+                if n == 0 {
+                    return Ok(None);
+                }
+                let e = |i: u64| at.get_f64(i).map_err(|e| e.to_string());
+                // The partition point k (entries before it are at or before
+                // t): gallop from the cursor, then bisect.
+                let (mut lo, mut hi);
+                if e(*cursor)?[0] <= t {
+                    (lo, hi) = (*cursor + 1, *cursor + 1);
+                    let mut step = 1;
+                    while hi < n && e(hi)?[0] <= t {
+                        lo = hi + 1;
+                        hi = (hi + step).min(n);
+                        step *= 2;
+                    }
+                } else {
+                    (lo, hi) = (*cursor, *cursor);
+                    let mut step = 1;
+                    while lo > 0 && e(lo - 1)?[0] > t {
+                        hi = lo - 1;
+                        lo = lo.saturating_sub(step);
+                        step *= 2;
+                    }
+                }
+                // Entries before lo are at or before t, from hi on after it.
+                while lo < hi {
+                    let mid = lo + (hi - lo) / 2;
+                    if e(mid)?[0] <= t {
+                        lo = mid + 1;
+                    } else {
+                        hi = mid;
+                    }
+                }
+                let i = lo.saturating_sub(1);
+                *cursor = i;
+                let x = e(i)?;
+                let frame = char::from_u32(x[1] as u32).unwrap_or('?');
+                Ok(Some((frame, x[2], x[3])))
+            }
+        }
+    }
+}
+
+/// The sample of aid `kind`'s update `a` in physical units, and the
+/// number of its valid components.
+fn aid_sample(kind: AidKind, a: &AidPoint, at: &mut WhereAt) -> Result<(AidSample, usize), String> {
+    let decl = kind.decl();
+    let t = a.t_ns as f64 * 1e-9;
+    // Scale of each component to the physical unit: a geographic-frame
+    // angle of position into metres, in the frame the daemon says it was
+    // made in, else the solution's then (looked up only for an aid that
+    // has such a component).
+    let mut scale = [1.0; MAX_COMPONENTS];
+    for (k, c) in decl.components.iter().take(MAX_COMPONENTS).enumerate() {
+        scale[k] = drawn(c.unit).1;
+    }
+    let geographic = |u: Unit| matches!(u, Unit::LatitudeInG | Unit::LongitudeInG);
+    if !a.physical
+        && decl.components.iter().any(|c| geographic(c.unit))
+        && let Some(('g', lat, h)) = at.get(t)?.map(|(frame, lat, h)| {
+            let made = msgs::WireFrame::from_made_in(a.made_in_frame)
+                .map_or(frame, msgs::WireFrame::letter);
+            (made, lat, h)
+        })
+    {
+        let [n, e] = polarnav::earth::metres_per_radian(lat, h);
+        for (k, c) in decl.components.iter().take(MAX_COMPONENTS).enumerate() {
+            match c.unit {
+                Unit::LatitudeInG => scale[k] = n,
+                Unit::LongitudeInG => scale[k] = e,
+                _ => {}
+            }
+        }
+    }
+    let mut nis = 0.0;
+    let mut m = 0;
+    let mut v = [f64::NAN; MAX_COMPONENTS];
+    let mut sig = [f64::NAN; MAX_COMPONENTS];
+    for k in 0..MAX_COMPONENTS {
+        let var = a.innovation_var[k];
+        if var > 0.0 && var.is_finite() {
+            nis += a.innovation[k] * a.innovation[k] / var;
+            m += 1;
+            v[k] = a.innovation[k] * scale[k];
+            sig[k] = var.sqrt() * scale[k];
+        }
+    }
+    Ok((
+        (t, v, sig, a.fused != 0, if m > 0 { nis } else { f64::NAN }),
+        m,
+    ))
+}
+
+/// Floor of the NIS axis (log10).
+const NIS_FLOOR: f64 = -4.0;
+
+fn aid_series(aids: &Aids<UpdatesOnDisk>, at: &mut WhereAt) -> Result<Vec<AidSeries>, String> {
     let mut out = Vec::new();
+    let io = |e: std::io::Error| e.to_string();
     for (kind, pts) in aids.iter() {
         if pts.is_empty() {
             continue;
@@ -257,83 +470,113 @@ fn aid_series(aids: &Aids, at: &Where) -> Vec<AidSeries> {
         let decl = kind.decl();
         let mut units = [""; MAX_COMPONENTS];
         let mut comps = [""; MAX_COMPONENTS];
-        let mut factor = [1.0; MAX_COMPONENTS];
         for (k, c) in decl.components.iter().take(MAX_COMPONENTS).enumerate() {
-            (units[k], factor[k]) = drawn(c.unit);
+            units[k] = drawn(c.unit).0;
             comps[k] = c.label;
         }
+        // The dimension first (the most valid components of an update):
+        // the NIS interval depends on it.
         let mut dim = 0;
-        let points = pts
-            .iter()
-            .map(|a| {
-                let t = a.t_ns as f64 * 1e-9;
-                // Scale of each component to the physical unit: a
-                // geographic-frame angle of position into metres, in the
-                // frame the daemon says it was made in, else the
-                // solution's then.
-                let mut scale = factor;
-                if !a.physical
-                    && let Some(('g', lat, h)) = at.get(t).map(|(frame, lat, h)| {
-                        let made = msgs::WireFrame::from_made_in(a.made_in_frame)
-                            .map_or(frame, msgs::WireFrame::letter);
-                        (made, lat, h)
-                    })
-                {
-                    let [n, e] = polarnav::earth::metres_per_radian(lat, h);
-                    for (k, c) in decl.components.iter().take(MAX_COMPONENTS).enumerate() {
-                        match c.unit {
-                            Unit::LatitudeInG => scale[k] = n,
-                            Unit::LongitudeInG => scale[k] = e,
-                            _ => {}
-                        }
-                    }
-                }
-                let mut nis = 0.0;
-                let mut m = 0;
-                let mut v = [f64::NAN; MAX_COMPONENTS];
-                let mut sig = [f64::NAN; MAX_COMPONENTS];
-                for k in 0..MAX_COMPONENTS {
-                    let var = a.innovation_var[k];
-                    if var > 0.0 && var.is_finite() {
-                        nis += a.innovation[k] * a.innovation[k] / var;
-                        m += 1;
-                        v[k] = a.innovation[k] * scale[k];
-                        sig[k] = var.sqrt() * scale[k];
-                    }
-                }
-                dim = dim.max(m);
-                (t, v, sig, a.fused != 0, if m > 0 { nis } else { f64::NAN })
-            })
-            .collect();
-        out.push(AidSeries {
+        for_each_update(pts, |a| {
+            dim = dim.max(
+                a.innovation_var
+                    .iter()
+                    .filter(|v| **v > 0.0 && v.is_finite())
+                    .count(),
+            );
+        })
+        .map_err(io)?;
+        let mut s = AidSeries {
             kind,
             name: decl.label,
             file: format!("aid_{}", decl.name),
             units,
             comps,
-            points,
+            n: 0,
             dim,
-        });
+            test: None,
+            acc: std::array::from_fn(|_| Envelope::new(2)),
+            rej: std::array::from_fn(|_| Envelope::new(1)),
+            sig: std::array::from_fn(|_| Envelope::new(1)),
+            nis_acc: Envelope::new(1),
+            nis_rej: Envelope::new(1),
+        };
+        let mut nis = NisAcc::new(dim);
+        let mut failed = None;
+        for_each_update(pts, |a| {
+            if failed.is_some() {
+                return;
+            }
+            let p = match aid_sample(kind, &a, at) {
+                Ok((p, _)) => p,
+                Err(e) => {
+                    failed = Some(e);
+                    return;
+                }
+            };
+            s.n += 1;
+            nis.push(p.4, p.3);
+            for k in 0..dim {
+                if p.3 {
+                    s.acc[k].push(p.0, &[p.1[k], p.2[k]]);
+                } else {
+                    s.rej[k].push(p.0, &[p.1[k]]);
+                }
+                s.sig[k].push(p.0, &[p.2[k]]);
+            }
+            // A point without a NIS (no valid component) is not drawn: max()
+            // would put NaN at the floor, among the small, consistent ones.
+            if !p.4.is_nan() {
+                let v = p.4.max(1e-300).log10().max(NIS_FLOOR);
+                if p.3 {
+                    s.nis_acc.push(p.0, &[v]);
+                } else {
+                    s.nis_rej.push(p.0, &[v]);
+                }
+            }
+        })
+        .map_err(io)?;
+        if let Some(e) = failed {
+            return Err(e);
+        }
+        s.test = nis.finish();
+        out.push(s);
     }
-    out
+    Ok(out)
 }
 
-/// The last update of each aid as the log's status records report it
-/// (a live recording: one per status, 1 Hz), one point per new update.
-pub fn aids_from_status(status: &[Status]) -> Option<Aids> {
-    let mut a: Aids = Aids::default();
-    let mut last: PerAid<Option<(u64, [u64; MAX_COMPONENTS])>> = PerAid::default();
-    for st in status {
+/// [`aids_from_status`] fed one status record at a time, into vectors or
+/// spills.
+#[derive(Debug)]
+pub struct StatusAids<P> {
+    aids: Aids<P>,
+    last: PerAid<Option<(u64, [u64; MAX_COMPONENTS])>>,
+    points: u64,
+}
+
+impl<P: AidSink> StatusAids<P> {
+    pub fn new(aids: Aids<P>) -> Self {
+        Self {
+            aids,
+            last: PerAid::default(),
+            points: 0,
+        }
+    }
+
+    /// The updates the status record `st` reports that the records before
+    /// it did not.
+    pub fn push(&mut self, st: &Status) -> std::io::Result<()> {
         for (k, c, s) in st.each_aid() {
             if c.accepted + c.rejected_gate == 0 {
                 continue;
             }
             let key = (c.accepted + c.rejected_gate, s.innovation.map(f64::to_bits));
-            if last[k] == Some(key) {
+            if self.last[k] == Some(key) {
                 continue;
             }
-            last[k] = Some(key);
-            a[k].push(AidPoint {
+            self.last[k] = Some(key);
+            self.points += 1;
+            self.aids[k].put(AidPoint {
                 t_ns: st.t_ns,
                 innovation: s.innovation,
                 innovation_var: s.innovation_var,
@@ -341,11 +584,26 @@ pub fn aids_from_status(status: &[Status]) -> Option<Aids> {
                 fused: s.fused,
                 physical: false,
                 made_in_frame: s.made_in_frame,
-            });
+            })?;
         }
+        Ok(())
     }
-    let any = a.iter().any(|(_, v)| !v.is_empty());
-    any.then_some(a)
+
+    /// The updates, if there was any.
+    pub fn finish(self) -> Option<Aids<P>> {
+        (self.points > 0).then_some(self.aids)
+    }
+}
+
+/// The last update of each aid as the log's status records report it
+/// (a live recording: one per status, 1 Hz), one point per new update.
+pub fn aids_from_status(status: &[Status]) -> Option<Aids> {
+    let mut a = StatusAids::new(Aids::<Vec<AidPoint>>::default());
+    for st in status {
+        // Into vectors: cannot fail.
+        let _ = a.push(st);
+    }
+    a.finish()
 }
 
 /// Flags drawn as lanes of the health timeline: (label, bit, set when the
@@ -435,7 +693,7 @@ impl Pass {
         }
     }
 
-    fn push(&mut self, r: &Row, sig: Option<[f64; 6]>, prev: Option<&Row>) {
+    fn push(&mut self, r: &Row, sig: Option<[f64; 6]>, prev: Option<&Row>) -> Result<(), String> {
         self.rows += 1;
         let t = r.t_s;
         if self.t_first.is_nan() {
@@ -490,7 +748,7 @@ impl Pass {
                 self.resets.push(t);
             }
         }
-        self.where_.push(r);
+        self.where_.push(r)
     }
 }
 
@@ -541,7 +799,7 @@ impl RefPass {
 }
 
 /// A solution's rows, from a CSV (streamed) or an MCAP file (loaded).
-type RowIter = Box<dyn Iterator<Item = Result<(Row, Option<[f64; 6]>), String>>>;
+pub type RowIter = Box<dyn Iterator<Item = Result<(Row, Option<[f64; 6]>), String>>>;
 
 fn open_rows(path: &Path) -> Result<(RowIter, Option<Aids>), String> {
     if solution_file::is_mcap(path) {
@@ -565,11 +823,56 @@ fn truth_of(r: &Row) -> TruthRecord {
 /// Pairs per batch handed to [`eval::epochs`].
 const REF_BATCH: usize = 4096;
 
-fn stream(opts: &Options<'_>) -> Result<(Pass, Option<Aids>), String> {
-    let (rows, aids) = open_rows(opts.solution)?;
-    let mut pass = Pass::new();
-    let mut reference = match opts.reference {
-        Some(p) => {
+/// The review fed as the flight streams in: the log's records
+/// ([`Reviewer::log_record`]) and the solution's rows ([`Reviewer::row`]),
+/// then [`Reviewer::finish`] with the solution's aid updates. Memory holds
+/// envelopes, counters and buffers; what a figure needs of every update or
+/// IMU interval goes to a [`Spill`] on disk.
+pub struct Reviewer<'a> {
+    opts: Options<'a>,
+    pass: Pass,
+    reference: Option<std::iter::Peekable<RowIter>>,
+    prev: Option<Row>,
+    fwd_batch: Vec<Row>,
+    ref_batch: Vec<TruthRecord>,
+    sampling: SamplingAcc,
+    status: StatusAids<Spill<AID_WORDS>>,
+    header: Option<Header>,
+}
+
+impl std::fmt::Debug for Reviewer<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Reviewer")
+            .field("opts", &self.opts)
+            .field("rows", &self.pass.rows)
+            .finish_non_exhaustive()
+    }
+}
+
+fn io_err(e: std::io::Error) -> String {
+    e.to_string()
+}
+
+/// A new spill, its error as text.
+fn spill<const W: usize>() -> Result<Spill<W>, String> {
+    Spill::new().map_err(io_err)
+}
+
+impl<'a> Reviewer<'a> {
+    /// A reviewer of `opts.solution`, its rows joined with `reference`'s
+    /// (the rows of `opts.reference`, in time order). `where_on_disk`: the
+    /// solution comes in time order, so its positions over time can be
+    /// kept on disk and looked up from a cursor.
+    pub fn new(
+        opts: Options<'a>,
+        reference: Option<RowIter>,
+        where_on_disk: bool,
+    ) -> Result<Self, String> {
+        let mut pass = Pass::new();
+        if where_on_disk {
+            pass.where_ = Where::on_disk()?;
+        }
+        if let Some(p) = opts.reference {
             pass.reference = Some(RefPass {
                 path: p.display().to_string(),
                 rows: 0,
@@ -579,24 +882,46 @@ fn stream(opts: &Options<'_>) -> Result<(Pass, Option<Aids>), String> {
                 inside: [0; 9],
                 horizontal_sq: 0.0,
             });
-            Some(open_rows(p)?.0.peekable())
         }
-        None => None,
-    };
-    let mut prev: Option<Row> = None;
-    let (mut fwd_batch, mut ref_batch) = (Vec::new(), Vec::new());
-    for r in rows {
-        let (row, sig) = r?;
+        Ok(Self {
+            opts,
+            pass,
+            reference: reference.map(Iterator::peekable),
+            prev: None,
+            fwd_batch: Vec::new(),
+            ref_batch: Vec::new(),
+            sampling: SamplingAcc::new()?,
+            status: StatusAids::new(try_map_aids(PerAid::from_fn(|_| spill()), |s| s)?),
+            header: None,
+        })
+    }
+
+    /// A record of the log: its header (the last one read is the log's),
+    /// IMU samples (the sampling) and status records (the aid updates of a
+    /// recording); the others are not reviewed.
+    pub fn log_record(&mut self, r: &Record) -> Result<(), String> {
+        match r {
+            Record::Header(h) => self.header = Some((**h).clone()),
+            Record::Imu(x) => self.sampling.push(x.t_ns)?,
+            Record::Status(st) => self.status.push(st).map_err(io_err)?,
+            _ => {}
+        }
+        Ok(())
+    }
+
+    /// The next row of the solution, in file order.
+    pub fn row(&mut self, row: Row, sig: Option<[f64; 6]>) -> Result<(), String> {
+        let pass = &mut self.pass;
         if !row.t_s.is_finite() {
             return Err(format!(
                 "{}: row {} has a non-finite time t_s = {}",
-                opts.solution.display(),
+                self.opts.solution.display(),
                 pass.rows + 1,
                 row.t_s
             ));
         }
-        pass.push(&row, sig, prev.as_ref());
-        if let (Some(it), Some(rp)) = (reference.as_mut(), pass.reference.as_mut()) {
+        pass.push(&row, sig, self.prev.as_ref())?;
+        if let (Some(it), Some(rp)) = (self.reference.as_mut(), pass.reference.as_mut()) {
             // Merge join on time (both in time order; 1 µs tolerance).
             while let Some(next) = it.peek() {
                 match next {
@@ -621,92 +946,172 @@ fn stream(opts: &Options<'_>) -> Result<(Pass, Option<Aids>), String> {
                     }
                     Ok((x, _)) if (x.t_s - row.t_s).abs() <= 1e-6 => {
                         rp.rows += 1;
-                        ref_batch.push(truth_of(x));
+                        self.ref_batch.push(truth_of(x));
                         // The epoch is keyed by the reference's time.
                         let mut f = row;
                         f.t_s = (x.t_s * 1e9).round() * 1e-9;
-                        fwd_batch.push(f);
+                        self.fwd_batch.push(f);
                         it.next();
                         break;
                     }
                     Ok(_) => break,
                 }
             }
-            if fwd_batch.len() >= REF_BATCH {
-                rp.add(&fwd_batch, &ref_batch);
-                fwd_batch.clear();
-                ref_batch.clear();
+            if self.fwd_batch.len() >= REF_BATCH {
+                rp.add(&self.fwd_batch, &self.ref_batch);
+                self.fwd_batch.clear();
+                self.ref_batch.clear();
             }
         }
-        prev = Some(row);
+        self.prev = Some(row);
+        Ok(())
     }
-    if let Some(rp) = pass.reference.as_mut() {
-        rp.add(&fwd_batch, &ref_batch);
-        if let Some(it) = reference.as_mut() {
-            for r in it {
-                r?;
-                rp.rows += 1;
+
+    /// The review: `mcap_aids` are the solution's own aid updates (an MCAP
+    /// solution), else those of the log's status records are reviewed.
+    pub fn finish(mut self, mcap_aids: Option<Aids<UpdatesOnDisk>>) -> Result<Review, String> {
+        if let Some(rp) = self.pass.reference.as_mut() {
+            rp.add(&self.fwd_batch, &self.ref_batch);
+            if let Some(it) = self.reference.as_mut() {
+                for r in it {
+                    r?;
+                    rp.rows += 1;
+                }
             }
         }
+        if self.pass.rows == 0 {
+            return Err(format!("{}: no solution row", self.opts.solution.display()));
+        }
+        let status = match self.status.finish() {
+            Some(a) => Some(try_map_aids(a, Spill::seal).map_err(io_err)?),
+            None => None,
+        };
+        let samp = self.sampling.finish()?;
+        let mut at = std::mem::take(&mut self.pass.where_).seal()?;
+        report(
+            &self.pass,
+            mcap_aids,
+            status,
+            &mut at,
+            samp,
+            self.header.as_ref(),
+            &self.opts,
+        )
     }
-    if pass.rows == 0 {
-        return Err(format!("{}: no solution row", opts.solution.display()));
-    }
-    Ok((pass, aids))
 }
 
 /// The IMU sampling of the log.
 #[derive(Debug)]
 struct Sampling {
-    samples: usize,
+    samples: u64,
     nominal_s: f64,
     /// interval (ms) over time.
     dt: Envelope,
-    intervals_ms: Vec<f64>,
-    /// (start t, length s) of intervals longer than 1.5× the nominal.
-    gaps: Vec<(f64, f64)>,
-    backwards: usize,
-    duplicates: usize,
+    /// Histogram of the intervals: 80 bins from 0 to 3× nominal, and one
+    /// for longer ones (and non-finite).
+    counts: [u64; HIST_BINS + 1],
+    /// Intervals longer than 1.5× the nominal: how many, their total length
+    /// (s), and the longest 20 (start t, length s), longest first (in time
+    /// order where equal).
+    gaps: u64,
+    gaps_s: f64,
+    longest: Vec<(f64, f64)>,
+    backwards: u64,
+    duplicates: u64,
 }
 
-fn sampling(log: &LogContents) -> Option<Sampling> {
-    if log.imu.len() < 2 {
-        return None;
+/// Bins of the interval histogram (besides the one for longer intervals).
+const HIST_BINS: usize = 80;
+/// Gaps listed in the summary.
+const GAPS_LISTED: usize = 20;
+
+/// The sampling read one IMU time at a time: each interval (with the time
+/// it starts at) goes to disk, as the nominal interval (the median) and
+/// what depends on it are known only at the end.
+#[derive(Debug)]
+struct SamplingAcc {
+    samples: u64,
+    prev: Option<u64>,
+    dt: Envelope,
+    intervals: Spill<2>,
+}
+
+impl SamplingAcc {
+    fn new() -> Result<Self, String> {
+        Ok(Self {
+            samples: 0,
+            prev: None,
+            dt: Envelope::new(1),
+            intervals: spill()?,
+        })
     }
-    let mut dts: Vec<f64> = log
-        .imu
-        .windows(2)
-        .map(|w| (w[1].t_ns as f64 - w[0].t_ns as f64) * 1e-9)
-        .collect();
-    let mut sorted = dts.clone();
-    let mid = sorted.len() / 2;
-    let nominal = *sorted.select_nth_unstable_by(mid, f64::total_cmp).1;
-    let mut dt = Envelope::new(1);
-    let mut gaps = Vec::new();
-    let (mut backwards, mut duplicates) = (0, 0);
-    for (w, d) in log.imu.windows(2).zip(&dts) {
-        let t = w[1].t_ns as f64 * 1e-9;
-        dt.push(t, &[d * 1e3]);
-        if *d < 0.0 {
-            backwards += 1;
-        } else if *d == 0.0 {
-            duplicates += 1;
-        } else if nominal > 0.0 && *d > 1.5 * nominal {
-            gaps.push((w[0].t_ns as f64 * 1e-9, *d));
+
+    fn push(&mut self, t_ns: u64) -> Result<(), String> {
+        if let Some(p) = self.prev {
+            let d = (t_ns as f64 - p as f64) * 1e-9;
+            self.dt.push(t_ns as f64 * 1e-9, &[d * 1e3]);
+            self.intervals
+                .push_f64(&[p as f64 * 1e-9, d])
+                .map_err(io_err)?;
         }
+        self.prev = Some(t_ns);
+        self.samples += 1;
+        Ok(())
     }
-    for d in &mut dts {
-        *d *= 1e3;
+
+    fn finish(self) -> Result<Option<Sampling>, String> {
+        if self.samples < 2 {
+            return Ok(None);
+        }
+        let intervals = self.intervals.seal().map_err(io_err)?;
+        // The median as `select_nth_unstable_by(len / 2, total_cmp)` picks it.
+        let mid = intervals.len() / 2;
+        let nominal = kth_smallest(&[Some(mid)], |f| {
+            intervals.for_each_f64(|x| f(0, total_order_key(x[1])))
+        })
+        .map_err(io_err)?[0]
+            .map_or(f64::NAN, from_total_order_key);
+        let nominal_ms = (nominal * 1e3).max(1e-6);
+        let top_ms = 3.0 * nominal_ms;
+        let mut s = Sampling {
+            samples: self.samples,
+            nominal_s: nominal,
+            dt: self.dt,
+            counts: [0; HIST_BINS + 1],
+            gaps: 0,
+            gaps_s: std::iter::empty::<f64>().sum(),
+            longest: Vec::new(),
+            backwards: 0,
+            duplicates: 0,
+        };
+        intervals
+            .for_each_f64(|&[t0, d]| {
+                if d < 0.0 {
+                    s.backwards += 1;
+                } else if d == 0.0 {
+                    s.duplicates += 1;
+                } else if nominal > 0.0 && d > 1.5 * nominal {
+                    s.gaps += 1;
+                    s.gaps_s += d;
+                    let at = s
+                        .longest
+                        .partition_point(|g| g.1.total_cmp(&d) != std::cmp::Ordering::Less);
+                    if at < GAPS_LISTED {
+                        s.longest.insert(at, (t0, d));
+                        s.longest.truncate(GAPS_LISTED);
+                    }
+                }
+                let ms = d * 1e3;
+                let i = if ms >= top_ms || !ms.is_finite() {
+                    HIST_BINS
+                } else {
+                    ((ms.max(0.0) / top_ms) * HIST_BINS as f64) as usize
+                };
+                s.counts[i.min(HIST_BINS)] += 1;
+            })
+            .map_err(io_err)?;
+        Ok(Some(s))
     }
-    Some(Sampling {
-        samples: log.imu.len(),
-        nominal_s: nominal,
-        dt,
-        intervals_ms: dts,
-        gaps,
-        backwards,
-        duplicates,
-    })
 }
 
 /// The settings text's value of `key = number` (the first such line).
@@ -717,15 +1122,51 @@ fn setting(text: &str, key: &str) -> Option<f64> {
     })
 }
 
-/// Reviews the flight of `log` and `opts.solution`.
+/// Reviews the flight of `log` and `opts.solution` (read through once;
+/// an MCAP solution, and reference, in memory, sorted by time).
 pub fn review(log: &LogContents, opts: &Options<'_>) -> Result<Review, String> {
-    let (pass, mcap_aids) = stream(opts)?;
+    let (rows, mcap_aids) = open_rows(opts.solution)?;
+    let reference = match opts.reference {
+        Some(p) => Some(open_rows(p)?.0),
+        None => None,
+    };
+    let mut r = Reviewer::new(*opts, reference, false)?;
+    for row in rows {
+        let (row, sig) = row?;
+        r.row(row, sig)?;
+    }
+    if let Some(h) = &log.header {
+        r.header = Some(h.clone());
+    }
+    for x in &log.imu {
+        r.sampling.push(x.t_ns)?;
+    }
+    for st in &log.status {
+        r.status.push(st).map_err(io_err)?;
+    }
+    let mcap_aids = match mcap_aids {
+        Some(a) => Some(aids_to_disk(a)?),
+        None => None,
+    };
+    r.finish(mcap_aids)
+}
+
+/// The review's summary and figures from what the pass gathered.
+fn report(
+    pass: &Pass,
+    mcap_aids: Option<Aids<UpdatesOnDisk>>,
+    status_aids: Option<Aids<UpdatesOnDisk>>,
+    at: &mut WhereAt,
+    samp: Option<Sampling>,
+    header: Option<&Header>,
+    opts: &Options<'_>,
+) -> Result<Review, String> {
     let (aids, aid_source) = match mcap_aids {
         Some(a) => (
             Some(a),
             "every gated update, from the MCAP solution's /aid/* channels",
         ),
-        None => match aids_from_status(&log.status) {
+        None => match status_aids {
             Some(a) => (
                 Some(a),
                 "the last update of each aid per status record of the log (a recording: 1 Hz), not every update",
@@ -733,10 +1174,10 @@ pub fn review(log: &LogContents, opts: &Options<'_>) -> Result<Review, String> {
             None => (None, ""),
         },
     };
-    let series = aids
-        .as_ref()
-        .map_or_else(Vec::new, |a| aid_series(a, &pass.where_));
-    let samp = sampling(log);
+    let series = match &aids {
+        Some(a) => aid_series(a, at)?,
+        None => Vec::new(),
+    };
     let mut md = String::new();
     let mut figures = Vec::new();
     let mut missing: Vec<String> = Vec::new();
@@ -768,7 +1209,7 @@ pub fn review(log: &LogContents, opts: &Options<'_>) -> Result<Review, String> {
         "- reviewed by polarnav-eval {}",
         env!("CARGO_PKG_VERSION")
     );
-    let settings_text = match &log.header {
+    let settings_text = match header {
         Some(h) => {
             let _ = writeln!(
                 md,
@@ -815,8 +1256,7 @@ pub fn review(log: &LogContents, opts: &Options<'_>) -> Result<Review, String> {
         );
         md.push_str("| aid | m | accepted | rejected | mean NIS | 95 % bounds | with tolerance | inside | verdict |\n|---|---|---|---|---|---|---|---|---|\n");
         for s in &series {
-            let nis: Vec<(f64, bool)> = s.points.iter().map(|p| (p.4, p.3)).collect();
-            match nis_test(&nis, s.dim) {
+            match s.test {
                 Some(t) => {
                     let _ = writeln!(
                         md,
@@ -839,9 +1279,7 @@ pub fn review(log: &LogContents, opts: &Options<'_>) -> Result<Review, String> {
                     let _ = writeln!(
                         md,
                         "| {} | {} | 0 | {} | – | – | – | – | no accepted update |",
-                        s.name,
-                        s.dim,
-                        s.points.len()
+                        s.name, s.dim, s.n
                     );
                 }
             }
@@ -935,8 +1373,8 @@ pub fn review(log: &LogContents, opts: &Options<'_>) -> Result<Review, String> {
             "health",
             (1700, 900),
             "health timeline: frame, switches, resets, COASTING, IMU lost, stale aids, second publisher",
-            &|r| health_figure(r, &pass, x),
-            &|r| health_figure(r, &pass, x),
+            &|r| health_figure(r, pass, x),
+            &|r| health_figure(r, pass, x),
         )?;
         if let Some(sm) = &samp {
             fig(
@@ -953,15 +1391,15 @@ pub fn review(log: &LogContents, opts: &Options<'_>) -> Result<Review, String> {
             "sigma",
             (1700, 1100),
             "1-σ of position (m), velocity (m/s) and attitude (arcmin) over time, log scale",
-            &|r| sigma_figure(r, &pass, x),
-            &|r| sigma_figure(r, &pass, x),
+            &|r| sigma_figure(r, pass, x),
+            &|r| sigma_figure(r, pass, x),
         )?;
         fig(
             "biases",
             (1700, 1000),
             "gyro (°/h) and accelerometer (µg) bias estimates with ±1σ where the solution carries it",
-            &|r| bias_figure(r, &pass, x),
-            &|r| bias_figure(r, &pass, x),
+            &|r| bias_figure(r, pass, x),
+            &|r| bias_figure(r, pass, x),
         )?;
         if let Some(rp) = &pass.reference {
             if rp.matched > 0 {
@@ -1033,7 +1471,7 @@ pub fn review(log: &LogContents, opts: &Options<'_>) -> Result<Review, String> {
                 "{} samples, nominal interval {:.3} ms (median); {} intervals longer than 1.5× nominal{}{}.\n",
                 s.samples,
                 s.nominal_s * 1e3,
-                s.gaps.len(),
+                s.gaps,
                 if s.duplicates > 0 {
                     format!(", {} repeated stamps", s.duplicates)
                 } else {
@@ -1045,17 +1483,13 @@ pub fn review(log: &LogContents, opts: &Options<'_>) -> Result<Review, String> {
                     String::new()
                 },
             );
-            if !s.gaps.is_empty() {
-                let mut g = s.gaps.clone();
-                g.sort_by(|a, b| b.1.total_cmp(&a.1));
-                let total: f64 = s.gaps.iter().map(|x| x.1).sum();
+            if s.gaps > 0 {
                 let _ = writeln!(
                     md,
                     "Gaps (longest first, at most 20 of {}; {:.3} s in all):\n\n| starts at t (s) | length (ms) |\n|---|---|",
-                    g.len(),
-                    total
+                    s.gaps, s.gaps_s
                 );
-                for (t, d) in g.iter().take(20) {
+                for (t, d) in &s.longest {
                     let _ = writeln!(md, "| {t:.4} | {:.3} |", d * 1e3);
                 }
                 md.push('\n');
@@ -1075,7 +1509,7 @@ pub fn review(log: &LogContents, opts: &Options<'_>) -> Result<Review, String> {
         pass.resets.len()
     );
     for k in 0..LANES.len() {
-        let name = lane_label(&pass, k);
+        let name = lane_label(pass, k);
         if name.contains("never fused") {
             let _ = writeln!(
                 md,
@@ -1131,19 +1565,7 @@ fn aid_figure<DB: DrawingBackend>(
     let cells = main.split_evenly((s.dim + 1, 1));
     let tm = x.map_or(1.0, |r| r.1);
     for k in 0..s.dim {
-        let mut acc = Envelope::new(2);
-        let mut rej = Envelope::new(1);
-        for p in &s.points {
-            if p.3 {
-                acc.push(p.0, &[p.1[k], p.2[k]]);
-            } else {
-                rej.push(p.0, &[p.1[k]]);
-            }
-        }
-        let mut sig = Envelope::new(1);
-        for p in &s.points {
-            sig.push(p.0, &[p.2[k]]);
-        }
+        let (acc, rej, sig) = (&s.acc[k], &s.rej[k], &s.sig[k]);
         let panel = Panel {
             title: format!("{} {} ({})", s.name, s.comps[k], s.units[k]),
             bands: vec![
@@ -1164,21 +1586,9 @@ fn aid_figure<DB: DrawingBackend>(
     let m = s.dim as f64;
     let (a, b) = (chi2::quantile(0.025, m), chi2::quantile(0.975, m));
     let gate = chi2::quantile(0.999, m);
-    let mut acc = Envelope::new(1);
-    let mut rej = Envelope::new(1);
-    const FLOOR: f64 = -4.0;
-    // A point without a NIS (no valid component) is not drawn: max() would
-    // put NaN at the floor, among the small, consistent ones.
-    for p in s.points.iter().filter(|p| !p.4.is_nan()) {
-        let v = p.4.max(1e-300).log10().max(FLOOR);
-        if p.3 {
-            acc.push(p.0, &[v]);
-        } else {
-            rej.push(p.0, &[v]);
-        }
-    }
-    let nis: Vec<(f64, bool)> = s.points.iter().map(|p| (p.4, p.3)).collect();
-    let t = nis_test(&nis, s.dim);
+    let (acc, rej) = (&s.nis_acc, &s.nis_rej);
+    const FLOOR: f64 = NIS_FLOOR;
+    let t = s.test;
     let hi = acc
         .line(0, 1.0)
         .iter()
@@ -1371,7 +1781,7 @@ fn sampling_figure<DB: DrawingBackend>(
         title: format!(
             "interval (ms): nominal {:.3} ms, {} gaps over 1.5× nominal",
             s.nominal_s * 1e3,
-            s.gaps.len()
+            s.gaps
         ),
         y: Some((
             0.0,
@@ -1391,16 +1801,8 @@ fn sampling_figure<DB: DrawingBackend>(
     // Histogram: 80 bins from 0 to 3× nominal, and one for longer intervals.
     let nominal_ms = (s.nominal_s * 1e3).max(1e-6);
     let top_ms = 3.0 * nominal_ms;
-    const BINS: usize = 80;
-    let mut counts = [0u64; BINS + 1];
-    for d in &s.intervals_ms {
-        let i = if *d >= top_ms || !d.is_finite() {
-            BINS
-        } else {
-            ((d.max(0.0) / top_ms) * BINS as f64) as usize
-        };
-        counts[i.min(BINS)] += 1;
-    }
+    const BINS: usize = HIST_BINS;
+    let counts = s.counts;
     let bw = top_ms / BINS as f64;
     let max = counts.iter().copied().max().unwrap_or(1).max(1) as f64;
     let mut chart = ChartBuilder::on(&bottom)
@@ -1690,7 +2092,7 @@ mod tests {
                 flags,
                 ..Default::default()
             });
-            pass.push(&row, None, prev.as_ref());
+            pass.push(&row, None, prev.as_ref()).expect("in memory");
             prev = Some(row);
         }
         let label = |name: &str| {
@@ -1778,10 +2180,63 @@ mod tests {
             (a[AidKind::Baro][0].fused, a[AidKind::Baro][1].fused),
             (1, 0)
         );
-        let s = aid_series(&a, &Where::default());
-        assert_eq!(s[0].dim, 1);
+        let mut at = WhereAt::Memory(Vec::new());
+        let s = aid_series(&aids_to_disk(a.clone()).expect("disk"), &mut at).expect("series");
+        assert_eq!((s.len(), s[0].dim, s[0].n), (1, 1, 2));
         // NIS = ν²/S: 4/4 and 1600/4.
-        assert!((s[0].points[0].4 - 1.0).abs() < 1e-12 && (s[0].points[1].4 - 400.0).abs() < 1e-9);
+        let nis: Vec<f64> = a[AidKind::Baro]
+            .iter()
+            .map(|p| aid_sample(AidKind::Baro, p, &mut at).expect("sample").0.4)
+            .collect();
+        assert!((nis[0] - 1.0).abs() < 1e-12 && (nis[1] - 400.0).abs() < 1e-9);
+        let t = s[0].test.expect("test");
+        assert_eq!((t.accepted, t.rejected), (1, 1));
+        assert!((t.mean - 1.0).abs() < 1e-12, "{t:?}");
+    }
+
+    /// The positions kept on disk give, from their cursor, the entry that
+    /// a binary search over them in memory gives, for times in order, at
+    /// and between the entries, before the first and after the last, and
+    /// in no order.
+    #[test]
+    fn positions_on_disk_are_looked_up_as_in_memory() {
+        let (mut mem, mut disk) = (Where::default(), Where::on_disk().expect("spill"));
+        for k in 0..5000u32 {
+            let row = Row::from_solution(&msgs::Solution {
+                t_ns: u64::from(k) * 100_000_000,
+                lat_rad: f64::from(k) * 1e-4,
+                h_m: f64::from(k),
+                frame: u8::from(k / 1000 % 2 == 1),
+                q_b_e: [1.0, 0.0, 0.0, 0.0],
+                ..Default::default()
+            });
+            mem.push(&row).expect("memory");
+            disk.push(&row).expect("disk");
+        }
+        let (mut mem, mut disk) = (mem.seal().expect("seal"), disk.seal().expect("seal"));
+        let WhereAt::Memory(m) = &mem else {
+            panic!("in memory")
+        };
+        assert!(m.len() > 900, "{} entries", m.len());
+        let mut state = 12345u64;
+        let mut times: Vec<f64> = (0..5000).map(|k| f64::from(k) * 0.1 - 1.0).collect();
+        times.extend((0..3000).map(|_| {
+            state = state
+                .wrapping_mul(6_364_136_223_846_793_005)
+                .wrapping_add(1);
+            (state >> 11) as f64 / (1u64 << 53) as f64 * 600.0 - 50.0
+        }));
+        times.extend([0.0, 0.5, 499.9, 1e9, -1e9]);
+        for t in times {
+            let (a, b) = (mem.get(t).expect("memory"), disk.get(t).expect("disk"));
+            assert_eq!(
+                a.map(|x| (x.0, x.1.to_bits(), x.2.to_bits())),
+                b.map(|x| (x.0, x.1.to_bits(), x.2.to_bits())),
+                "t = {t}"
+            );
+        }
+        let mut empty = Where::on_disk().expect("spill").seal().expect("seal");
+        assert_eq!(empty.get(1.0).expect("disk"), None);
     }
 
     /// A recording's CNS innovation (Δlatitude, Δlongitude in rad when
@@ -1794,9 +2249,7 @@ mod tests {
     fn a_recorded_cns_innovation_is_scaled_in_the_frame_it_was_made_in() {
         let lat = 88.0f64.to_radians();
         let h = 12_000.0;
-        let at = Where {
-            at: vec![(0.0, 'g', lat, h), (5.0, 'G', lat, h)],
-        };
+        let mut at = WhereAt::Memory(vec![(0.0, 'g', lat, h), (5.0, 'G', lat, h)]);
         let mut st = Status {
             t_ns: 6_000_000_000,
             frame: 1,
@@ -1811,7 +2264,10 @@ mod tests {
             st.aid_mut(AidKind::Cns).made_in_frame = made_in_frame;
             let a = aids_from_status(&[st]).expect("aids");
             assert_eq!(a[AidKind::Cns][0].made_in_frame, made_in_frame);
-            let v = aid_series(&a, &at)[0].points[0].1;
+            let v = aid_sample(AidKind::Cns, &a[AidKind::Cns][0], &mut at)
+                .expect("sample")
+                .0
+                .1;
             assert!(
                 (v[0] - 1e-6 * scale[0]).abs() <= 1e-12 * scale[0]
                     && (v[1] + 2e-6 * scale[1]).abs() <= 1e-12 * scale[1],
@@ -1846,16 +2302,94 @@ mod tests {
             t_ns: t - 1_000_000,
             ..Default::default()
         });
-        let s = sampling(&log).expect("sampling");
+        let s = sampling_of(log.imu.iter().map(|x| x.t_ns)).expect("sampling");
         assert!((s.nominal_s - 0.005).abs() < 1e-12);
         assert_eq!((s.duplicates, s.backwards), (1, 1));
-        assert_eq!(s.gaps.len(), 1);
-        let (start, len) = s.gaps[0];
+        assert_eq!(s.gaps, 1);
+        let (start, len) = s.longest[0];
         assert!(
             (len - 0.1).abs() < 1e-9 && (start - 500.0 * 0.005).abs() < 1e-9,
             "{start} {len}"
         );
-        assert!(sampling(&LogContents::default()).is_none());
+        assert!(sampling_of(std::iter::empty()).is_none());
+        assert!(sampling_of(std::iter::once(5)).is_none());
+    }
+
+    fn sampling_of(t_ns: impl Iterator<Item = u64>) -> Option<Sampling> {
+        let mut acc = SamplingAcc::new().expect("spill");
+        for t in t_ns {
+            acc.push(t).expect("push");
+        }
+        acc.finish().expect("finish")
+    }
+
+    /// The sampling read one time at a time against the same figures
+    /// computed from every interval in memory (as the review computed
+    /// them before it streamed): the median, the gap count and total, the
+    /// 20 longest (ties in time order) and the histogram, on a jittery
+    /// clock with many gaps of equal lengths.
+    #[test]
+    fn streamed_sampling_equals_every_interval_in_memory() {
+        let mut state = 99u64;
+        let mut next = move || {
+            state = state
+                .wrapping_mul(6_364_136_223_846_793_005)
+                .wrapping_add(1);
+            state >> 33
+        };
+        let mut t = 1_000_000_000u64;
+        let mut times = vec![t];
+        for _ in 0..30_000 {
+            t = match next() % 50 {
+                0 => t + 20_000_000,                   // a 20 ms gap (ties)
+                1 => t + 5_000_000 * (2 + next() % 5), // longer ones
+                2 => t - 1_000,                        // back
+                3 => t,                                // repeated
+                _ => t + 5_000_000 + next() % 2_000 - 1_000,
+            };
+            times.push(t);
+        }
+        let s = sampling_of(times.iter().copied()).expect("sampling");
+        let d: Vec<(f64, f64)> = times
+            .windows(2)
+            .map(|w| (w[0] as f64 * 1e-9, (w[1] as f64 - w[0] as f64) * 1e-9))
+            .collect();
+        let mut sorted: Vec<f64> = d.iter().map(|x| x.1).collect();
+        let mid = sorted.len() / 2;
+        let nominal = *sorted.select_nth_unstable_by(mid, f64::total_cmp).1;
+        assert_eq!(s.nominal_s.to_bits(), nominal.to_bits());
+        let gaps: Vec<(f64, f64)> = d
+            .iter()
+            .copied()
+            .filter(|x| x.1 > 0.0 && x.1 > 1.5 * nominal)
+            .collect();
+        assert!(gaps.len() > 500, "{} gaps", gaps.len());
+        assert_eq!(s.gaps, gaps.len() as u64);
+        let total: f64 = gaps.iter().map(|x| x.1).sum();
+        assert_eq!(s.gaps_s.to_bits(), total.to_bits());
+        let mut longest = gaps.clone();
+        longest.sort_by(|a, b| b.1.total_cmp(&a.1));
+        longest.truncate(20);
+        assert_eq!(s.longest, longest);
+        let top_ms = 3.0 * (nominal * 1e3).max(1e-6);
+        let mut counts = [0u64; HIST_BINS + 1];
+        for (_, x) in &d {
+            let ms = x * 1e3;
+            let i = if ms >= top_ms || !ms.is_finite() {
+                HIST_BINS
+            } else {
+                ((ms.max(0.0) / top_ms) * HIST_BINS as f64) as usize
+            };
+            counts[i.min(HIST_BINS)] += 1;
+        }
+        assert_eq!(s.counts, counts);
+        assert_eq!(
+            (s.backwards, s.duplicates),
+            (
+                d.iter().filter(|x| x.1 < 0.0).count() as u64,
+                d.iter().filter(|x| x.1 == 0.0).count() as u64
+            )
+        );
     }
 
     #[test]
