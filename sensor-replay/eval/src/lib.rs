@@ -7,6 +7,7 @@
 pub use polarnav::chi2;
 pub mod envelope;
 pub mod eval;
+pub mod figures;
 pub mod logfile;
 pub mod plots;
 pub mod review;

@@ -8,7 +8,6 @@
 //! panels, never over data. PNG when a TrueType font is found (DejaVu Sans,
 //! or $POLARNAV_FONT), otherwise SVG, whose text needs no font file.
 
-use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
 use msgs::TruthRecord;
@@ -17,7 +16,8 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 
 use crate::eval::Epoch;
-use crate::solution_file::{AidPoint, Aids};
+use crate::figures::{self, FigureData, FigureFeed};
+use crate::solution_file::{AidPoint, Aids, UpdatesOnDisk, aids_to_disk, for_each_update};
 use polarnav::solution_csv::Row;
 
 /// One run to draw.
@@ -116,7 +116,7 @@ pub(crate) const MICRO_G: f64 = 1e6 / 9.80665;
 /// Width of the legend strip right of the panels (px).
 const LEGEND_W: u32 = 290;
 /// At most this many points per curve (decimated by a fixed step).
-const MAX_POINTS: usize = 5000;
+pub(crate) const MAX_POINTS: usize = 5000;
 
 /// The figures `write_all` can produce, in order.
 pub const FIGURES: [&str; 8] = [
@@ -133,12 +133,26 @@ pub const FIGURES: [&str; 8] = [
 /// Draws every figure that the inputs allow into `dir`: the innovations
 /// need aid updates (an MCAP solution), the difference a comparison run.
 pub fn write_all(dir: &Path, inp: &Inputs<'_>) -> Result<Vec<Figure>, PlotError> {
+    let io = |e: std::io::Error| err(dir, e);
+    let labels: Vec<&str> = inp.runs.iter().map(|r| r.label).collect();
+    let mut feed = FigureFeed::new(&labels).map_err(io)?;
+    let runs: Vec<(&[Row], &[Epoch])> = inp.runs.iter().map(|r| (r.rows, r.epochs)).collect();
+    figures::feed_from_memory(&mut feed, &runs, inp.truth, inp.truth_bias).map_err(io)?;
+    let aids = match inp.aids {
+        Some(a) => Some(aids_to_disk(a.clone()).map_err(|e| err(dir, e))?),
+        None => None,
+    };
+    write_figures(dir, &feed.finish(aids).map_err(io)?)
+}
+
+/// Draws every figure that `d` allows into `dir` (see [`write_all`]).
+pub fn write_figures(dir: &Path, d: &FigureData) -> Result<Vec<Figure>, PlotError> {
     let fmt = init_fonts();
     let mut out = Vec::new();
-    let Some(first) = inp.runs.first() else {
+    if d.labels.is_empty() {
         return Ok(out);
-    };
-    let switches = switches(first.rows);
+    }
+    let switches = &d.switches;
     for name in FIGURES {
         let (size, what) = match name {
             "position_errors" => ((1500, 1100), "position error east/north/up (m) with ±3σ"),
@@ -154,11 +168,11 @@ pub fn write_all(dir: &Path, inp: &Inputs<'_>) -> Result<Vec<Figure>, PlotError>
                 (1700, 1000),
                 "gyro (°/h) and accelerometer (µg) bias estimates against the simulated truth",
             ),
-            "innovations" if inp.aids.is_some() => (
+            "innovations" if d.aids.is_some() => (
                 (1700, 1250),
                 "normalized innovations and test ratios per aid with the gate",
             ),
-            "compare_difference" if inp.runs.len() > 1 => (
+            "compare_difference" if d.labels.len() > 1 => (
                 (1500, 1200),
                 "compare − solution: position, velocity and heading differences",
             ),
@@ -173,14 +187,14 @@ pub fn write_all(dir: &Path, inp: &Inputs<'_>) -> Result<Vec<Figure>, PlotError>
         match fmt {
             Format::Png => draw(
                 BitMapBackend::new(&path, size).into_drawing_area(),
-                inp,
-                &switches,
+                d,
+                switches,
                 name,
             ),
             Format::Svg => draw(
                 SVGBackend::new(&path, size).into_drawing_area(),
-                inp,
-                &switches,
+                d,
+                switches,
                 name,
             ),
         }
@@ -195,7 +209,7 @@ pub fn write_all(dir: &Path, inp: &Inputs<'_>) -> Result<Vec<Figure>, PlotError>
 
 fn draw<DB: DrawingBackend>(
     root: DrawingArea<DB, Shift>,
-    inp: &Inputs<'_>,
+    inp: &FigureData,
     sw: &[Switch],
     name: &str,
 ) -> Result<(), String> {
@@ -270,6 +284,17 @@ pub(crate) fn tick(v: f64, span: f64) -> String {
 
 fn decimate<T: Copy>(v: &[T]) -> impl Iterator<Item = T> + '_ {
     v.iter().step_by((v.len() / MAX_POINTS).max(1)).copied()
+}
+
+/// The points of a panel's curve to draw: `decimate`d, unless `picked`
+/// already (a curve reduced as the flight streamed in).
+fn drawn<T: Copy>(v: &[T], picked: bool) -> impl Iterator<Item = T> + '_ {
+    let step = if picked {
+        1
+    } else {
+        (v.len() / MAX_POINTS).max(1)
+    };
+    v.iter().step_by(step).copied()
 }
 
 /// The value at `q` (0..1) of the finite magnitudes.
@@ -386,6 +411,9 @@ fn wrap(text: &str, width: usize) -> Vec<String> {
 pub(crate) type Line = (Vec<(f64, f64)>, RGBColor, u32);
 /// An envelope: (t, lo, hi) points and its colour.
 pub(crate) type Band = (Vec<(f64, f64, f64)>, RGBColor);
+/// Points too many to hold, handed over a chunk at a time when drawn.
+pub(crate) type OnDisk =
+    Box<dyn Fn(&mut dyn FnMut(&[(f64, f64)]) -> Result<(), String>) -> Result<(), String>>;
 /// A drawing area of a figure.
 pub(crate) type Area<DB> = DrawingArea<DB, Shift>;
 
@@ -408,6 +436,15 @@ pub(crate) struct Panel {
     pub(crate) x: Option<(f64, f64)>,
     /// Label of the y axis (its quantity and unit).
     pub(crate) y_desc: Option<String>,
+    /// The curves hold the points `decimate` picks already (reduced as the
+    /// flight streamed in): drawn as they are.
+    pub(crate) picked: bool,
+    /// With `picked`: the extent of every finite point of the lines, dots
+    /// and crosses, and the 99th percentile of |value| of every band point.
+    pub(crate) extent: Option<(f64, f64)>,
+    pub(crate) band_q99: Option<f64>,
+    /// Crosses drawn after `crosses`, read from disk (not in the y range).
+    pub(crate) crosses_on_disk: Vec<(OnDisk, RGBColor)>,
 }
 
 impl std::fmt::Debug for Panel {
@@ -429,17 +466,20 @@ impl Panel {
             .chain(self.crosses.iter().flat_map(|l| l.0.iter().map(|p| p.1)));
         // Envelopes: the 99th percentile, so that the first seconds of a
         // wide initial σ do not flatten the converged part.
-        let band_hi = quantile_abs(
-            self.bands
-                .iter()
-                .flat_map(|b| b.0.iter().flat_map(|p| [p.1, p.2])),
-            0.99,
-        );
-        let (mut lo, mut hi) = data
-            .filter(|v| v.is_finite())
-            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
-                (a.min(v), b.max(v))
-            });
+        let band_hi = self.band_q99.unwrap_or_else(|| {
+            quantile_abs(
+                self.bands
+                    .iter()
+                    .flat_map(|b| b.0.iter().flat_map(|p| [p.1, p.2])),
+                0.99,
+            )
+        });
+        let (mut lo, mut hi) = self.extent.unwrap_or_else(|| {
+            data.filter(|v| v.is_finite())
+                .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), v| {
+                    (a.min(v), b.max(v))
+                })
+        });
         if band_hi.is_finite() {
             lo = lo.min(-band_hi);
             hi = hi.max(band_hi);
@@ -508,7 +548,7 @@ pub(crate) fn time_panel<DB: DrawingBackend>(
             .map_err(s)?;
     }
     for (b, c) in &p.bands {
-        let pts: Vec<(f64, f64, f64)> = decimate(b)
+        let pts: Vec<(f64, f64, f64)> = drawn(b, p.picked)
             .filter(|x| x.1.is_finite() && x.2.is_finite())
             .collect();
         let poly: Vec<(f64, f64)> = pts
@@ -534,7 +574,7 @@ pub(crate) fn time_panel<DB: DrawingBackend>(
     for (l, c, w) in &p.lines {
         chart
             .draw_series(LineSeries::new(
-                decimate(l).filter(|x| x.1.is_finite()),
+                drawn(l, p.picked).filter(|x| x.1.is_finite()),
                 c.stroke_width(*w),
             ))
             .map_err(s)?;
@@ -542,7 +582,7 @@ pub(crate) fn time_panel<DB: DrawingBackend>(
     for (d, c) in &p.dots {
         chart
             .draw_series(
-                decimate(d)
+                drawn(d, p.picked)
                     .filter(|x| x.1.is_finite())
                     .map(|x| Circle::new(x, 2, c.filled())),
             )
@@ -556,6 +596,19 @@ pub(crate) fn time_panel<DB: DrawingBackend>(
                     .map(|x| Cross::new(*x, 5, c.stroke_width(2))),
             )
             .map_err(s)?;
+    }
+    for (d, c) in &p.crosses_on_disk {
+        d(&mut |chunk| {
+            chart
+                .draw_series(
+                    chunk
+                        .iter()
+                        .filter(|x| x.1.is_finite())
+                        .map(|x| Cross::new(*x, 5, c.stroke_width(2))),
+                )
+                .map(|_| ())
+                .map_err(s)
+        })?;
     }
     for (k, w) in sw.iter().enumerate() {
         chart
@@ -597,21 +650,8 @@ pub(crate) fn layout<DB: DrawingBackend>(
     Ok((main, side))
 }
 
-fn t_max(inp: &Inputs<'_>) -> f64 {
-    inp.runs
-        .iter()
-        .flat_map(|r| {
-            r.rows
-                .last()
-                .map(|x| x.t_s)
-                .into_iter()
-                .chain(r.epochs.last().map(|e| e.t_s))
-        })
-        .fold(1.0, f64::max)
-}
-
 /// The row of each epoch's time (rows and epochs both time-ordered).
-fn rows_at<'a>(rows: &'a [Row], epochs: &[Epoch]) -> Vec<Option<&'a Row>> {
+pub(crate) fn rows_at<'a>(rows: &'a [Row], epochs: &[Epoch]) -> Vec<Option<&'a Row>> {
     let mut k = 0;
     epochs
         .iter()
@@ -630,57 +670,47 @@ pub(crate) fn switch_notes(sw: &[Switch]) -> Vec<String> {
         .collect()
 }
 
-/// An error figure of the first run: three components with their ±3σ.
-#[allow(clippy::type_complexity)]
+/// An error figure of the first run: three components (channels of
+/// [`crate::figures::error_components`]) with their ±3σ.
 fn error_figure<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
-    inp: &Inputs<'_>,
+    inp: &FigureData,
     sw: &[Switch],
     title: &str,
-    comps: [(&str, fn(&Epoch) -> f64, fn(&Row) -> f64); 3],
+    comps: [(&str, usize); 3],
     notes: &[&str],
 ) -> Result<(), String> {
-    let run = &inp.runs[0];
     let (main, side) = layout(root, title)?;
-    let at = rows_at(run.rows, run.epochs);
-    let tm = t_max(inp);
-    for (k, (area, (name, f, sig))) in main.split_evenly((3, 1)).iter().zip(comps).enumerate() {
+    let tm = inp.t_max;
+    for (k, (area, (name, ch))) in main.split_evenly((3, 1)).iter().zip(comps).enumerate() {
         let c = AXIS_COLORS[k];
-        let err: Vec<(f64, f64)> = run.epochs.iter().map(|e| (e.t_s, f(e))).collect();
-        let band: Vec<(f64, f64, f64)> = run
-            .epochs
-            .iter()
-            .zip(&at)
-            .filter_map(|(e, r)| r.map(|r| (e.t_s, -3.0 * sig(r), 3.0 * sig(r))))
-            .collect();
-        let inside = err
-            .iter()
-            .zip(&band)
-            .filter(|(e, b)| e.1 >= b.1 && e.1 <= b.2)
-            .count();
-        let rms = (err.iter().map(|e| e.1 * e.1).sum::<f64>() / err.len().max(1) as f64).sqrt();
+        let e = &inp.errors[ch];
+        let rms = (e.sum_sq / e.n_err.max(1) as f64).sqrt();
         let p = Panel {
             title: format!(
                 "{name}   (RMS {}, inside ±3σ {:.1} %)",
                 tick(rms, rms),
-                100.0 * inside as f64 / band.len().max(1) as f64
+                100.0 * e.inside as f64 / e.n_band.max(1) as f64
             ),
-            bands: vec![(band, c)],
-            lines: vec![(err, c, 2)],
+            bands: vec![(e.band.clone(), c)],
+            lines: vec![(e.err.pts.clone(), c, 2)],
             hlines: vec![(0.0, GREY)],
             symmetric: true,
+            picked: true,
+            extent: Some(e.err.extent),
+            band_q99: Some(e.band_q99),
             ..Default::default()
         };
         time_panel(area, &p, tm, sw)?;
     }
     let mut n: Vec<String> = notes.iter().map(|x| (*x).to_owned()).collect();
     n.extend(switch_notes(sw));
-    if inp.runs.len() > 1 {
+    if inp.labels.len() > 1 {
         n.push("the compare run is drawn in compare_difference".into());
     }
     legend(
         &side,
-        run.label,
+        &inp.labels[0],
         &[
             ("error (solution − truth)".into(), Mark::Line(BLUE, 2)),
             ("±3σ of the solution".into(), Mark::Band(BLUE)),
@@ -692,7 +722,7 @@ fn error_figure<DB: DrawingBackend>(
 
 fn position_errors<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
-    inp: &Inputs<'_>,
+    inp: &FigureData,
     sw: &[Switch],
 ) -> Result<(), String> {
     error_figure(
@@ -700,18 +730,14 @@ fn position_errors<DB: DrawingBackend>(
         inp,
         sw,
         "Position error against truth (m), local east/north/up",
-        [
-            ("east (m)", |e| e.pos_enu.x, |r| r.sigma_enu_m[0]),
-            ("north (m)", |e| e.pos_enu.y, |r| r.sigma_enu_m[1]),
-            ("up (m)", |e| e.pos_enu.z, |r| r.sigma_enu_m[2]),
-        ],
+        [("east (m)", 0), ("north (m)", 1), ("up (m)", 2)],
         &["errors and σ both in the local geographic east/north/up axes of the truth position"],
     )
 }
 
 fn velocity_errors<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
-    inp: &Inputs<'_>,
+    inp: &FigureData,
     sw: &[Switch],
 ) -> Result<(), String> {
     error_figure(
@@ -720,17 +746,9 @@ fn velocity_errors<DB: DrawingBackend>(
         sw,
         "Velocity error against truth (m/s), navigation-frame axes",
         [
-            (
-                "nav x: east in g, grid east in G (m/s)",
-                |e| e.vel_nav.x,
-                |r| r.sigma_vel_nav_mps[0],
-            ),
-            (
-                "nav y: north in g, grid north in G (m/s)",
-                |e| e.vel_nav.y,
-                |r| r.sigma_vel_nav_mps[1],
-            ),
-            ("up (m/s)", |e| e.vel_nav.z, |r| r.sigma_vel_nav_mps[2]),
+            ("nav x: east in g, grid east in G (m/s)", 3),
+            ("nav y: north in g, grid north in G (m/s)", 4),
+            ("up (m/s)", 5),
         ],
         &[
             "the error is projected on the axes of the frame in use (those of the σ columns): at a switch x/y turn by the grid angle, so the curves may step there while the error itself does not",
@@ -740,7 +758,7 @@ fn velocity_errors<DB: DrawingBackend>(
 
 fn attitude_errors<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
-    inp: &Inputs<'_>,
+    inp: &FigureData,
     sw: &[Switch],
 ) -> Result<(), String> {
     error_figure(
@@ -749,21 +767,9 @@ fn attitude_errors<DB: DrawingBackend>(
         sw,
         "Attitude error φ against truth (arcmin): tilt about nav x / nav y, heading about up",
         [
-            (
-                "tilt about nav x: east in g, grid east in G (arcmin)",
-                |e| e.att_nav.x * ARCMIN,
-                |r| r.sigma_att_deg[0] * 60.0,
-            ),
-            (
-                "tilt about nav y: north in g, grid north in G (arcmin)",
-                |e| e.att_nav.y * ARCMIN,
-                |r| r.sigma_att_deg[1] * 60.0,
-            ),
-            (
-                "heading, about up (arcmin)",
-                |e| e.att_nav.z * ARCMIN,
-                |r| r.sigma_att_deg[2] * 60.0,
-            ),
+            ("tilt about nav x: east in g, grid east in G (arcmin)", 6),
+            ("tilt about nav y: north in g, grid north in G (arcmin)", 7),
+            ("heading, about up (arcmin)", 8),
         ],
         &[
             "φ from the body→ECEF quaternions (C = (I − φ×) C_true), projected on the axes of the frame in use, those of the σ columns; up is the same axis in g and G",
@@ -773,53 +779,29 @@ fn attitude_errors<DB: DrawingBackend>(
 
 fn biases<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
-    inp: &Inputs<'_>,
+    inp: &FigureData,
     sw: &[Switch],
 ) -> Result<(), String> {
-    let run = &inp.runs[0];
     let (main, side) = layout(
         root,
         "IMU bias estimates against the simulated truth, body axes",
     )?;
-    let tm = t_max(inp);
+    let tm = inp.t_max;
     let panels = main.split_evenly((2, 3));
-    let rows: Vec<&Row> = run
-        .rows
-        .iter()
-        .step_by((run.rows.len() / MAX_POINTS).max(1))
-        .collect();
     for (k, area) in panels.iter().enumerate() {
         let (i, gyro) = (k % 3, k < 3);
         let axis = ["x", "y", "z"][i];
-        let est: Vec<(f64, f64)> = rows
-            .iter()
-            .map(|r| {
-                (
-                    r.t_s,
-                    if gyro {
-                        r.gyro_bias_rps[i] * DEG_PER_H
-                    } else {
-                        r.accel_bias_mps2[i] * MICRO_G
-                    },
-                )
-            })
-            .collect();
-        let truth: Vec<(f64, f64)> = inp
-            .truth_bias
-            .iter()
-            .map(|b| {
-                (
-                    b.t_ns as f64 * 1e-9,
-                    if gyro {
-                        b.gyro_bias_rps[i] * DEG_PER_H
-                    } else {
-                        b.accel_bias_mps2[i] * MICRO_G
-                    },
-                )
-            })
-            .collect();
+        let est: Vec<(f64, f64)> = inp.bias_rows.iter().map(|(t, b)| (*t, b[k])).collect();
+        let truth = &inp.truth_bias[k];
         let last = est.last().map_or(f64::NAN, |p| p.1);
-        let last_truth = truth.last().map_or(f64::NAN, |p| p.1);
+        let last_truth = inp.truth_bias_last[k];
+        // Every estimate drawn is in memory: its extent, and its points as
+        // `decimate` picks them, beside the truth's of every record.
+        let (lo, hi) = est
+            .iter()
+            .map(|p| p.1)
+            .filter(|v| v.is_finite())
+            .fold(truth.extent, |(a, b), v| (a.min(v), b.max(v)));
         let p = Panel {
             title: format!(
                 "{} {axis} ({})   end: est {} / true {}",
@@ -828,8 +810,13 @@ fn biases<DB: DrawingBackend>(
                 tick(last, last.abs().max(last_truth.abs())),
                 tick(last_truth, last.abs().max(last_truth.abs()))
             ),
-            lines: vec![(truth, BLACK, 2), (est, AXIS_COLORS[i], 2)],
+            lines: vec![
+                (truth.pts.clone(), BLACK, 2),
+                (decimate(&est).collect(), AXIS_COLORS[i], 2),
+            ],
             hlines: vec![(0.0, GREY)],
+            picked: true,
+            extent: Some((lo, hi)),
             ..Default::default()
         };
         time_panel(area, &p, tm, sw)?;
@@ -837,13 +824,13 @@ fn biases<DB: DrawingBackend>(
     let mut notes = vec![
         "no σ: neither the solution CSV nor the Solution message carries the bias covariance, so no envelope is drawn".to_owned(),
     ];
-    if inp.truth_bias.is_empty() {
+    if inp.truth_bias_n == 0 {
         notes.push("no truth: the log has no truth-bias records (simulate writes them)".into());
     }
     notes.extend(switch_notes(sw));
     legend(
         &side,
-        run.label,
+        &inp.labels[0],
         &[
             ("estimate x / y / z".into(), Mark::Line(BLUE, 2)),
             (
@@ -856,21 +843,49 @@ fn biases<DB: DrawingBackend>(
     )
 }
 
+/// The points `keep` makes of the updates of `pts`, handed over in chunks
+/// when drawn (read from disk each time).
+fn aid_chunks(
+    pts: &UpdatesOnDisk,
+    keep: impl Fn(&AidPoint, &mut Vec<(f64, f64)>) + 'static,
+) -> OnDisk {
+    let pts = pts.clone();
+    Box::new(move |f| {
+        let mut chunk = Vec::with_capacity(4096);
+        let mut failed = None;
+        for_each_update(&pts, |a| {
+            if failed.is_some() {
+                return;
+            }
+            keep(&a, &mut chunk);
+            if chunk.len() >= 4096 {
+                failed = f(&chunk).err();
+                chunk.clear();
+            }
+        })
+        .map_err(s)?;
+        if let Some(e) = failed {
+            return Err(e);
+        }
+        f(&chunk)
+    })
+}
+
 fn innovations<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
-    inp: &Inputs<'_>,
+    inp: &FigureData,
     sw: &[Switch],
 ) -> Result<(), String> {
-    let Some(aids) = inp.aids else {
+    let Some(aids) = &inp.aids else {
         return Ok(());
     };
     let (main, side) = layout(
         root,
         "Aid innovations normalized by √(innovation variance), and test ratios against the gate",
     )?;
-    let tm = t_max(inp);
+    let tm = inp.t_max;
     // A row per aid that had updates in this run.
-    let set: Vec<(&str, &[AidPoint], Vec<&str>)> = aids
+    let set: Vec<(&str, &UpdatesOnDisk, Vec<&str>)> = aids
         .iter()
         .filter(|(_, pts)| !pts.is_empty())
         .map(|(k, pts)| {
@@ -881,7 +896,7 @@ fn innovations<DB: DrawingBackend>(
                 .take(3)
                 .map(|c| c.label)
                 .collect();
-            (k.decl().title, pts.as_slice(), comps)
+            (k.decl().title, pts, comps)
         })
         .collect();
     if set.is_empty() {
@@ -889,57 +904,93 @@ fn innovations<DB: DrawingBackend>(
     }
     let cells = main.split_evenly((set.len(), 2));
     const CLIP: f64 = 6.0;
+    // Test ratio on a log axis: log10 drawn, labelled in ratio units.
+    const FLOOR: f64 = -3.0;
+    let tr = |a: &AidPoint| (a.t_ns as f64 * 1e-9, a.test_ratio.log10().max(FLOOR));
     for (k, (name, pts, comps)) in set.iter().enumerate() {
-        let fused = pts.iter().filter(|a| a.fused != 0).count();
+        // Counts first: which points a curve keeps depends on its length.
+        let (mut fused, mut per_comp, mut clipped, mut hi) = (0u64, [0u64; 3], 0, 0.5f64);
+        for_each_update(pts, |a| {
+            hi = hi.max(tr(&a).1);
+            if a.fused == 0 {
+                return;
+            }
+            fused += 1;
+            for (c, n) in per_comp.iter_mut().enumerate().take(comps.len()) {
+                if let Some(v) = a.normalized(c) {
+                    *n += 1;
+                    clipped += usize::from(v.abs() > CLIP);
+                }
+            }
+        })
+        .map_err(s)?;
         let rejected = pts.len() - fused;
+        let steps = per_comp.map(figures::step_of);
+        let fused_step = figures::step_of(fused);
+        let mut dots: [Vec<(f64, f64)>; 3] = Default::default();
+        let mut fused_pts = Vec::new();
+        let (mut seen, mut seen_fused) = ([0u64; 3], 0u64);
+        for_each_update(pts, |a| {
+            if a.fused == 0 {
+                return;
+            }
+            let t = a.t_ns as f64 * 1e-9;
+            for c in 0..comps.len() {
+                if let Some(v) = a.normalized(c) {
+                    if seen[c].is_multiple_of(steps[c]) {
+                        dots[c].push((t, v.clamp(-CLIP * 0.97, CLIP * 0.97)));
+                    }
+                    seen[c] += 1;
+                }
+            }
+            if seen_fused.is_multiple_of(fused_step) {
+                fused_pts.push(tr(&a));
+            }
+            seen_fused += 1;
+        })
+        .map_err(s)?;
         let mut p = Panel {
             title: format!("{name}: innovation / σ (unit-free), {} updates", pts.len()),
             hlines: vec![(3.0, GREY), (-3.0, GREY), (0.0, GREY)],
             y: Some((-CLIP, CLIP)),
+            picked: true,
             ..Default::default()
         };
-        let mut clipped = 0;
         for (c, _) in comps.iter().enumerate() {
-            let v: Vec<(f64, f64)> = pts
-                .iter()
-                .filter(|a| a.fused != 0)
-                .filter_map(|a| a.normalized(c).map(|v| (a.t_ns as f64 * 1e-9, v)))
-                .inspect(|x| clipped += usize::from(x.1.abs() > CLIP))
-                .map(|(t, v)| (t, v.clamp(-CLIP * 0.97, CLIP * 0.97)))
-                .collect();
-            p.dots.push((v, AXIS_COLORS[c]));
+            p.dots.push((std::mem::take(&mut dots[c]), AXIS_COLORS[c]));
         }
-        let rej: Vec<(f64, f64)> = pts
-            .iter()
-            .filter(|a| a.fused == 0)
-            .flat_map(|a| {
-                (0..comps.len())
-                    .filter_map(|c| a.normalized(c))
-                    .map(move |v| (a.t_ns as f64 * 1e-9, v.clamp(-CLIP * 0.97, CLIP * 0.97)))
-            })
-            .collect();
-        p.crosses.push((rej, RED_));
+        let n = comps.len();
+        p.crosses_on_disk.push((
+            aid_chunks(pts, move |a, out| {
+                if a.fused == 0 {
+                    let t = a.t_ns as f64 * 1e-9;
+                    out.extend(
+                        (0..n)
+                            .filter_map(|c| a.normalized(c))
+                            .map(|v| (t, v.clamp(-CLIP * 0.97, CLIP * 0.97))),
+                    );
+                }
+            }),
+            RED_,
+        ));
         if clipped > 0 {
             p.title
                 .push_str(&format!(", {clipped} beyond ±{CLIP} drawn at the edge"));
         }
         time_panel(&cells[2 * k], &p, tm, sw)?;
-        // Test ratio on a log axis: log10 drawn, labelled in ratio units.
-        const FLOOR: f64 = -3.0;
-        let tr = |a: &AidPoint| (a.t_ns as f64 * 1e-9, a.test_ratio.log10().max(FLOOR));
-        let fused_pts: Vec<(f64, f64)> = pts.iter().filter(|a| a.fused != 0).map(tr).collect();
-        let rej_pts: Vec<(f64, f64)> = pts.iter().filter(|a| a.fused == 0).map(tr).collect();
-        let hi = fused_pts
-            .iter()
-            .chain(&rej_pts)
-            .map(|p| p.1)
-            .fold(0.5f64, f64::max);
         let q = Panel {
             title: format!(
                 "{name}: test ratio (log scale, < 0.001 drawn at 0.001), fused {fused}, rejected {rejected}"
             ),
             dots: vec![(fused_pts, BLACK)],
-            crosses: vec![(rej_pts, RED_)],
+            crosses_on_disk: vec![(
+                aid_chunks(pts, move |a, out| {
+                    if a.fused == 0 {
+                        out.push(tr(a));
+                    }
+                }),
+                RED_,
+            )],
             hlines: vec![(0.0, RED_)],
             y: Some((FLOOR - 0.15, hi.max(1.0) + 0.15)),
             y_fmt: Some(|v| {
@@ -951,6 +1002,7 @@ fn innovations<DB: DrawingBackend>(
                     format!("{x:.d$}")
                 }
             }),
+            picked: true,
             ..Default::default()
         };
         time_panel(&cells[2 * k + 1], &q, tm, sw)?;
@@ -963,7 +1015,7 @@ fn innovations<DB: DrawingBackend>(
     notes.extend(switch_notes(sw));
     legend(
         &side,
-        inp.runs[0].label,
+        &inp.labels[0],
         &[
             ("component x / lat / h".into(), Mark::Dot(BLUE)),
             ("component y / lon".into(), Mark::Dot(ORANGE)),
@@ -979,57 +1031,44 @@ fn innovations<DB: DrawingBackend>(
 
 fn compare_difference<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
-    inp: &Inputs<'_>,
+    inp: &FigureData,
     sw: &[Switch],
 ) -> Result<(), String> {
-    let (a, b) = (&inp.runs[0], &inp.runs[1]);
-    let (main, side) = layout(
-        root,
-        &format!("Difference {} − {} (same truth epochs)", b.label, a.label),
-    )?;
-    let key = |t: f64| (t * 1e6).round() as i64;
-    let by_t: HashMap<i64, &Epoch> = b.epochs.iter().map(|e| (key(e.t_s), e)).collect();
-    let pairs: Vec<(&Epoch, &Epoch)> = a
-        .epochs
-        .iter()
-        .filter_map(|ea| by_t.get(&key(ea.t_s)).map(|eb| (ea, *eb)))
-        .collect();
-    let tm = t_max(inp);
-    type Q = (&'static str, fn(&Epoch, &Epoch) -> f64);
-    let qs: [Q; 5] = [
-        ("east position (m)", |a, b| b.pos_enu.x - a.pos_enu.x),
-        ("north position (m)", |a, b| b.pos_enu.y - a.pos_enu.y),
-        ("up position (m)", |a, b| b.pos_enu.z - a.pos_enu.z),
-        ("velocity, magnitude of the difference (m/s)", |a, b| {
-            (b.vel_enu - a.vel_enu).norm()
-        }),
-        ("heading, about up (arcmin)", |a, b| {
-            (b.att_enu.z - a.att_enu.z) * ARCMIN
-        }),
+    let (a, b) = (&inp.labels[0], &inp.labels[1]);
+    let (main, side) = layout(root, &format!("Difference {b} − {a} (same truth epochs)"))?;
+    let tm = inp.t_max;
+    let names: [&str; 5] = [
+        "east position (m)",
+        "north position (m)",
+        "up position (m)",
+        "velocity, magnitude of the difference (m/s)",
+        "heading, about up (arcmin)",
     ];
-    for (k, (area, (name, f))) in main.split_evenly((5, 1)).iter().zip(qs).enumerate() {
-        let v: Vec<(f64, f64)> = pairs.iter().map(|(ea, eb)| (ea.t_s, f(ea, eb))).collect();
-        let mx = v.iter().map(|p| p.1.abs()).fold(0.0, f64::max);
+    for (k, (area, name)) in main.split_evenly((5, 1)).iter().zip(names).enumerate() {
+        let v = &inp.compare[k];
+        let mx = inp.compare_max[k];
         let p = Panel {
             title: format!("{name}   max |Δ| {}", tick(mx, mx)),
-            lines: vec![(v, AXIS_COLORS[k % 3], 2)],
+            lines: vec![(v.pts.clone(), AXIS_COLORS[k % 3], 2)],
             hlines: vec![(0.0, GREY)],
             symmetric: k != 3,
+            picked: true,
+            extent: Some(v.extent),
             ..Default::default()
         };
         time_panel(area, &p, tm, sw)?;
     }
     let mut notes = vec![format!(
         "{} epochs in both runs; differences of the errors against truth, i.e. of the solutions themselves",
-        pairs.len()
+        inp.compare_n
     )];
     notes.extend(switch_notes(sw));
     legend(
         &side,
         "compare − solution",
         &[
-            (format!("{} − {}", b.label, a.label), Mark::Line(BLUE, 2)),
-            (format!("frame switch of {}", a.label), Mark::Switch),
+            (format!("{b} − {a}"), Mark::Line(BLUE, 2)),
+            (format!("frame switch of {a}"), Mark::Switch),
         ],
         &notes,
     )
@@ -1037,44 +1076,30 @@ fn compare_difference<DB: DrawingBackend>(
 
 fn cumulative_rmse<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
-    inp: &Inputs<'_>,
+    inp: &FigureData,
     sw: &[Switch],
 ) -> Result<(), String> {
     let (main, side) = layout(root, "Cumulative horizontal position RMSE (m)")?;
     let curves: Vec<Line> = inp
-        .runs
+        .cumulative
         .iter()
         .enumerate()
-        .map(|(k, r)| {
-            let mut sum = 0.0;
-            let c = r
-                .epochs
-                .iter()
-                .enumerate()
-                .map(|(i, e)| {
-                    sum += e.pos_enu.xy().norm_squared();
-                    (e.t_s, (sum / (i + 1) as f64).sqrt())
-                })
-                .collect();
-            (c, [BLUE, ORANGE][k % 2], 2)
-        })
+        .map(|(k, c)| (c.pts.clone(), [BLUE, ORANGE][k % 2], 2))
         .collect();
-    let hi = curves
-        .iter()
-        .flat_map(|c| c.0.iter().map(|p| p.1))
-        .fold(1e-3, f64::max);
+    let hi = inp.cumulative_hi;
     let p = Panel {
         title: "√(mean of horizontal error² from the start) (m)".into(),
         lines: curves,
         y: Some((0.0, hi * 1.05)),
+        picked: true,
         ..Default::default()
     };
-    time_panel(&main, &p, t_max(inp), sw)?;
+    time_panel(&main, &p, inp.t_max, sw)?;
     let entries: Vec<(String, Mark)> = inp
-        .runs
+        .labels
         .iter()
         .enumerate()
-        .map(|(k, r)| (r.label.to_owned(), Mark::Line([BLUE, ORANGE][k % 2], 2)))
+        .map(|(k, r)| (r.clone(), Mark::Line([BLUE, ORANGE][k % 2], 2)))
         .chain(std::iter::once(("frame switch".to_owned(), Mark::Switch)))
         .collect();
     legend(&side, "runs", &entries, &switch_notes(sw))
@@ -1100,14 +1125,13 @@ fn stereo(r_e: &[f64; 3], north: bool) -> (f64, f64) {
 
 fn track<DB: DrawingBackend>(
     root: &DrawingArea<DB, Shift>,
-    inp: &Inputs<'_>,
+    inp: &FigureData,
     sw: &[Switch],
 ) -> Result<(), String> {
-    let run = &inp.runs[0];
-    if run.rows.is_empty() {
+    if inp.rows_n == 0 {
         return Ok(());
     }
-    let north = run.rows[run.rows.len() / 2].lat_deg >= 0.0;
+    let north = inp.middle_lat_deg >= 0.0;
     let (main, side) = layout(
         root,
         &format!(
@@ -1115,16 +1139,12 @@ fn track<DB: DrawingBackend>(
             if north { "North" } else { "South" }
         ),
     )?;
-    let sol: Vec<(f64, f64)> = decimate(run.rows)
-        .map(|r| stereo(&r.r_e_m, north))
-        .collect();
-    let truth: Vec<(f64, f64)> = decimate(inp.truth)
-        .map(|t| stereo(&t.r_e_m, north))
-        .collect();
+    let sol: Vec<(f64, f64)> = inp.track.iter().map(|r| stereo(r, north)).collect();
+    let truth: Vec<(f64, f64)> = inp.track_truth.iter().map(|t| stereo(t, north)).collect();
     let cmp: Vec<(f64, f64)> = inp
-        .runs
-        .get(1)
-        .map(|r| decimate(r.rows).map(|x| stereo(&x.r_e_m, north)).collect())
+        .track_compare
+        .as_ref()
+        .map(|r| r.iter().map(|x| stereo(x, north)).collect())
         .unwrap_or_default();
     let all = || truth.iter().chain(&sol).chain(&cmp);
     let (mut x0, mut x1, mut y0, mut y1) = all().fold(
@@ -1220,11 +1240,7 @@ fn track<DB: DrawingBackend>(
                 )
         }))
         .map_err(s)?;
-    let hmax = run
-        .epochs
-        .iter()
-        .map(|e| e.pos_enu.xy().norm())
-        .fold(0.0, f64::max);
+    let hmax = inp.hmax;
     let mut notes = vec![
         format!(
             "the solution's horizontal error (max {} m, see position_errors) is far below a pixel at this scale",
@@ -1235,10 +1251,10 @@ fn track<DB: DrawingBackend>(
     notes.extend(switch_notes(sw));
     let mut entries = vec![
         ("truth".to_owned(), Mark::Line(GREY, 7)),
-        (run.label.to_owned(), Mark::Line(BLUE, 2)),
+        (inp.labels[0].clone(), Mark::Line(BLUE, 2)),
     ];
-    if let Some(r) = inp.runs.get(1) {
-        entries.push((r.label.to_owned(), Mark::Line(ORANGE, 2)));
+    if let Some(r) = inp.labels.get(1) {
+        entries.push((r.clone(), Mark::Line(ORANGE, 2)));
     }
     entries.push(("start".into(), Mark::Dot(GREEN)));
     entries.push(("end".into(), Mark::Square(RED_)));

@@ -1,0 +1,563 @@
+//! What the accuracy figures ([`crate::plots`]) draw, gathered as a flight
+//! streams in and reduced at its end to what they show.
+//!
+//! A figure draws the points [`crate::plots`] picks from a sequence with a
+//! step of `len / 5000`, scales its axis to every point, and titles its
+//! panels with sums over every point. The sums and extremes are kept as
+//! the points come; the points themselves go to [`Spill`]s on disk, from
+//! which the picked ones are read back once the lengths are known. Memory
+//! holds the counters and buffers while streaming, and the picked points
+//! (about 5 000 to 10 000 per curve) at the end, whatever the flight's
+//! length.
+
+use std::collections::VecDeque;
+use std::io;
+
+use msgs::TruthRecord;
+use msgs::navlog::TruthBias;
+use polarnav::solution_csv::Row;
+
+use crate::eval::Epoch;
+use crate::plots::{self, ARCMIN, MAX_POINTS, Switch};
+use crate::solution_file::{Aids, UpdatesOnDisk};
+use crate::spill::{Sealed, Spill, kth_smallest, total_order_key};
+
+/// The step `plots` takes through a sequence of `n` points.
+pub(crate) fn step_of(n: u64) -> u64 {
+    (n / MAX_POINTS as u64).max(1)
+}
+
+/// The extremes of the finite values seen (∞, −∞ without any), as the
+/// figures fold them.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Extent {
+    pub(crate) lo: f64,
+    pub(crate) hi: f64,
+}
+
+impl Default for Extent {
+    fn default() -> Self {
+        Self {
+            lo: f64::INFINITY,
+            hi: f64::NEG_INFINITY,
+        }
+    }
+}
+
+impl Extent {
+    fn push(&mut self, v: f64) {
+        if v.is_finite() {
+            self.lo = self.lo.min(v);
+            self.hi = self.hi.max(v);
+        }
+    }
+}
+
+/// The sum of no value, as `Iterator::sum` starts it (so that a running
+/// sum equals the figures' `sum()` bit for bit).
+fn empty_sum() -> f64 {
+    std::iter::empty::<f64>().sum()
+}
+
+/// The error components of an epoch drawn by the error figures, in their
+/// units: position E/N/U (m), velocity nav x/y/z (m/s), attitude nav x/y/z
+/// (arcmin).
+pub(crate) fn error_components(e: &Epoch) -> [f64; 9] {
+    [
+        e.pos_enu.x,
+        e.pos_enu.y,
+        e.pos_enu.z,
+        e.vel_nav.x,
+        e.vel_nav.y,
+        e.vel_nav.z,
+        e.att_nav.x * ARCMIN,
+        e.att_nav.y * ARCMIN,
+        e.att_nav.z * ARCMIN,
+    ]
+}
+
+/// The σ of a row matching [`error_components`].
+pub(crate) fn sigma_components(r: &Row) -> [f64; 9] {
+    [
+        r.sigma_enu_m[0],
+        r.sigma_enu_m[1],
+        r.sigma_enu_m[2],
+        r.sigma_vel_nav_mps[0],
+        r.sigma_vel_nav_mps[1],
+        r.sigma_vel_nav_mps[2],
+        r.sigma_att_deg[0] * 60.0,
+        r.sigma_att_deg[1] * 60.0,
+        r.sigma_att_deg[2] * 60.0,
+    ]
+}
+
+/// The differences `compare_difference` draws of two epochs at one time.
+pub(crate) fn difference_components(a: &Epoch, b: &Epoch) -> [f64; 5] {
+    [
+        b.pos_enu.x - a.pos_enu.x,
+        b.pos_enu.y - a.pos_enu.y,
+        b.pos_enu.z - a.pos_enu.z,
+        (b.vel_enu - a.vel_enu).norm(),
+        (b.att_enu.z - a.att_enu.z) * ARCMIN,
+    ]
+}
+
+/// One run's sequences.
+#[derive(Debug)]
+struct RunFeed {
+    /// Rows: t, ECEF position (3), latitude (deg), gyro bias (3, rad/s),
+    /// accelerometer bias (3, m/s²).
+    rows: Spill<11>,
+    last_row: Option<Row>,
+    /// Epochs: t, the 9 error components, the cumulative horizontal RMSE.
+    epochs: Spill<11>,
+    last_epoch_t: Option<f64>,
+    cum_sum: f64,
+    cum_hi: f64,
+    hmax: f64,
+}
+
+impl RunFeed {
+    fn new() -> io::Result<Self> {
+        Ok(Self {
+            rows: Spill::new()?,
+            last_row: None,
+            epochs: Spill::new()?,
+            last_epoch_t: None,
+            cum_sum: 0.0,
+            cum_hi: 1e-3,
+            hmax: 0.0,
+        })
+    }
+}
+
+/// The first run's error figures: the errors against its ±3σ, paired in
+/// order as the figures zip them.
+#[derive(Debug)]
+struct ErrorFeed {
+    /// Bands: t, the 9 σ of the row at the epoch.
+    bands: Spill<10>,
+    extent: [Extent; 9],
+    sum_sq: [f64; 9],
+    inside: [u64; 9],
+    /// Finite band values per component (for the 99th percentile).
+    finite: [u64; 9],
+    errors_waiting: VecDeque<[f64; 9]>,
+    bands_waiting: VecDeque<[f64; 9]>,
+}
+
+/// The difference of the second run from the first at common epochs.
+#[derive(Debug)]
+struct PairFeed {
+    /// t and the 5 differences.
+    pairs: Spill<6>,
+    extent: [Extent; 5],
+    max_abs: [f64; 5],
+}
+
+/// What the figures need, fed in the order of the flight: rows of each
+/// run in file order, epochs of each run in truth order, the truth and
+/// truth bias in log order.
+#[derive(Debug)]
+pub struct FigureFeed {
+    labels: Vec<String>,
+    runs: Vec<RunFeed>,
+    errors: ErrorFeed,
+    pairs: PairFeed,
+    switches: Vec<Switch>,
+    /// Truth ECEF positions.
+    truth: Spill<3>,
+    /// Truth bias: t and gyro (3, rad/s), accelerometer (3, m/s²).
+    truth_bias: Spill<7>,
+    tb_extent: [Extent; 6],
+    tb_last: [f64; 6],
+}
+
+/// A sequence of points as a panel draws it: the points picked, and the
+/// extent of every point.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct Curve {
+    pub(crate) pts: Vec<(f64, f64)>,
+    pub(crate) extent: (f64, f64),
+}
+
+/// One error component of the first run.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct ErrorCurve {
+    pub(crate) err: Curve,
+    /// The ±3σ band picked, and the 99th percentile of |±3σ| over all.
+    pub(crate) band: Vec<(f64, f64, f64)>,
+    pub(crate) band_q99: f64,
+    /// Errors and bands in all, the errors' sum of squares, and the errors
+    /// inside the band of the same rank.
+    pub(crate) n_err: u64,
+    pub(crate) n_band: u64,
+    pub(crate) sum_sq: f64,
+    pub(crate) inside: u64,
+}
+
+/// The reduced data of every accuracy figure.
+#[derive(Debug, Clone, Default)]
+pub struct FigureData {
+    pub(crate) labels: Vec<String>,
+    pub(crate) switches: Vec<Switch>,
+    pub(crate) t_max: f64,
+    /// The first run's 9 error components.
+    pub(crate) errors: Vec<ErrorCurve>,
+    /// The first run's rows taken with the step `plots` takes through them:
+    /// (t, [gyro (°/h), accel (µg)]) per row.
+    pub(crate) bias_rows: Vec<(f64, [f64; 6])>,
+    /// The truth bias per component (°/h, µg), its last value.
+    pub(crate) truth_bias: Vec<Curve>,
+    pub(crate) truth_bias_last: [f64; 6],
+    pub(crate) truth_bias_n: u64,
+    /// The cumulative horizontal RMSE of each run, and the highest value.
+    pub(crate) cumulative: Vec<Curve>,
+    pub(crate) cumulative_hi: f64,
+    /// Differences (second − first run) per quantity, their largest |Δ|,
+    /// and the common epochs.
+    pub(crate) compare: Vec<Curve>,
+    pub(crate) compare_max: [f64; 5],
+    pub(crate) compare_n: u64,
+    /// Track: rows of the first run, the latitude of its middle row, the
+    /// ECEF positions picked of its rows, of the truth and of the second
+    /// run, and the first run's largest horizontal error.
+    pub(crate) rows_n: u64,
+    pub(crate) middle_lat_deg: f64,
+    pub(crate) track: Vec<[f64; 3]>,
+    pub(crate) track_truth: Vec<[f64; 3]>,
+    pub(crate) track_compare: Option<Vec<[f64; 3]>>,
+    pub(crate) hmax: f64,
+    /// The aid updates of the first run (an MCAP solution).
+    pub(crate) aids: Option<Aids<UpdatesOnDisk>>,
+}
+
+impl FigureFeed {
+    /// A feed for runs named `labels` (the first is the solution, a second
+    /// the comparison).
+    pub fn new(labels: &[&str]) -> io::Result<Self> {
+        Ok(Self {
+            labels: labels.iter().map(|l| (*l).to_owned()).collect(),
+            runs: labels
+                .iter()
+                .map(|_| RunFeed::new())
+                .collect::<io::Result<_>>()?,
+            errors: ErrorFeed {
+                bands: Spill::new()?,
+                extent: [Extent::default(); 9],
+                sum_sq: [empty_sum(); 9],
+                inside: [0; 9],
+                finite: [0; 9],
+                errors_waiting: VecDeque::new(),
+                bands_waiting: VecDeque::new(),
+            },
+            pairs: PairFeed {
+                pairs: Spill::new()?,
+                extent: [Extent::default(); 5],
+                max_abs: [0.0; 5],
+            },
+            switches: Vec::new(),
+            truth: Spill::new()?,
+            truth_bias: Spill::new()?,
+            tb_extent: [Extent::default(); 6],
+            tb_last: [f64::NAN; 6],
+        })
+    }
+
+    /// The next row of run `k`, in file order.
+    pub fn row(&mut self, k: usize, r: &Row) -> io::Result<()> {
+        let run = &mut self.runs[k];
+        let [x, y, z] = r.r_e_m;
+        let [gx, gy, gz] = r.gyro_bias_rps;
+        let [ax, ay, az] = r.accel_bias_mps2;
+        run.rows
+            .push_f64(&[r.t_s, x, y, z, r.lat_deg, gx, gy, gz, ax, ay, az])?;
+        if k == 0
+            && let Some(p) = &run.last_row
+            && p.frame != r.frame
+        {
+            self.switches.extend(plots::switches(&[*p, *r]));
+        }
+        run.last_row = Some(*r);
+        Ok(())
+    }
+
+    /// The next epoch of run `k`, in truth order.
+    pub fn epoch(&mut self, k: usize, e: &Epoch) -> io::Result<()> {
+        let c = error_components(e);
+        let run = &mut self.runs[k];
+        run.cum_sum += e.pos_enu.xy().norm_squared();
+        let n = run.epochs.len() + 1;
+        let cum = (run.cum_sum / n as f64).sqrt();
+        run.cum_hi = run.cum_hi.max(cum);
+        let mut rec = [0.0; 11];
+        rec[0] = e.t_s;
+        rec[1..10].copy_from_slice(&c);
+        rec[10] = cum;
+        run.epochs.push_f64(&rec)?;
+        run.last_epoch_t = Some(e.t_s);
+        if k == 0 {
+            run.hmax = run.hmax.max(e.pos_enu.xy().norm());
+            let f = &mut self.errors;
+            for (i, v) in c.iter().enumerate() {
+                f.extent[i].push(*v);
+                f.sum_sq[i] += v * v;
+            }
+            f.errors_waiting.push_back(c);
+            f.pair_up();
+        }
+        Ok(())
+    }
+
+    /// The next ±3σ band of the first run's error figures: the σ of the
+    /// row of an epoch at time `t` (the figures' n-th band goes with their
+    /// n-th error).
+    pub fn band(&mut self, t: f64, sigma: &[f64; 9]) -> io::Result<()> {
+        let f = &mut self.errors;
+        let mut rec = [0.0; 10];
+        rec[0] = t;
+        rec[1..].copy_from_slice(sigma);
+        f.bands.push_f64(&rec)?;
+        for (i, s) in sigma.iter().enumerate() {
+            f.finite[i] += u64::from((3.0 * s).is_finite());
+        }
+        f.bands_waiting.push_back(*sigma);
+        f.pair_up();
+        Ok(())
+    }
+
+    /// An epoch common to both runs (in the first run's epoch order).
+    pub fn pair(&mut self, a: &Epoch, b: &Epoch) -> io::Result<()> {
+        let d = difference_components(a, b);
+        let p = &mut self.pairs;
+        p.pairs.push_f64(&[a.t_s, d[0], d[1], d[2], d[3], d[4]])?;
+        for (i, v) in d.iter().enumerate() {
+            p.extent[i].push(*v);
+            p.max_abs[i] = p.max_abs[i].max(v.abs());
+        }
+        Ok(())
+    }
+
+    /// The next truth record of the log.
+    pub fn truth(&mut self, t: &TruthRecord) -> io::Result<()> {
+        self.truth.push_f64(&t.r_e_m)
+    }
+
+    /// The next truth-bias record of the log.
+    pub fn truth_bias(&mut self, b: &TruthBias) -> io::Result<()> {
+        let t = b.t_ns as f64 * 1e-9;
+        let [gx, gy, gz] = b.gyro_bias_rps;
+        let [ax, ay, az] = b.accel_bias_mps2;
+        self.truth_bias.push_f64(&[t, gx, gy, gz, ax, ay, az])?;
+        for (i, v) in bias_units(&[gx, gy, gz, ax, ay, az]).iter().enumerate() {
+            self.tb_extent[i].push(*v);
+            self.tb_last[i] = *v;
+        }
+        Ok(())
+    }
+
+    /// The reduced data, with the first run's aid updates.
+    pub fn finish(self, aids: Option<Aids<UpdatesOnDisk>>) -> io::Result<FigureData> {
+        let mut d = FigureData {
+            labels: self.labels,
+            switches: self.switches,
+            aids,
+            t_max: 1.0,
+            cumulative_hi: 1e-3,
+            truth_bias_last: self.tb_last,
+            middle_lat_deg: f64::NAN,
+            ..FigureData::default()
+        };
+        let mut runs = Vec::new();
+        for r in self.runs {
+            let RunFeed {
+                rows,
+                epochs,
+                last_row,
+                last_epoch_t,
+                cum_hi,
+                hmax,
+                ..
+            } = r;
+            for t in last_row.map(|x| x.t_s).into_iter().chain(last_epoch_t) {
+                d.t_max = d.t_max.max(t);
+            }
+            d.cumulative_hi = d.cumulative_hi.max(cum_hi);
+            runs.push((rows.seal()?, epochs.seal()?, hmax));
+        }
+        for (k, (rows, epochs, _)) in runs.iter().enumerate() {
+            let picked = epochs.every(step_of(epochs.len()))?;
+            // The figure's axis is fixed by the highest value of all runs.
+            d.cumulative.push(Curve {
+                pts: picked.iter().map(|x| (x[0], x[10])).collect(),
+                extent: (f64::INFINITY, f64::NEG_INFINITY),
+            });
+            let step = step_of(rows.len());
+            let picked = rows.every(step)?;
+            let positions: Vec<[f64; 3]> = picked.iter().map(|x| [x[1], x[2], x[3]]).collect();
+            if k == 0 {
+                d.rows_n = rows.len();
+                if !rows.is_empty() {
+                    d.middle_lat_deg = rows.get_f64(rows.len() / 2)?[4];
+                }
+                d.track = positions;
+                d.bias_rows = picked
+                    .iter()
+                    .map(|x| (x[0], bias_units(&[x[5], x[6], x[7], x[8], x[9], x[10]])))
+                    .collect();
+            } else if k == 1 {
+                d.track_compare = Some(positions);
+            }
+        }
+        if let Some((_, epochs, hmax)) = runs.first() {
+            d.hmax = *hmax;
+            d.errors = errors(epochs, self.errors)?;
+        }
+        let truth = self.truth.seal()?;
+        d.track_truth = truth
+            .every(step_of(truth.len()))?
+            .into_iter()
+            .map(|x| [x[0], x[1], x[2]])
+            .collect();
+        let tb = self.truth_bias.seal()?;
+        d.truth_bias_n = tb.len();
+        let picked = tb.every(step_of(tb.len()))?;
+        d.truth_bias = (0..6)
+            .map(|i| Curve {
+                pts: picked
+                    .iter()
+                    .map(|x| (x[0], bias_units(&[x[1], x[2], x[3], x[4], x[5], x[6]])[i]))
+                    .collect(),
+                extent: (self.tb_extent[i].lo, self.tb_extent[i].hi),
+            })
+            .collect();
+        if runs.len() > 1 {
+            let pairs = self.pairs.pairs.seal()?;
+            d.compare_n = pairs.len();
+            d.compare_max = self.pairs.max_abs;
+            let picked = pairs.every(step_of(pairs.len()))?;
+            d.compare = (0..5)
+                .map(|i| Curve {
+                    pts: picked.iter().map(|x| (x[0], x[1 + i])).collect(),
+                    extent: (self.pairs.extent[i].lo, self.pairs.extent[i].hi),
+                })
+                .collect();
+        }
+        Ok(d)
+    }
+}
+
+impl ErrorFeed {
+    /// Counts the errors inside the band of the same rank.
+    fn pair_up(&mut self) {
+        while !self.errors_waiting.is_empty() && !self.bands_waiting.is_empty() {
+            let (Some(e), Some(s)) = (
+                self.errors_waiting.pop_front(),
+                self.bands_waiting.pop_front(),
+            ) else {
+                break;
+            };
+            for i in 0..9 {
+                let (lo, hi) = (-3.0 * s[i], 3.0 * s[i]);
+                self.inside[i] += u64::from(e[i] >= lo && e[i] <= hi);
+            }
+        }
+    }
+}
+
+/// Biases in the figures' units: gyro °/h, accelerometer µg.
+fn bias_units(b: &[f64; 6]) -> [f64; 6] {
+    [
+        b[0] * plots::DEG_PER_H,
+        b[1] * plots::DEG_PER_H,
+        b[2] * plots::DEG_PER_H,
+        b[3] * plots::MICRO_G,
+        b[4] * plots::MICRO_G,
+        b[5] * plots::MICRO_G,
+    ]
+}
+
+/// The first run's error curves from its epochs and bands.
+fn errors(epochs: &Sealed<11>, f: ErrorFeed) -> io::Result<Vec<ErrorCurve>> {
+    let bands = f.bands.seal()?;
+    let picked = epochs.every(step_of(epochs.len()))?;
+    let picked_bands = bands.every(step_of(bands.len()))?;
+    // The 99th percentile of |±3σ| as the panel takes it of every band
+    // value (each |3σ| twice: once as −3σ, once as +3σ).
+    let ks: Vec<Option<u64>> = f
+        .finite
+        .iter()
+        .map(|&n| (n > 0).then(|| ((2 * n - 1) as f64 * 0.99).round() as u64 / 2))
+        .collect();
+    let q = kth_smallest(&ks, |put| {
+        bands.for_each_f64(|x| {
+            for i in 0..9 {
+                let v = 3.0 * x[1 + i];
+                if v.is_finite() {
+                    put(i, total_order_key(v.abs()));
+                }
+            }
+        })
+    })?;
+    Ok((0..9)
+        .map(|i| ErrorCurve {
+            err: Curve {
+                pts: picked.iter().map(|x| (x[0], x[1 + i])).collect(),
+                extent: (f.extent[i].lo, f.extent[i].hi),
+            },
+            band: picked_bands
+                .iter()
+                .map(|x| (x[0], -3.0 * x[1 + i], 3.0 * x[1 + i]))
+                .collect(),
+            band_q99: q[i].map_or(f64::NAN, crate::spill::from_total_order_key),
+            n_err: epochs.len(),
+            n_band: bands.len(),
+            sum_sq: f.sum_sq[i],
+            inside: f.inside[i],
+        })
+        .collect())
+}
+
+/// Feeds `feed` from runs held in memory, as the figures read them: every
+/// row, every epoch, the σ of the row at each epoch's time (the first row
+/// at or after the one of the previous epoch within 1 µs), and the epochs
+/// common to the first two runs (the second run's last epoch at the time).
+pub fn feed_from_memory(
+    feed: &mut FigureFeed,
+    runs: &[(&[Row], &[Epoch])],
+    truth: &[TruthRecord],
+    truth_bias: &[TruthBias],
+) -> io::Result<()> {
+    for (k, (rows, epochs)) in runs.iter().enumerate() {
+        for r in *rows {
+            feed.row(k, r)?;
+        }
+        for e in *epochs {
+            feed.epoch(k, e)?;
+        }
+        if k == 0 {
+            for (e, r) in epochs.iter().zip(plots::rows_at(rows, epochs)) {
+                if let Some(r) = r {
+                    feed.band(e.t_s, &sigma_components(r))?;
+                }
+            }
+        }
+    }
+    if let [(_, a), (_, b), ..] = runs {
+        let key = |t: f64| (t * 1e6).round() as i64;
+        let by_t: std::collections::HashMap<i64, &Epoch> =
+            b.iter().map(|e| (key(e.t_s), e)).collect();
+        for ea in *a {
+            if let Some(eb) = by_t.get(&key(ea.t_s)) {
+                feed.pair(ea, eb)?;
+            }
+        }
+    }
+    for t in truth {
+        feed.truth(t)?;
+    }
+    for b in truth_bias {
+        feed.truth_bias(b)?;
+    }
+    Ok(())
+}
