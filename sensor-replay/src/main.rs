@@ -6,7 +6,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 
 use clap::{Parser, Subcommand};
-use polarnav_eval::{eval, logfile, review};
+use polarnav_eval::logfile;
 use polarnav_foxglove::{AidSource, McapFile};
 use polarnav_sim::scenario::Scenario;
 use polarnav_sim::simulate::{self, SimOptions};
@@ -834,118 +834,22 @@ fn run(cli: Cli) -> Result<(), Fail> {
             reference,
             out,
         } => {
-            let c = logfile::load(&log).map_err(|e| bad(e.to_string()))?;
-            if !c.report.is_clean() {
-                polarnav_ipc::note!("warning: {}: {}", log.display(), c.report);
+            use polarnav_eval::run::{self, EvalError};
+            let e = run::run(&run::Args {
+                log: &log,
+                solution: &solution,
+                compare: compare.as_deref(),
+                reference: reference.as_deref(),
+                out: out.as_deref(),
+            })
+            .map_err(|e| match e {
+                EvalError::Input(m) => bad(m),
+                EvalError::Output(m) => Fail(1, m),
+            })?;
+            for n in &e.notes {
+                polarnav_ipc::note!("{n}");
             }
-            let name = c
-                .header
-                .as_ref()
-                .map_or("solution".to_owned(), |h| h.scenario.clone());
-            let mut md = String::new();
-            let mut loaded = Vec::new();
-            let mut aids = None;
-            let has_truth = !c.truth.is_empty();
-            if !has_truth {
-                md.push_str(&format!(
-                    "## {name}: no truth\n\n{} has no truth records (a live recording or an imported log): \
-                     no accuracy figures (position_errors, velocity_errors, attitude_errors, \
-                     horizontal_rmse and track compare with the truth; imu_biases with the true bias; \
-                     innovations and compare_difference are drawn with them). \
-                     The review below needs no truth.\n\n",
-                    log.display()
-                ));
-                if compare.is_some() {
-                    md.push_str(
-                        "`--compare` judges both runs against the truth and was skipped: \
-                         use `--reference` to draw the difference of two runs without truth.\n\n",
-                    );
-                }
-            }
-            for (label, path) in std::iter::once(("solution", &solution))
-                .chain(compare.as_ref().map(|p| ("compare", p)))
-                .filter(|_| has_truth)
-            {
-                let l = polarnav_eval::solution_file::load(path).map_err(bad)?;
-                if label == "solution" {
-                    aids = l.aids;
-                }
-                let rows = l.rows;
-                let ep = eval::epochs(&rows, &c.truth);
-                if ep.is_empty() {
-                    return Err(bad(format!(
-                        "{}: no solution row matches a truth epoch of {}",
-                        path.display(),
-                        log.display()
-                    )));
-                }
-                let s = eval::summarize(&rows, &ep);
-                let title = format!("Accuracy: {name} ({label}: {})", path.display());
-                md.push_str(&eval::markdown(&title, &s));
-                md.push('\n');
-                md.push_str(&eval::transients_markdown(
-                    label,
-                    &eval::switch_transients(&rows, &ep, 60.0, 200.0),
-                ));
-                md.push('\n');
-                let file_label = path
-                    .file_name()
-                    .map_or_else(|| label.to_owned(), |f| f.to_string_lossy().into_owned());
-                loaded.push((file_label, rows, ep));
-            }
-            if let Some(dir) = out.as_ref().filter(|_| has_truth) {
-                std::fs::create_dir_all(dir)
-                    .map_err(|e| Fail(1, format!("{}: {e}", dir.display())))?;
-                let series: Vec<polarnav_eval::plots::Series<'_>> = loaded
-                    .iter()
-                    .map(|(l, r, e)| polarnav_eval::plots::Series {
-                        label: l,
-                        rows: r,
-                        epochs: e,
-                    })
-                    .collect();
-                let files = polarnav_eval::plots::write_all(
-                    dir,
-                    &polarnav_eval::plots::Inputs {
-                        runs: &series,
-                        truth: &c.truth,
-                        truth_bias: &c.truth_bias,
-                        aids: aids.as_ref(),
-                    },
-                )
-                .map_err(|e| Fail(1, e.to_string()))?;
-                md.push_str("### Figures\n\n");
-                for f in &files {
-                    let n = f
-                        .path
-                        .file_name()
-                        .map_or_else(String::new, |x| x.to_string_lossy().into_owned());
-                    md.push_str(&format!("- `{n}`: {}\n\n  ![{n}]({n})\n", f.what));
-                }
-                if c.truth_bias.is_empty() {
-                    md.push_str(
-                        "- `imu_biases` shows the estimates only: the log has no truth-bias \
-                         records (logs simulated before navlog format 3, or imported)\n",
-                    );
-                }
-                md.push('\n');
-            }
-            if let [(_, a, _), (_, b, _)] = &loaded[..] {
-                md.push_str(&eval::deviation_markdown(
-                    &eval::deviation_after_switches(a, b, 200.0),
-                    200.0,
-                ));
-            }
-            let r = review::review(
-                &c,
-                &review::Options {
-                    solution: &solution,
-                    reference: reference.as_deref(),
-                    out: out.as_deref(),
-                },
-            )
-            .map_err(bad)?;
-            md.push_str(&r.markdown);
+            let md = e.markdown;
             // `eval ... | head`: the reader may stop early; the summary
             // file below is written all the same.
             print_stdout(&format!("{md}\n"))?;

@@ -11,5 +11,6 @@ pub mod figures;
 pub mod logfile;
 pub mod plots;
 pub mod review;
+pub mod run;
 pub mod solution_file;
 pub mod spill;
