@@ -561,3 +561,286 @@ pub fn feed_from_memory(
     }
     Ok(())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::eval::epochs;
+    use msgs::Solution;
+
+    fn lcg(seed: u64) -> impl FnMut() -> f64 {
+        let mut s = seed;
+        move || {
+            s = s
+                .wrapping_mul(6_364_136_223_846_793_005)
+                .wrapping_add(1_442_695_040_888_963_407);
+            (s >> 11) as f64 / (1u64 << 53) as f64
+        }
+    }
+
+    /// What the figures took from every point, computed here from the
+    /// vectors as plots.rs did before it streamed: `decimate`, the finite
+    /// extremes, the 99th percentile of |band|, and the titles' sums.
+    fn decimate<T: Copy>(v: &[T]) -> Vec<T> {
+        v.iter()
+            .step_by((v.len() / MAX_POINTS).max(1))
+            .copied()
+            .collect()
+    }
+
+    fn extent(v: impl Iterator<Item = f64>) -> (f64, f64) {
+        v.filter(|x| x.is_finite())
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| {
+                (a.min(x), b.max(x))
+            })
+    }
+
+    fn q99(v: impl Iterator<Item = f64>) -> f64 {
+        let mut v: Vec<f64> = v.filter(|x| x.is_finite()).map(f64::abs).collect();
+        if v.is_empty() {
+            return f64::NAN;
+        }
+        v.sort_by(f64::total_cmp);
+        v[((v.len() - 1) as f64 * 0.99).round() as usize]
+    }
+
+    fn bits(v: &[(f64, f64)]) -> Vec<(u64, u64)> {
+        v.iter().map(|p| (p.0.to_bits(), p.1.to_bits())).collect()
+    }
+
+    /// Two runs of 23 456 rows (every point picked with a step of 4) and
+    /// 11 729 epochs (step 2), σ now and then NaN or infinite, errors
+    /// now and then NaN, the second run at other times: the reduced data
+    /// equal, bit for bit, what the figures took from every point.
+    #[test]
+    fn figure_data_equals_what_the_figures_took_from_every_point() {
+        let mut u = lcg(5);
+        let mut rows: [Vec<Row>; 2] = [Vec::new(), Vec::new()];
+        for (k, run) in rows.iter_mut().enumerate() {
+            for i in 0..23_456u64 {
+                let t_ns = i * 10_000_000 + k as u64 * 5_000_000;
+                let mut s = Solution {
+                    t_ns,
+                    lat_rad: (80.0 + 9.0 * u()).to_radians(),
+                    r_e_m: [1e5 * u(), 2e5 * u(), 6.3e6],
+                    v_e_mps: [250.0 * u(), 1.0, 0.0],
+                    q_b_e: [1.0, 0.0, 0.0, 0.0],
+                    gyro_bias_rps: [1e-8 * u(), -2e-8, u() * 1e-7],
+                    accel_bias_mps2: [1e-4 * u(), 5e-5, 0.0],
+                    sigma_pos_enu_m: [5.0 * u(), 3.0, 1.0 + u()],
+                    sigma_vel_mps: [0.1 * u(), 0.1, 0.01],
+                    sigma_att_rad: [1e-4 * u(), 1e-4, 3e-4],
+                    frame: u8::from((7000..15_000).contains(&i)),
+                    ..Default::default()
+                };
+                match i % 997 {
+                    3 => s.sigma_pos_enu_m[0] = f64::NAN,
+                    5 => s.sigma_vel_mps[1] = f64::INFINITY,
+                    7 => s.r_e_m[2] = f64::NAN,
+                    _ => {}
+                }
+                run.push(Row::from_solution(&s));
+            }
+        }
+        let truth: Vec<TruthRecord> = (0..23_456u64)
+            .filter(|i| i % 2 == 0 || i % 7 == 0)
+            .map(|i| TruthRecord {
+                t_ns: i * 10_000_000,
+                r_e_m: [1e5 * u(), 2e5 * u(), 6.3e6 + u()],
+                v_e_mps: [250.0 * u(), 1.0, 0.0],
+                q_b_e: [1.0, 0.0, 0.0, 0.0],
+            })
+            .collect();
+        let truth_bias: Vec<TruthBias> = (0..9_000u64)
+            .map(|i| TruthBias {
+                t_ns: i * 25_000_000,
+                gyro_bias_rps: [u() * 1e-8, 1e-8, -u() * 1e-8],
+                accel_bias_mps2: [u() * 1e-3, 0.0, 1e-4],
+            })
+            .collect();
+        // The second run's epochs are at other times but for the truth at
+        // whole 10 ms: put a few of its rows there.
+        for r in rows[1].iter_mut().step_by(3) {
+            r.t_s = (r.t_s * 100.0).floor() / 100.0;
+        }
+        rows[1].sort_by(|a, b| a.t_s.total_cmp(&b.t_s));
+        rows[1].dedup_by(|a, b| a.t_s.to_bits() == b.t_s.to_bits());
+        let ep: [Vec<Epoch>; 2] = [epochs(&rows[0], &truth), epochs(&rows[1], &truth)];
+        assert!(
+            ep[0].len() > 10_000 && ep[1].len() > 1000,
+            "{} {}",
+            ep[0].len(),
+            ep[1].len()
+        );
+
+        let mut feed = FigureFeed::new(&["a", "b"]).expect("feed");
+        let runs: Vec<(&[Row], &[Epoch])> = vec![(&rows[0], &ep[0]), (&rows[1], &ep[1])];
+        feed_from_memory(&mut feed, &runs, &truth, &truth_bias).expect("feed");
+        let d = feed.finish(None).expect("finish");
+
+        // The error figures of the first run.
+        let at = plots::rows_at(&rows[0], &ep[0]);
+        for (c, e) in d.errors.iter().enumerate() {
+            let err: Vec<(f64, f64)> = ep[0]
+                .iter()
+                .map(|x| (x.t_s, error_components(x)[c]))
+                .collect();
+            let band: Vec<(f64, f64, f64)> = ep[0]
+                .iter()
+                .zip(&at)
+                .filter_map(|(x, r)| {
+                    r.map(|r| {
+                        (
+                            x.t_s,
+                            -3.0 * sigma_components(r)[c],
+                            3.0 * sigma_components(r)[c],
+                        )
+                    })
+                })
+                .collect();
+            assert_eq!(bits(&e.err.pts), bits(&decimate(&err)), "channel {c}");
+            let want = extent(err.iter().map(|p| p.1));
+            assert_eq!(
+                (e.err.extent.0.to_bits(), e.err.extent.1.to_bits()),
+                (want.0.to_bits(), want.1.to_bits())
+            );
+            let picked: Vec<(f64, f64)> = decimate(&band).iter().map(|b| (b.1, b.2)).collect();
+            let got: Vec<(f64, f64)> = e.band.iter().map(|b| (b.1, b.2)).collect();
+            assert_eq!(bits(&got), bits(&picked), "band {c}");
+            let q = q99(band.iter().flat_map(|b| [b.1, b.2]));
+            assert_eq!(
+                e.band_q99.to_bits(),
+                q.to_bits(),
+                "q99 {c}: {} {q}",
+                e.band_q99
+            );
+            let sum_sq = err.iter().map(|p| p.1 * p.1).sum::<f64>();
+            assert_eq!(e.sum_sq.to_bits(), sum_sq.to_bits());
+            let inside = err
+                .iter()
+                .zip(&band)
+                .filter(|(x, b)| x.1 >= b.1 && x.1 <= b.2)
+                .count();
+            assert_eq!(
+                (e.inside, e.n_err, e.n_band),
+                (inside as u64, err.len() as u64, band.len() as u64)
+            );
+        }
+        assert!(d.errors[0].band_q99.is_finite() && d.errors[4].band_q99.is_finite());
+        // The cumulative RMSE of both runs and its highest value.
+        let mut hi = 1e-3f64;
+        for (k, c) in d.cumulative.iter().enumerate() {
+            let mut sum = 0.0;
+            let curve: Vec<(f64, f64)> = ep[k]
+                .iter()
+                .enumerate()
+                .map(|(i, e)| {
+                    sum += e.pos_enu.xy().norm_squared();
+                    (e.t_s, (sum / (i + 1) as f64).sqrt())
+                })
+                .collect();
+            hi = curve.iter().map(|p| p.1).fold(hi, f64::max);
+            assert_eq!(bits(&c.pts), bits(&decimate(&curve)), "run {k}");
+        }
+        assert_eq!(d.cumulative_hi.to_bits(), hi.to_bits());
+        // The differences at common epochs.
+        let by_t: std::collections::HashMap<i64, &Epoch> = ep[1]
+            .iter()
+            .map(|e| (crate::eval::time_key(e.t_s), e))
+            .collect();
+        let pairs: Vec<(&Epoch, &Epoch)> = ep[0]
+            .iter()
+            .filter_map(|a| by_t.get(&crate::eval::time_key(a.t_s)).map(|b| (a, *b)))
+            .collect();
+        assert_eq!(d.compare_n, pairs.len() as u64);
+        for q in 0..5 {
+            let v: Vec<(f64, f64)> = pairs
+                .iter()
+                .map(|(a, b)| (a.t_s, difference_components(a, b)[q]))
+                .collect();
+            assert_eq!(
+                bits(&d.compare[q].pts),
+                bits(&decimate(&v)),
+                "difference {q}"
+            );
+            let want = extent(v.iter().map(|p| p.1));
+            assert_eq!(d.compare[q].extent.0.to_bits(), want.0.to_bits());
+            assert_eq!(d.compare[q].extent.1.to_bits(), want.1.to_bits());
+            let mx = v.iter().map(|p| p.1.abs()).fold(0.0, f64::max);
+            assert_eq!(d.compare_max[q].to_bits(), mx.to_bits());
+        }
+        // Track, biases, truth bias, time axis, switches.
+        let r3 = |v: &[f64; 3]| v.map(f64::to_bits);
+        let want: Vec<[u64; 3]> = decimate(&rows[0]).iter().map(|r| r3(&r.r_e_m)).collect();
+        assert_eq!(d.track.iter().map(r3).collect::<Vec<_>>(), want);
+        let want: Vec<[u64; 3]> = decimate(&rows[1]).iter().map(|r| r3(&r.r_e_m)).collect();
+        assert_eq!(
+            d.track_compare
+                .as_ref()
+                .expect("compare")
+                .iter()
+                .map(r3)
+                .collect::<Vec<_>>(),
+            want
+        );
+        let want: Vec<[u64; 3]> = decimate(&truth).iter().map(|t| r3(&t.r_e_m)).collect();
+        assert_eq!(d.track_truth.iter().map(r3).collect::<Vec<_>>(), want);
+        assert_eq!(
+            d.middle_lat_deg.to_bits(),
+            rows[0][rows[0].len() / 2].lat_deg.to_bits()
+        );
+        let hmax = ep[0]
+            .iter()
+            .map(|e| e.pos_enu.xy().norm())
+            .fold(0.0, f64::max);
+        assert_eq!(d.hmax.to_bits(), hmax.to_bits());
+        let step = (rows[0].len() / MAX_POINTS).max(1);
+        assert_eq!(step, 4);
+        for (i, r) in rows[0].iter().step_by(step).enumerate() {
+            let (t, b) = d.bias_rows[i];
+            assert_eq!(t.to_bits(), r.t_s.to_bits());
+            assert_eq!(
+                b[1].to_bits(),
+                (r.gyro_bias_rps[1] * plots::DEG_PER_H).to_bits()
+            );
+            assert_eq!(
+                b[3].to_bits(),
+                (r.accel_bias_mps2[0] * plots::MICRO_G).to_bits()
+            );
+        }
+        for k in 0..6 {
+            let v: Vec<(f64, f64)> = truth_bias
+                .iter()
+                .map(|b| {
+                    let x = if k < 3 {
+                        b.gyro_bias_rps[k] * plots::DEG_PER_H
+                    } else {
+                        b.accel_bias_mps2[k - 3] * plots::MICRO_G
+                    };
+                    (b.t_ns as f64 * 1e-9, x)
+                })
+                .collect();
+            assert_eq!(
+                bits(&d.truth_bias[k].pts),
+                bits(&decimate(&v)),
+                "truth bias {k}"
+            );
+            let want = extent(v.iter().map(|p| p.1));
+            assert_eq!(d.truth_bias[k].extent.0.to_bits(), want.0.to_bits());
+            assert_eq!(d.truth_bias_last[k].to_bits(), v[v.len() - 1].1.to_bits());
+        }
+        let t_max = [&rows[0], &rows[1]]
+            .iter()
+            .zip(&ep)
+            .flat_map(|(r, e)| {
+                r.last()
+                    .map(|x| x.t_s)
+                    .into_iter()
+                    .chain(e.last().map(|e| e.t_s))
+            })
+            .fold(1.0, f64::max);
+        assert_eq!(d.t_max.to_bits(), t_max.to_bits());
+        assert_eq!(d.switches, plots::switches(&rows[0]));
+        assert_eq!(d.switches.len(), 2);
+    }
+}
