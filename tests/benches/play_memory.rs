@@ -20,7 +20,7 @@ use polarnav_tests::bin;
 use polarnav_tests::harness::Env;
 
 /// The peak resident set `play` stays under (MB), whatever the log's length.
-const PLAY_RSS_BOUND_MB: f64 = 64.0;
+const PLAY_RSS_BOUND_MB: f64 = 32.0;
 
 /// Writes `seconds` of a 200 Hz flight; its size in bytes.
 fn write_log(path: &Path, seconds: u64) -> u64 {
