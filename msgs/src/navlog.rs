@@ -337,6 +337,10 @@ pub struct ReadReport {
     pub skipped_bytes: u64,
     /// Byte offset of the first skipped frame, if any.
     pub first_skip_offset: Option<u64>,
+    /// Byte offset of the first frame skipped for a checksum mismatch whose
+    /// contents, read without the failed check, are an init record: a
+    /// damaged init record, which a reader that finds no init names.
+    pub damaged_init_offset: Option<u64>,
 }
 
 impl ReadReport {
@@ -380,7 +384,11 @@ impl std::fmt::Display for ReadReport {
             self.truncated,
             self.oversized,
             self.first_skip_offset.unwrap_or(0)
-        )
+        )?;
+        match self.damaged_init_offset {
+            Some(at) => write!(f, "; the frame at byte {at} was an init record"),
+            None => Ok(()),
+        }
     }
 }
 
@@ -454,7 +462,15 @@ impl<R: BufRead> NavlogReader<R> {
                     self.report.records += 1;
                     return Ok(Some(record));
                 }
-                Err(reason) => self.report.note(reason, start, n as u64),
+                Err(reason) => {
+                    self.report.note(reason, start, n as u64);
+                    if reason == SkipReason::Checksum
+                        && self.report.damaged_init_offset.is_none()
+                        && unchecked_is_init(&self.decoded)
+                    {
+                        self.report.damaged_init_offset = Some(start);
+                    }
+                }
             }
         }
         Ok(None)
@@ -550,6 +566,17 @@ fn decode_frame(frame: &[u8], decoded: &mut Vec<u8>) -> Result<Record, SkipReaso
             _ => Err(SkipReason::Decode),
         },
     }
+}
+
+/// True when a decoded frame whose checksum failed still reads, without
+/// its checksum, as an init record (the last 4 bytes are the CRC). Only a
+/// hint for messages: its values are not to be trusted.
+fn unchecked_is_init(decoded: &[u8]) -> bool {
+    decoded.len() >= 5
+        && matches!(
+            postcard::from_bytes::<Record>(&decoded[..decoded.len() - 4]),
+            Ok(Record::Init(_))
+        )
 }
 
 /// The records of earlier formats whose layout changed, as they were
@@ -862,6 +889,55 @@ mod tests {
                 assert_eq!(report.records, back.len() as u64);
             }
         }
+    }
+
+    /// One flipped bit in an init record's contents is a checksum
+    /// mismatch that the report names as a damaged init record at the
+    /// frame's offset; damage to another record is not named so.
+    #[test]
+    fn a_damaged_init_record_is_named_with_its_offset() {
+        let records = sample_records();
+        let bytes = encode(&records);
+        let starts: Vec<usize> = std::iter::once(0)
+            .chain(
+                bytes
+                    .iter()
+                    .enumerate()
+                    .filter(|(_, b)| **b == 0)
+                    .map(|(i, _)| i + 1),
+            )
+            .collect();
+        let init = records
+            .iter()
+            .position(|r| matches!(r, Record::Init(_)))
+            .expect("sample has an init");
+        // A byte in the middle of the init record's values, well after its
+        // variant tag: the flip leaves the COBS structure as it is.
+        let mut named = 0;
+        for pos in starts[init] + 8..starts[init + 1] - 8 {
+            let mut damaged = bytes.clone();
+            damaged[pos] ^= 0x04;
+            let (back, report) = read_all(&damaged);
+            assert!(!back.iter().any(|r| matches!(r, Record::Init(_))));
+            if report.checksum == 1 {
+                assert_eq!(report.damaged_init_offset, Some(starts[init] as u64));
+                assert!(
+                    report
+                        .to_string()
+                        .contains(&format!("the frame at byte {} was an init record", starts[init])),
+                    "{report}"
+                );
+                named += 1;
+            }
+        }
+        assert!(named > 20, "only {named} flips named the init record");
+        // The same flip in the record after it names no init record.
+        let pos = (starts[init + 1] + starts[init + 2]) / 2;
+        let mut damaged = bytes.clone();
+        damaged[pos] ^= 0x04;
+        let (_, report) = read_all(&damaged);
+        assert!(report.skipped_frames() == 1, "{report}");
+        assert_eq!(report.damaged_init_offset, None, "{report}");
     }
 
     /// Frames `body` (postcard bytes) as the writer does.

@@ -92,11 +92,13 @@ pub enum BatchError {
     /// Invalid settings (exit 2).
     #[error(transparent)]
     Config(#[from] ConfigError),
-    /// The log never gave the session a state to navigate from (exit 2).
+    /// The log never gave the session a state to navigate from (exit 2);
+    /// `read` says what the reader skipped, which may have been the init.
     #[error(
-        "{0}: no init record that the IMU data reached, and no [init] in the configuration; the log cannot be navigated"
+        "{log}: no init record that the IMU data reached, and no [init] in the configuration; the log cannot be navigated{}",
+        skipped_init_note(read)
     )]
-    NoInit(String),
+    NoInit { log: String, read: ReadReport },
     /// The alignment could not be solved (exit 1).
     #[error("{0}: alignment failed: {1}")]
     Align(String, AlignError),
@@ -125,12 +127,29 @@ impl BatchError {
     /// Process exit status per DESIGN.
     pub fn exit_code(&self) -> i32 {
         match self {
-            BatchError::Config(_) | BatchError::NoInit(_) | BatchError::AlignIncomplete { .. } => 2,
+            BatchError::Config(_)
+            | BatchError::NoInit { .. }
+            | BatchError::AlignIncomplete { .. } => 2,
             BatchError::Read { .. }
             | BatchError::Write(_)
             | BatchError::Mcap(_)
             | BatchError::Align(..) => 1,
         }
+    }
+}
+
+/// What a log without a usable init skipped: the init record itself when
+/// a damaged frame reads as one, else any damaged frame (it may have been).
+fn skipped_init_note(read: &ReadReport) -> String {
+    match (read.damaged_init_offset, read.first_skip_offset) {
+        (Some(at), _) => format!(
+            ": its init record at byte {at} is damaged (checksum mismatch) and was skipped"
+        ),
+        (None, Some(at)) => format!(
+            ": the reader skipped {} damaged frame(s), the first at byte {at}; the init record may be among them",
+            read.skipped_frames()
+        ),
+        (None, None) => String::new(),
     }
 }
 
@@ -441,7 +460,10 @@ pub fn run_to<R: BufRead + Send, W: Write>(
         });
     }
     let Some(nav) = session.navigator() else {
-        return Err(BatchError::NoInit(log_name.to_owned()));
+        return Err(BatchError::NoInit {
+            log: log_name.to_owned(),
+            read,
+        });
     };
     let covariance_repairs = nav.covariance_repairs();
     let smoothed = match sink.smoother.take() {

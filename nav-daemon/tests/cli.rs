@@ -142,6 +142,48 @@ fn log_without_init_is_refused_with_exit_2() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
+/// One flipped bit in the only init record: batch still exits 2, and the
+/// message says the init record was there but damaged, naming the byte
+/// offset of its frame (it used to report it as missing).
+#[test]
+fn a_damaged_init_record_is_named_with_its_offset_and_exits_2() {
+    let dir = temp_dir("badinit");
+    let clean = stationary_log(10, true);
+    // The init record is the second frame: it starts after the header's
+    // delimiter and ends at the next one.
+    let zeros: Vec<usize> = clean
+        .iter()
+        .enumerate()
+        .filter(|(_, b)| **b == 0)
+        .map(|(i, _)| i)
+        .collect();
+    let (start, end) = (zeros[0] + 1, zeros[1]);
+    // A bit in the middle of its values: not a COBS code byte (those are
+    // where the payload had zeros), so the frame decodes and only its
+    // checksum fails.
+    let mut damaged = clean.clone();
+    let pos = (start + 16..end - 8)
+        .find(|&i| {
+            let mut d = clean.clone();
+            d[i] ^= 0x08;
+            let (_, report) = msgs::navlog::read_all(&d);
+            report.checksum == 1
+        })
+        .expect("a byte whose flip is a checksum mismatch");
+    damaged[pos] ^= 0x08;
+    let (code, err, _) = run_batch(&dir, &damaged, &[]);
+    assert_eq!(code, 2, "{err}");
+    let expected = format!("its init record at byte {start} is damaged (checksum mismatch)");
+    assert!(
+        err.contains("in.navlog") && err.contains(&expected),
+        "expected {expected:?} in: {err}"
+    );
+    // The same log intact navigates.
+    let (code, err, _) = run_batch(&dir, &clean, &[]);
+    assert_eq!(code, 0, "{err}");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
 #[test]
 fn bad_options_exit_2_with_a_clear_message() {
     let dir = temp_dir("opts");
