@@ -7,7 +7,11 @@ use std::path::{Path, PathBuf};
 use std::process::Command;
 
 fn git(root: &Path, args: &[&str]) -> Option<String> {
+    // --no-optional-locks: `git status` must not refresh and rewrite the
+    // index, which this script watches (a rewrite during the run would make
+    // the next build run it again).
     let out = Command::new("git")
+        .arg("--no-optional-locks")
         .arg("-C")
         .arg(root)
         .args(args)
@@ -16,6 +20,37 @@ fn git(root: &Path, args: &[&str]) -> Option<String> {
     out.status
         .success()
         .then(|| String::from_utf8_lossy(&out.stdout).trim().to_owned())
+}
+
+/// The files whose change can change the commit or the dirty mark: this
+/// worktree's `HEAD` and `index`, and the ref `HEAD` names. A loose ref is
+/// rewritten by every commit; a ref only in `packed-refs` gets a loose file
+/// at the next commit, so then `packed-refs` and the nearest existing
+/// directory of that loose file are watched (cargo watches a directory's
+/// entries, created and removed ones included). The main worktree's `HEAD`
+/// and `index` and the other branches are not watched: they change no
+/// commit of this one.
+fn commit_files(root: &Path) -> Vec<PathBuf> {
+    let dir = |arg: &str| git(root, &["rev-parse", arg]).map(|d| root.join(d));
+    let (Some(git_dir), Some(common)) = (dir("--git-dir"), dir("--git-common-dir")) else {
+        return Vec::new();
+    };
+    let mut files = vec![git_dir.join("HEAD"), git_dir.join("index")];
+    // The reftable format keeps every ref in one directory.
+    files.push(common.join("reftable"));
+    // A detached HEAD holds the commit itself.
+    if let Some(name) = git(root, &["symbolic-ref", "-q", "HEAD"]) {
+        let loose = common.join(&name);
+        if loose.exists() {
+            files.push(loose);
+        } else {
+            files.push(common.join("packed-refs"));
+            if let Some(d) = loose.ancestors().skip(1).find(|d| d.exists()) {
+                files.push(d.to_path_buf());
+            }
+        }
+    }
+    files
 }
 
 fn main() {
@@ -40,17 +75,15 @@ fn main() {
     };
     println!("cargo:rustc-env=POLARNAV_GIT_COMMIT={text}");
     // Again when the commit or the index moves, or a source of the binaries
-    // changes (dirty or clean again); not on every build.
+    // changes (dirty or clean again); not on every build. Only paths that
+    // exist: cargo takes a missing one as changed, and would rerun this
+    // script, and rebuild every crate after it, on every build (a clone may
+    // have no `packed-refs`; a worktree's own git directory has neither it
+    // nor the branch refs, which are in the common directory).
     if ours {
-        for args in [
-            ["rev-parse", "--git-dir"],
-            ["rev-parse", "--git-common-dir"],
-        ] {
-            if let Some(d) = git(&root, &args) {
-                let d = root.join(d);
-                for f in ["HEAD", "index", "packed-refs", "refs"] {
-                    println!("cargo:rerun-if-changed={}", d.join(f).display());
-                }
+        for p in commit_files(&root) {
+            if p.exists() {
+                println!("cargo:rerun-if-changed={}", p.display());
             }
         }
     }
