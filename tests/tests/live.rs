@@ -906,7 +906,8 @@ fn daemon_is_ready_without_input_names_what_it_waits_for_and_feeds_the_watchdog(
 /// The shipped units start in an order that cannot deadlock: every unit
 /// ordered after the daemon waits only for its READY, which (test above)
 /// needs no input; the daemon orders itself after none of them; every unit
-/// has a start timeout.
+/// has a start timeout. The recorder is ordered before the daemon, so that
+/// it is stopped after it (`recorder.rs` tests that stop order).
 #[test]
 fn units_order_after_a_daemon_that_is_ready_without_input() {
     let dir = repo("systemd");
@@ -961,9 +962,28 @@ fn units_order_after_a_daemon_that_is_ready_without_input() {
             );
         }
     }
+    assert_eq!(clients, 2, "replay and view are ordered after the daemon");
+    let recorder = read("nav-recorder.service");
+    assert!(
+        keys(&recorder, "Before")
+            .iter()
+            .any(|u| u == "nav-daemon.service"),
+        "the recorder is ordered before the daemon"
+    );
+    assert!(
+        !keys(&daemon, "Before")
+            .iter()
+            .any(|u| u == "nav-recorder.service"),
+        "nav-daemon.service Before= nav-recorder.service: a start-up cycle"
+    );
     assert_eq!(
-        clients, 3,
-        "replay, recorder and view are ordered after the daemon"
+        keys(&recorder, "Environment")
+            .iter()
+            .find(|e| e.starts_with("POLARNAV_IOX_ROOT=")),
+        keys(&daemon, "Environment")
+            .iter()
+            .find(|e| e.starts_with("POLARNAV_IOX_ROOT=")),
+        "the recorder has another iceoryx2 root than the daemon's"
     );
 }
 

@@ -2,15 +2,17 @@
 //! iceoryx2 between separate processes (replay → daemon → recorder), each
 //! test on its own service prefix and iceoryx2 root, every wait with a
 //! deadline: rotation and retention bounds, each piece navigable alone,
-//! the prefix from the daemon's configuration, and a full tmpfs.
+//! the prefix from the daemon's configuration, a full tmpfs, and the stop
+//! order of the shipped units.
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 use msgs::navlog::Record;
-use polarnav_tests::bin;
-use polarnav_tests::harness::{Env, Proc, short_log, wait};
+use polarnav_config::{CliOverrides, ConfigFile, effective};
+use polarnav_tests::harness::{Env, Proc, short_log, terminate, wait};
+use polarnav_tests::{bin, repo};
 use sensor_replay::pieces::list_pieces;
 
 fn sigterm(pid: u32) {
@@ -242,4 +244,140 @@ fn a_full_tmpfs_is_reported_counted_and_survived_and_the_replay_loses_nothing() 
     // The torn piece still reads up to its tear.
     let (records, _) = msgs::navlog::read_all(&std::fs::read(&pieces[0]).expect("piece"));
     assert!(records.len() > 100, "{}", records.len());
+}
+
+/// The shipped units as systemd orders them: `true` when the recorder
+/// starts before the daemon (so is stopped after it), `false` when after.
+/// Read from their `After=` and `Before=`; without an order between them
+/// systemd would stop both at once, which no recording can rely on.
+fn recorder_starts_first() -> bool {
+    let unit = |name: &str| std::fs::read_to_string(repo("systemd").join(name)).expect(name);
+    let (daemon, recorder) = (unit("nav-daemon.service"), unit("nav-recorder.service"));
+    let names = |text: &str, key: &str, of: &str| {
+        text.lines()
+            .filter_map(|l| l.strip_prefix(&format!("{key}=")))
+            .any(|v| v.split_whitespace().any(|u| u == of))
+    };
+    let before = names(&recorder, "Before", "nav-daemon.service")
+        || names(&daemon, "After", "nav-recorder.service");
+    let after = names(&recorder, "After", "nav-daemon.service")
+        || names(&daemon, "Before", "nav-recorder.service");
+    assert!(
+        before != after,
+        "the units order the recorder and the daemon {}",
+        if before { "both ways" } else { "not at all" }
+    );
+    before
+}
+
+/// A flight recorded by the shipped units stopped as systemd stops them at
+/// shutdown (the reverse of their start order, each stop complete before
+/// the next): the recording ends with the daemon's last solution and its
+/// final status, and `batch` on it equals the live run.
+#[test]
+fn stopped_in_the_units_shutdown_order_the_recording_holds_the_last_solution_and_final_status() {
+    let env = Env::new("stoporder");
+    let log = short_log(&env.dir, 20.0);
+    let rec_path = env.dir.join("recorded.navlog");
+    let recorder_first = recorder_starts_first();
+    let (mut daemon, mut recorder) = if recorder_first {
+        let r = env.start_recorder(&rec_path);
+        (env.start_daemon("daemon", None), r)
+    } else {
+        let d = env.start_daemon("daemon", None);
+        (d, env.start_recorder(&rec_path))
+    };
+    let mut play = env.start_play("play", &log, "10");
+    assert_eq!(wait(&mut play, Duration::from_secs(120)), Some(0), "play");
+    let stop = |p: &mut Proc, name: &str| {
+        assert_eq!(
+            terminate(&mut p.0, Duration::from_secs(20)),
+            Some(0),
+            "{name} did not stop cleanly: {}",
+            env.read(&format!("{name}.err"))
+        );
+    };
+    if recorder_first {
+        stop(&mut daemon, "daemon");
+        stop(&mut recorder, "record");
+    } else {
+        stop(&mut recorder, "record");
+        stop(&mut daemon, "daemon");
+    }
+
+    // What the daemon published last: batch's last solution (live equals
+    // batch bit for bit), and a final status whose cycle count is the one
+    // it logs as it stops.
+    let file = ConfigFile::load(&env.dir.join("nav.toml")).expect("config");
+    let navigate = |bytes: &[u8]| {
+        let (records, report) = msgs::navlog::read_all(bytes);
+        assert!(report.is_clean(), "{report}");
+        let meta = records.iter().find_map(|r| match r {
+            Record::Header(h) => Some(h.metadata.clone()),
+            _ => None,
+        });
+        let eff = effective(&file, meta.as_deref(), &CliOverrides::default()).expect("settings");
+        let (out, status) = polarnav::session::navigate(&records, eff.session());
+        (records, out.solutions, status)
+    };
+    let (_, batch, batch_status) = navigate(&std::fs::read(&log).expect("log"));
+    let daemon_log = env.read("daemon.err");
+    let final_cycles: u64 = daemon_log
+        .lines()
+        .find(|l| l.contains("final status published"))
+        .and_then(|l| l.split_whitespace().find_map(|w| w.strip_prefix("cycles=")))
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("no final status line with cycles=: {daemon_log}"));
+
+    let recording = std::fs::read(&rec_path).expect("recording");
+    let (records, replayed, _) = navigate(&recording);
+    let last_solution = records.iter().rev().find_map(|r| match r {
+        Record::Solution(s) => Some(**s),
+        _ => None,
+    });
+    let last_status = records.iter().rev().find_map(|r| match r {
+        Record::Status(s) => Some(**s),
+        _ => None,
+    });
+    let last_batch = batch.last().copied().expect("batch solutions");
+    eprintln!(
+        "recorder {} the daemon; recorded last solution t = {:?} ns, batch's t = {} ns; \
+         last status cycles {:?}, the daemon's final {final_cycles}",
+        if recorder_first { "started before" } else { "started after" },
+        last_solution.map(|s| s.t_ns),
+        last_batch.t_ns,
+        last_status.map(|s| s.cycles),
+    );
+    assert_eq!(
+        last_solution,
+        Some(last_batch),
+        "the recording does not end with the daemon's last solution"
+    );
+    let last_status = last_status.expect("no status recorded");
+    assert_eq!(
+        last_status.cycles, final_cycles,
+        "the recording's last status is not the daemon's final one"
+    );
+    let counts = |c: &msgs::StreamCounters| (c.received, c.accepted, c.not_used);
+    assert_eq!(
+        counts(last_status.imu()),
+        counts(batch_status.imu()),
+        "the final status's IMU counters (received, accepted, not used) against batch's"
+    );
+    // batch on the recording: the live run, every solution and the last.
+    let by_t: std::collections::HashMap<u64, &msgs::Solution> =
+        replayed.iter().map(|s| (s.t_ns, s)).collect();
+    let live: Vec<&msgs::Solution> = records
+        .iter()
+        .filter_map(|r| match r {
+            Record::Solution(s) => Some(&**s),
+            _ => None,
+        })
+        .collect();
+    let differing = live
+        .iter()
+        .filter(|s| by_t.get(&s.t_ns).is_none_or(|b| *b != **s))
+        .count();
+    assert_eq!(differing, 0, "batch on the recording differs from the live run");
+    assert_eq!(replayed.last(), Some(&last_batch), "batch on the recording");
 }
