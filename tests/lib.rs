@@ -152,6 +152,19 @@ pub fn repo(rel: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("..").join(rel)
 }
 
+/// The PSINS laser-gyro record of the project's shared data (`../shared`
+/// beside this checkout); a test without it says so.
+pub fn lasergyro() -> PathBuf {
+    let p = repo("../shared/datasets/psins-lasergyro/lasergyro.imu");
+    assert!(
+        p.exists(),
+        "{} is missing: the tests read the project's shared data from ../shared, beside this \
+         checkout (README, Quick start): clone or link it there",
+        p.display()
+    );
+    p
+}
+
 /// Simulates scenario text into navlog records.
 pub fn simulate_records(text: &str, seed: u64) -> Vec<Record> {
     let s = Scenario::parse(text, "test scenario").expect("scenario");

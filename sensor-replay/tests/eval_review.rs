@@ -107,13 +107,23 @@ fn check_named_figures(summary: &str, dir: &Path) -> Vec<String> {
     names
 }
 
+/// The PSINS laser-gyro record of the project's shared data (`../shared`
+/// beside this checkout); a test without it says so.
+fn lasergyro() -> PathBuf {
+    let p = repo("../shared/datasets/psins-lasergyro/lasergyro.imu");
+    let shared = "the tests read the project's shared data from ../shared, beside this checkout \
+                  (README, Quick start): clone or link it there";
+    assert!(p.exists(), "{} is missing: {shared}", p.display());
+    p
+}
+
 #[test]
 fn eval_without_truth_on_the_lasergyro_import_writes_the_review() {
     let dir = tmp("lasergyro");
     let imported = dir.join("lg-truth.navlog");
     let st = Command::new(env!("CARGO_BIN_EXE_sensor-replay"))
         .arg("import-psins")
-        .arg(repo("../shared/datasets/psins-lasergyro/lasergyro.imu"))
+        .arg(lasergyro())
         .args(["--cns-sigma", "10", "--baro-sigma", "5", "--out"])
         .arg(&imported)
         .status()

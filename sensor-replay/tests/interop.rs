@@ -152,10 +152,20 @@ fn kfgins_import_skips_and_names_bad_lines_and_keeps_the_rest() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
+/// The PSINS laser-gyro record of the project's shared data (`../shared`
+/// beside this checkout); a test without it says so.
+fn lasergyro() -> PathBuf {
+    let p = Path::new(env!("CARGO_MANIFEST_DIR"))
+        .join("../../shared/datasets/psins-lasergyro/lasergyro.imu");
+    let shared = "the tests read the project's shared data from ../shared, beside this checkout \
+                  (README, Quick start): clone or link it there";
+    assert!(p.exists(), "{} is missing: {shared}", p.display());
+    p
+}
+
 #[test]
 fn psins_rlg_record_imports_completely_with_the_documented_mean_rates() {
-    let file = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../shared/datasets/psins-lasergyro/lasergyro.imu");
+    let file = lasergyro();
     let mut buf = Vec::new();
     let aids = AidSynthesis {
         cns_sigma_m: Some(20.0),
@@ -194,8 +204,7 @@ fn psins_rlg_record_imports_completely_with_the_documented_mean_rates() {
 /// effective settings take its noise model from it.
 #[test]
 fn an_import_with_a_preset_carries_it_to_batch() {
-    let file = Path::new(env!("CARGO_MANIFEST_DIR"))
-        .join("../../shared/datasets/psins-lasergyro/lasergyro.imu");
+    let file = lasergyro();
     let mut buf = Vec::new();
     let aids = AidSynthesis {
         cns_sigma_m: None,

@@ -14,7 +14,7 @@ use polarnav::frames;
 use polarnav::session::{Input, Session, SessionSettings, Sink};
 use polarnav::smoother::{MemoryStore, SmoothReport, Smoother};
 use polarnav_config::{CliOverrides, ConfigFile, effective};
-use polarnav_tests::{quat, repo, simulate_records};
+use polarnav_tests::{lasergyro, quat, repo, simulate_records};
 
 /// Forward solutions at the truth epochs, the tape, and every solution's time.
 struct Collect {
@@ -513,12 +513,7 @@ fn stationary_rlg_record_smoothed_position_stays_within_a_metre_of_the_start() {
     use sensor_replay::interop::{AidSynthesis, import_psins};
     let import = |aids: &AidSynthesis| {
         let mut buf = Vec::new();
-        import_psins(
-            &repo("../shared/datasets/psins-lasergyro/lasergyro.imu"),
-            aids,
-            &mut buf,
-        )
-        .expect("import");
+        import_psins(&lasergyro(), aids, &mut buf).expect("import");
         msgs::navlog::read_all(&buf).0
     };
     let aided = import(&AidSynthesis {
@@ -580,7 +575,7 @@ fn stationary_rlg_record_smoothed_position_stays_within_a_metre_of_the_start() {
 #[test]
 fn rlg_alignment_equals_an_independent_levelling_and_gyrocompass_of_the_raw_file() {
     use sensor_replay::interop::{AidSynthesis, import_psins};
-    let path = repo("../shared/datasets/psins-lasergyro/lasergyro.imu");
+    let path = lasergyro();
     let text = std::fs::read_to_string(&path).expect("lasergyro.imu");
     let counts: Vec<[f64; 6]> = text
         .lines()

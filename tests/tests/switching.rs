@@ -11,7 +11,9 @@ use polarnav::align::AlignmentAccumulator;
 use polarnav::frame_select::FramePolicy;
 use polarnav::navigator::{Conversion, NavigatorConfig};
 use polarnav_config::FilterSettings;
-use polarnav_tests::{Run, deviation_after_switches, repo, rmse, run, simulate_records};
+use polarnav_tests::{
+    Run, deviation_after_switches, lasergyro, repo, rmse, run, simulate_records,
+};
 use sensor_replay::interop::{AidSynthesis, import_psins};
 
 fn cfg(policy: FramePolicy, conversion: Conversion, filter: &FilterSettings) -> NavigatorConfig {
@@ -185,12 +187,7 @@ fn real_rlg_record_forced_switches_match_a_never_switching_run() {
         seed: 1,
         preset: None,
     };
-    import_psins(
-        &repo("../shared/datasets/psins-lasergyro/lasergyro.imu"),
-        &aids,
-        &mut buf,
-    )
-    .expect("import");
+    import_psins(&lasergyro(), &aids, &mut buf).expect("import");
     let (records, _) = msgs::navlog::read_all(&buf);
     let init = msgs::navlog::first_init(&records).expect("init");
     // 600 s of stationary alignment from the file's position.
