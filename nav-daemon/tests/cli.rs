@@ -527,6 +527,7 @@ fn batch_with_standard_error_closed_finishes_and_writes_every_row() {
     assert_eq!(status.code(), Some(0), "batch with stderr closed");
     let rows = std::fs::read_to_string(&out).expect("csv").lines().count();
     assert_eq!(rows, 2001, "header and one row per IMU sample");
+    std::fs::remove_dir_all(&dir).ok();
 }
 
 /// `nav-daemon man | head`: a reader gone before the page is written is
