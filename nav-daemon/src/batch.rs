@@ -18,6 +18,7 @@ use polarnav::session::{Event, InitCounters, Input, PerStream, Session, Sink, St
 use polarnav::smoother::{FileStore, SmoothReport, Smoother};
 
 use crate::events::log_event;
+use crate::imu_rate::RateCheck;
 use polarnav::solution_csv;
 use polarnav_config::{CliOverrides, ConfigError, ConfigFile, Effective, effective};
 use polarnav_foxglove::{McapError, McapFile};
@@ -362,7 +363,13 @@ pub fn run_to<R: BufRead + Send, W: Write>(
         }
     }
     let mut next_status_ns = 0;
+    let mut imu_rate = RateCheck::new(eff.config.live.imu_rate_hz);
     let mut push = |rec: &Record, session: &mut Session, sink: &mut CsvSink<'_, W>| {
+        if let Record::Imu(x) = rec
+            && let Some(d) = imu_rate.observe(x.t_ns)
+        {
+            tracing::warn!("{log_name}: {d}");
+        }
         if let Output::Mcap(m) = &mut sink.out {
             // The log's inputs and truth; its own solutions and status (a
             // recording) would mix with this run's.

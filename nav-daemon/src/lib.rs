@@ -3,6 +3,7 @@
 
 pub mod batch;
 pub mod events;
+pub mod imu_rate;
 pub mod live;
 pub mod notify;
 pub mod owner;

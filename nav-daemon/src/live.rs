@@ -36,6 +36,7 @@ use polarnav_ipc::{
 };
 
 use crate::events::RateLimit;
+use crate::imu_rate::RateCheck;
 use crate::owner::Owner;
 
 /// Settings of the live loop.
@@ -569,6 +570,8 @@ struct LoopState {
     /// Freshness of each aid in the last status (for transition events).
     aid_fresh: PerAid<bool>,
     last_imu_wall: Option<Instant>,
+    /// The stream's rate against `[live] imu_rate_hz`, said once.
+    imu_rate: RateCheck,
     imu_lost: bool,
     last_status: Instant,
     last_settings_update: Instant,
@@ -591,6 +594,7 @@ impl LoopState {
             owners: PerStream::default(),
             aid_fresh: PerAid::default(),
             last_imu_wall: None,
+            imu_rate: RateCheck::new(opts.imu_rate_hz),
             imu_lost: false,
             last_status: Instant::now(),
             last_settings_update: Instant::now(),
@@ -608,6 +612,7 @@ impl LoopState {
         self.report.cycles += 1;
         let mut imu_seen = false;
         let (inbox, session, gaps) = (&mut self.inbox, &mut self.session, &mut self.out.gaps);
+        let imu_rate = &mut self.imu_rate;
         // Sequence gaps are noted in arrival order.
         let mut receive = |r: Received| {
             if let Some(e) = inbox.receive(session, r)
@@ -621,6 +626,9 @@ impl LoopState {
         })?;
         ports.drain_owned(&ports.imu, &mut self.owners[Stream::Imu], "IMU", |x| {
             imu_seen = true;
+            if let Some(d) = imu_rate.observe(x.t_ns) {
+                tracing::warn!("{d}");
+            }
             receive(Received::Imu(x));
         })?;
         for k in AidKind::ALL {

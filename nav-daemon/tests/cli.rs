@@ -184,6 +184,28 @@ fn a_damaged_init_record_is_named_with_its_offset_and_exits_2() {
     std::fs::remove_dir_all(&dir).ok();
 }
 
+/// A 100 Hz log under the built-in `[live] imu_rate_hz = 200`: batch says
+/// once that the two disagree, with both rates and the setting to change;
+/// with the setting at the stream's rate it says nothing.
+#[test]
+fn an_imu_stream_off_the_configured_rate_is_said_once() {
+    let dir = temp_dir("imurate");
+    let log = stationary_log(500, true);
+    let (code, err, _) = run_batch(&dir, &log, &["--aids", "none"]);
+    assert_eq!(code, 0, "{err}");
+    let said = "the IMU stream runs at 100.0 Hz (median interval 10.000 ms of its first 64 \
+                samples) but [live] imu_rate_hz = 200 Hz";
+    assert_eq!(err.matches(said).count(), 1, "{err}");
+    assert!(err.contains("set imu_rate_hz = 100"), "{err}");
+    let cfg = dir.join("nav.toml");
+    std::fs::write(&cfg, "[live]\nimu_rate_hz = 100\n").expect("config");
+    let cfg_arg = cfg.display().to_string();
+    let (code, err, _) = run_batch(&dir, &log, &["--config", &cfg_arg, "--aids", "none"]);
+    assert_eq!(code, 0, "{err}");
+    assert!(!err.contains("the IMU stream runs at"), "{err}");
+    std::fs::remove_dir_all(&dir).ok();
+}
+
 #[test]
 fn bad_options_exit_2_with_a_clear_message() {
     let dir = temp_dir("opts");
