@@ -102,12 +102,16 @@ pub(crate) fn difference_components(a: &Epoch, b: &Epoch) -> [f64; 5] {
     ]
 }
 
+/// Words of a row in [`RunFeed::rows`].
+const ROW_WORDS: usize = 18;
+
 /// One run's sequences.
 #[derive(Debug)]
 struct RunFeed {
     /// Rows: t, ECEF position (3), latitude (deg), gyro bias (3, rad/s),
-    /// accelerometer bias (3, m/s²).
-    rows: Spill<11>,
+    /// accelerometer bias (3, m/s²), their σ (6, NaN where the row has
+    /// none), and which σ the row has (1 gyro + 2 accelerometer).
+    rows: Spill<ROW_WORDS>,
     last_row: Option<Row>,
     /// Epochs: t, the 9 error components, the cumulative horizontal RMSE.
     epochs: Spill<11>,
@@ -171,6 +175,8 @@ pub struct FigureFeed {
     truth_bias: Spill<7>,
     tb_extent: [Extent; 6],
     tb_last: [f64; 6],
+    /// A row of the first run carries the gyro bias σ.
+    bias_sigma_any: bool,
 }
 
 /// A sequence of points as a panel draws it: the points picked, and the
@@ -207,6 +213,15 @@ pub struct FigureData {
     /// The first run's rows taken with the step `plots` takes through them:
     /// (t, [gyro (°/h), accel (µg)]) per row.
     pub(crate) bias_rows: Vec<(f64, [f64; 6])>,
+    /// The σ of the same rows' biases (°/h, µg), where a row carries them
+    /// (gyro and accelerometer each), and whether any row of the first run
+    /// carries the gyro σ.
+    pub(crate) bias_sigma: Vec<[Option<f64>; 6]>,
+    pub(crate) bias_sigma_any: bool,
+    /// Per bias component, the share of the truth-bias records inside the
+    /// ±3σ band ([`bias_band`]) at its last point at or before them; `None`
+    /// without a band or a record inside its span.
+    pub(crate) truth_bias_inside: [Option<f64>; 6],
     /// The truth bias per component (°/h, µg), its last value.
     pub(crate) truth_bias: Vec<Curve>,
     pub(crate) truth_bias_last: [f64; 6],
@@ -228,6 +243,9 @@ pub struct FigureData {
     pub(crate) track_truth: Vec<[f64; 3]>,
     pub(crate) track_compare: Option<Vec<[f64; 3]>>,
     pub(crate) hmax: f64,
+    /// Each run's horizontal distance from the truth (m) at its epochs
+    /// picked with the step `plots` takes through them.
+    pub(crate) distance: Vec<Vec<(f64, f64)>>,
     /// The aid updates of the first run (an MCAP solution).
     pub(crate) aids: Option<Aids<UpdatesOnDisk>>,
 }
@@ -261,6 +279,7 @@ impl FigureFeed {
             truth_bias: Spill::new()?,
             tb_extent: [Extent::default(); 6],
             tb_last: [f64::NAN; 6],
+            bias_sigma_any: false,
         })
     }
 
@@ -270,8 +289,33 @@ impl FigureFeed {
         let [x, y, z] = r.r_e_m;
         let [gx, gy, gz] = r.gyro_bias_rps;
         let [ax, ay, az] = r.accel_bias_mps2;
-        run.rows
-            .push_f64(&[r.t_s, x, y, z, r.lat_deg, gx, gy, gz, ax, ay, az])?;
+        let [sgx, sgy, sgz] = r.sigma_gyro_bias_rps.unwrap_or([f64::NAN; 3]);
+        let [sax, say, saz] = r.sigma_accel_bias_mps2.unwrap_or([f64::NAN; 3]);
+        let has = u8::from(r.sigma_gyro_bias_rps.is_some())
+            | u8::from(r.sigma_accel_bias_mps2.is_some()) << 1;
+        run.rows.push_f64(&[
+            r.t_s,
+            x,
+            y,
+            z,
+            r.lat_deg,
+            gx,
+            gy,
+            gz,
+            ax,
+            ay,
+            az,
+            sgx,
+            sgy,
+            sgz,
+            sax,
+            say,
+            saz,
+            f64::from(has),
+        ])?;
+        if k == 0 {
+            self.bias_sigma_any |= r.sigma_gyro_bias_rps.is_some();
+        }
         if k == 0
             && let Some(p) = &run.last_row
             && p.frame != r.frame
@@ -365,6 +409,7 @@ impl FigureFeed {
             t_max: 1.0,
             cumulative_hi: 1e-3,
             truth_bias_last: self.tb_last,
+            bias_sigma_any: self.bias_sigma_any,
             middle_lat_deg: f64::NAN,
             ..FigureData::default()
         };
@@ -392,6 +437,12 @@ impl FigureFeed {
                 pts: picked.iter().map(|x| (x[0], x[10])).collect(),
                 extent: (f64::INFINITY, f64::NEG_INFINITY),
             });
+            d.distance.push(
+                picked
+                    .iter()
+                    .map(|x| (x[0], nalgebra::Vector2::new(x[1], x[2]).norm()))
+                    .collect(),
+            );
             let step = step_of(rows.len());
             let picked = rows.every(step)?;
             let positions: Vec<[f64; 3]> = picked.iter().map(|x| [x[1], x[2], x[3]]).collect();
@@ -404,6 +455,17 @@ impl FigureFeed {
                 d.bias_rows = picked
                     .iter()
                     .map(|x| (x[0], bias_units(&[x[5], x[6], x[7], x[8], x[9], x[10]])))
+                    .collect();
+                d.bias_sigma = picked
+                    .iter()
+                    .map(|x| {
+                        let sigma = bias_units(&[x[11], x[12], x[13], x[14], x[15], x[16]]);
+                        let has = x[17] as u8;
+                        std::array::from_fn(|i| {
+                            let bit = if i < 3 { 1 } else { 2 };
+                            (has & bit != 0).then_some(sigma[i])
+                        })
+                    })
                     .collect();
             } else if k == 1 {
                 d.track_compare = Some(positions);
@@ -431,6 +493,15 @@ impl FigureFeed {
                 extent: (self.tb_extent[i].lo, self.tb_extent[i].hi),
             })
             .collect();
+        let bands: Vec<Vec<(f64, f64, f64)>> = (0..6).map(|i| bias_band(&d, i)).collect();
+        let mut inside: Vec<TruthInside<'_>> = bands.iter().map(|b| TruthInside::new(b)).collect();
+        tb.for_each_f64(|x| {
+            let v = bias_units(&[x[1], x[2], x[3], x[4], x[5], x[6]]);
+            for (i, c) in inside.iter_mut().enumerate() {
+                c.push(x[0], v[i]);
+            }
+        })?;
+        d.truth_bias_inside = std::array::from_fn(|i| inside[i].share());
         if runs.len() > 1 {
             let pairs = self.pairs.pairs.seal()?;
             d.compare_n = pairs.len();
@@ -462,6 +533,60 @@ impl ErrorFeed {
                 self.inside[i] += u64::from(e[i] >= lo && e[i] <= hi);
             }
         }
+    }
+}
+
+/// The ±3σ band (t, lo, hi) of the bias estimate component `k` of `d`
+/// (0..3 gyro °/h, 3..6 accelerometer µg) at the rows picked that carry
+/// its σ.
+pub(crate) fn bias_band(d: &FigureData, k: usize) -> Vec<(f64, f64, f64)> {
+    d.bias_rows
+        .iter()
+        .zip(&d.bias_sigma)
+        .filter_map(|((t, b), sigma)| {
+            let sigma = sigma[k]?;
+            Some((*t, b[k] - 3.0 * sigma, b[k] + 3.0 * sigma))
+        })
+        .collect()
+}
+
+/// The share of truth points (t, value), fed in time order, that lie
+/// inside a band (t, lo, hi) at the band's last point at or before their
+/// time; points before the band are not counted.
+#[derive(Debug)]
+pub(crate) struct TruthInside<'a> {
+    band: &'a [(f64, f64, f64)],
+    k: usize,
+    n: u64,
+    inside: u64,
+}
+
+impl<'a> TruthInside<'a> {
+    pub(crate) fn new(band: &'a [(f64, f64, f64)]) -> Self {
+        Self {
+            band,
+            k: 0,
+            n: 0,
+            inside: 0,
+        }
+    }
+
+    /// The next truth point.
+    pub(crate) fn push(&mut self, t: f64, v: f64) {
+        if self.band.first().is_none_or(|b| b.0 > t) {
+            return;
+        }
+        while self.k + 1 < self.band.len() && self.band[self.k + 1].0 <= t {
+            self.k += 1;
+        }
+        self.n += 1;
+        let b = self.band[self.k];
+        self.inside += u64::from(v >= b.1 && v <= b.2);
+    }
+
+    /// The share inside; `None` without a band or a point inside its span.
+    pub(crate) fn share(&self) -> Option<f64> {
+        (self.n > 0).then(|| self.inside as f64 / self.n as f64)
     }
 }
 
@@ -604,6 +729,28 @@ mod tests {
         v[((v.len() - 1) as f64 * 0.99).round() as usize]
     }
 
+    /// The share of true-bias points inside the estimate's band, each
+    /// judged at the band's last point at or before it; points before the
+    /// band are not counted.
+    #[test]
+    fn truth_inside_the_band_is_counted_at_the_band_point_before_it() {
+        let share = |band: &[(f64, f64, f64)], truth: &[(f64, f64)]| {
+            let mut c = TruthInside::new(band);
+            for (t, v) in truth {
+                c.push(*t, *v);
+            }
+            c.share()
+        };
+        let band = [(1.0, -1.0, 1.0), (2.0, 5.0, 6.0), (3.0, -1.0, 1.0)];
+        // t 0.5: before the band; 1.5 inside [-1, 1]; 2.0 outside [5, 6];
+        // 2.5 inside [5, 6]; 9.0 outside [-1, 1].
+        let truth = [(0.5, 0.0), (1.5, 0.5), (2.0, 0.0), (2.5, 5.5), (9.0, 2.0)];
+        let f = share(&band, &truth).expect("a share");
+        assert!((f - 0.5).abs() < 1e-12, "{f}");
+        assert_eq!(share(&[], &truth), None);
+        assert_eq!(share(&band, &[(0.1, 0.0)]), None);
+    }
+
     fn bits(v: &[(f64, f64)]) -> Vec<(u64, u64)> {
         v.iter().map(|p| (p.0.to_bits(), p.1.to_bits())).collect()
     }
@@ -633,7 +780,13 @@ mod tests {
                     frame: u8::from((7000..15_000).contains(&i)),
                     ..Default::default()
                 };
+                s.sigma_gyro_bias_rps = [1e-9 * u(), 2e-9, 1e-9];
+                s.sigma_accel_bias_mps2 = [1e-5 * u(), 1e-5, 2e-5];
                 match i % 997 {
+                    // A row without the bias σ (as a CSV of an earlier
+                    // version), and one without the accelerometer's.
+                    1 => s.sigma_gyro_bias_rps = [f64::NAN; 3],
+                    2 => s.sigma_accel_bias_mps2 = [f64::NAN; 3],
                     3 => s.sigma_pos_enu_m[0] = f64::NAN,
                     5 => s.sigma_vel_mps[1] = f64::INFINITY,
                     7 => s.r_e_m[2] = f64::NAN,
@@ -796,6 +949,77 @@ mod tests {
         assert_eq!(d.hmax.to_bits(), hmax.to_bits());
         let step = (rows[0].len() / MAX_POINTS).max(1);
         assert_eq!(step, 4);
+        // The bias σ of the rows picked, their ±3σ bands and the share of
+        // the truth inside each, as imu_biases took them from the rows.
+        assert_eq!(d.bias_rows.len(), d.bias_sigma.len());
+        assert!(d.bias_sigma_any);
+        let picked: Vec<&Row> = rows[0].iter().step_by(step).collect();
+        for k in 0..6 {
+            let band: Vec<(f64, f64, f64)> = picked
+                .iter()
+                .filter_map(|r| {
+                    let (e, sigma) = if k < 3 {
+                        (
+                            r.gyro_bias_rps[k] * plots::DEG_PER_H,
+                            r.sigma_gyro_bias_rps.map(|s| s[k] * plots::DEG_PER_H),
+                        )
+                    } else {
+                        (
+                            r.accel_bias_mps2[k - 3] * plots::MICRO_G,
+                            r.sigma_accel_bias_mps2.map(|s| s[k - 3] * plots::MICRO_G),
+                        )
+                    };
+                    sigma.map(|s| (r.t_s, e - 3.0 * s, e + 3.0 * s))
+                })
+                .collect();
+            let got = bias_band(&d, k);
+            assert!(got.len() < picked.len(), "rows without σ are left out");
+            let b3 = |v: &[(f64, f64, f64)]| -> Vec<[u64; 3]> {
+                v.iter()
+                    .map(|p| [p.0.to_bits(), p.1.to_bits(), p.2.to_bits()])
+                    .collect()
+            };
+            assert_eq!(b3(&got), b3(&band), "bias band {k}");
+            let truth: Vec<(f64, f64)> = truth_bias
+                .iter()
+                .map(|b| {
+                    let x = if k < 3 {
+                        b.gyro_bias_rps[k] * plots::DEG_PER_H
+                    } else {
+                        b.accel_bias_mps2[k - 3] * plots::MICRO_G
+                    };
+                    (b.t_ns as f64 * 1e-9, x)
+                })
+                .collect();
+            // As imu_biases counted them over every truth record.
+            let (mut j, mut n, mut inside) = (0, 0u64, 0u64);
+            for (t, v) in &truth {
+                if band.first().is_none_or(|b| b.0 > *t) {
+                    continue;
+                }
+                while j + 1 < band.len() && band[j + 1].0 <= *t {
+                    j += 1;
+                }
+                n += 1;
+                inside += u64::from(*v >= band[j].1 && *v <= band[j].2);
+            }
+            let want = (n > 0).then(|| inside as f64 / n as f64);
+            assert_eq!(
+                d.truth_bias_inside[k].map(f64::to_bits),
+                want.map(f64::to_bits),
+                "truth inside {k}"
+            );
+            assert!(want.is_some());
+        }
+        // Each run's horizontal distance from the truth under the track.
+        for (k, dist) in d.distance.iter().enumerate() {
+            let v: Vec<(f64, f64)> = ep[k]
+                .iter()
+                .map(|e| (e.t_s, e.pos_enu.xy().norm()))
+                .collect();
+            assert_eq!(bits(dist), bits(&decimate(&v)), "distance {k}");
+        }
+        assert_eq!(d.distance.len(), 2);
         for (i, r) in rows[0].iter().step_by(step).enumerate() {
             let (t, b) = d.bias_rows[i];
             assert_eq!(t.to_bits(), r.t_s.to_bits());

@@ -115,6 +115,13 @@ pub(crate) const DEG_PER_H: f64 = 180.0 / std::f64::consts::PI * 3600.0;
 pub(crate) const MICRO_G: f64 = 1e6 / 9.80665;
 /// Width of the legend strip right of the panels (px).
 const LEGEND_W: u32 = 290;
+/// Height of each run's distance panel below the track's map (px).
+const TRACK_PANEL_PX: u32 = 240;
+/// Stroke widths of the truth's and a compared run's track, each wider
+/// than the one drawn over it (the solution's is 2 px), so that tracks that
+/// coincide at the map's scale show as nested rims.
+const TRUTH_TRACK_W: u32 = 10;
+const COMPARE_TRACK_W: u32 = 6;
 /// At most this many points per curve (decimated by a fixed step).
 pub(crate) const MAX_POINTS: usize = 5000;
 
@@ -166,7 +173,7 @@ pub fn write_figures(dir: &Path, d: &FigureData) -> Result<Vec<Figure>, PlotErro
             ),
             "imu_biases" => (
                 (1700, 1000),
-                "gyro (°/h) and accelerometer (µg) bias estimates against the simulated truth",
+                "gyro (°/h) and accelerometer (µg) bias estimates with their ±3σ against the simulated truth",
             ),
             "innovations" if d.aids.is_some() => (
                 (1700, 1250),
@@ -178,8 +185,8 @@ pub fn write_figures(dir: &Path, d: &FigureData) -> Result<Vec<Figure>, PlotErro
             ),
             "horizontal_rmse" => ((1500, 700), "cumulative horizontal position RMSE (m)"),
             "track" => (
-                (1400, 1150),
-                "track in polar stereographic projection: truth, solution, start, end, switches",
+                (1400, 1640),
+                "track in polar stereographic projection: truth, solution, start, end, switches; below, each run's horizontal distance from the truth",
             ),
             _ => continue,
         };
@@ -527,8 +534,13 @@ pub(crate) fn time_panel<DB: DrawingBackend>(
         .map_err(s)?;
     let span = hi - lo;
     let yf = p.y_fmt;
+    // At most one time label per 85 px of the plot: five-digit seconds in a
+    // panel a third of a figure wide ran together at plotters' default ten.
+    let (w, _) = area.dim_in_pixel();
+    let x_labels = (w.saturating_sub(95 + 35) / 85).clamp(2, 10) as usize;
     chart
         .configure_mesh()
+        .x_labels(x_labels)
         .x_desc("t (s)")
         .y_desc(p.y_desc.as_deref().unwrap_or(""))
         .x_label_formatter(&|v| format!("{v:.0}"))
@@ -784,15 +796,31 @@ fn biases<DB: DrawingBackend>(
 ) -> Result<(), String> {
     let (main, side) = layout(
         root,
-        "IMU bias estimates against the simulated truth, body axes",
+        if inp.bias_sigma_any {
+            "IMU bias estimates with ±3σ against the simulated truth, body axes"
+        } else {
+            "IMU bias estimates against the simulated truth, body axes"
+        },
     )?;
     let tm = inp.t_max;
     let panels = main.split_evenly((2, 3));
+    let mut with_sigma = false;
+    let mut inside = Vec::new();
     for (k, area) in panels.iter().enumerate() {
         let (i, gyro) = (k % 3, k < 3);
         let axis = ["x", "y", "z"][i];
         let est: Vec<(f64, f64)> = inp.bias_rows.iter().map(|(t, b)| (*t, b[k])).collect();
         let truth = &inp.truth_bias[k];
+        // ±3σ of the estimate, where the solution carries the bias σ.
+        let band = figures::bias_band(inp, k);
+        with_sigma |= !band.is_empty();
+        if let Some(f) = inp.truth_bias_inside[k] {
+            inside.push(format!(
+                "{} {axis} {:.0} %",
+                if gyro { "gyro" } else { "accel" },
+                100.0 * f
+            ));
+        }
         let last = est.last().map_or(f64::NAN, |p| p.1);
         let last_truth = inp.truth_bias_last[k];
         // Every estimate drawn is in memory: its extent, and its points as
@@ -810,6 +838,11 @@ fn biases<DB: DrawingBackend>(
                 tick(last, last.abs().max(last_truth.abs())),
                 tick(last_truth, last.abs().max(last_truth.abs()))
             ),
+            bands: if band.is_empty() {
+                Vec::new()
+            } else {
+                vec![(decimate(&band).collect(), AXIS_COLORS[i])]
+            },
             lines: vec![
                 (truth.pts.clone(), BLACK, 2),
                 (decimate(&est).collect(), AXIS_COLORS[i], 2),
@@ -821,26 +854,36 @@ fn biases<DB: DrawingBackend>(
         };
         time_panel(area, &p, tm, sw)?;
     }
-    let mut notes = vec![
-        "no σ: neither the solution CSV nor the Solution message carries the bias covariance, so no envelope is drawn".to_owned(),
-    ];
+    let mut notes = vec![if with_sigma {
+        "±3σ of the estimate from the solution's bias σ (sig_bg_*_rps, sig_ba_*_mps2)".to_owned()
+    } else {
+        format!(
+            "no σ band: the solution has no bias σ (columns {}; written by solution version 3 and later)",
+            crate::solution_file::BIAS_SIGMA_COLUMNS.join(", ")
+        )
+    }];
+    if !inside.is_empty() {
+        notes.push(format!(
+            "true bias inside ±3σ (share of the truth epochs): {}",
+            inside.join(", ")
+        ));
+    }
     if inp.truth_bias_n == 0 {
         notes.push("no truth: the log has no truth-bias records (simulate writes them)".into());
     }
     notes.extend(switch_notes(sw));
-    legend(
-        &side,
-        &inp.labels[0],
-        &[
-            ("estimate x / y / z".into(), Mark::Line(BLUE, 2)),
-            (
-                "true bias (simulator: constant draw + Gauss–Markov)".into(),
-                Mark::Line(BLACK, 2),
-            ),
-            ("frame switch".into(), Mark::Switch),
-        ],
-        &notes,
-    )
+    let mut entries = vec![
+        ("estimate x / y / z".to_owned(), Mark::Line(BLUE, 2)),
+        (
+            "true bias (simulator: constant draw + Gauss–Markov)".into(),
+            Mark::Line(BLACK, 2),
+        ),
+    ];
+    if with_sigma {
+        entries.push(("±3σ of the estimate".into(), Mark::Band(BLUE)));
+    }
+    entries.push(("frame switch".into(), Mark::Switch));
+    legend(&side, &inp.labels[0], &entries, &notes)
 }
 
 /// The points `keep` makes of the updates of `pts`, handed over in chunks
@@ -1164,9 +1207,24 @@ fn track<DB: DrawingBackend>(
     }
     let half = (x1 - x0).max(y1 - y0) / 2.0 * 1.12 + 1.0;
     let (cx, cy) = ((x0 + x1) / 2.0, (y0 + y1) / 2.0);
+    // Below the map, one panel per run with its horizontal distance from
+    // the truth: at the map's scale the runs lie within a pixel of each
+    // other and of the truth, so the map alone hides a compared (reference)
+    // run under the solution; one panel each, since at the metre scale
+    // they still coincide except around the switches.
+    let distances: Vec<(&str, Line)> = inp
+        .distance
+        .iter()
+        .take(2)
+        .enumerate()
+        .filter(|(_, d)| !d.is_empty())
+        .map(|(k, d)| (inp.labels[k].as_str(), (d.clone(), [BLUE, ORANGE][k], 1)))
+        .collect();
     let (w, h) = main.dim_in_pixel();
-    let side_px = w.min(h);
-    let (square, _) = main.split_horizontally(side_px);
+    let panel_px = TRACK_PANEL_PX * distances.len() as u32;
+    let side_px = w.min(h.saturating_sub(panel_px));
+    let (map_row, below) = main.split_vertically(side_px);
+    let (square, _) = map_row.split_horizontally(side_px);
     let mut chart = ChartBuilder::on(&square)
         .margin(15)
         .x_label_area_size(50)
@@ -1192,12 +1250,15 @@ fn track<DB: DrawingBackend>(
     chart
         .draw_series(LineSeries::new(
             truth.iter().copied(),
-            BLACK.mix(0.35).stroke_width(7),
+            BLACK.mix(0.35).stroke_width(TRUTH_TRACK_W),
         ))
         .map_err(s)?;
     if !cmp.is_empty() {
         chart
-            .draw_series(LineSeries::new(cmp.iter().copied(), ORANGE.stroke_width(2)))
+            .draw_series(LineSeries::new(
+                cmp.iter().copied(),
+                ORANGE.stroke_width(COMPARE_TRACK_W),
+            ))
             .map_err(s)?;
     }
     chart
@@ -1241,20 +1302,45 @@ fn track<DB: DrawingBackend>(
         }))
         .map_err(s)?;
     let hmax = inp.hmax;
+    if !distances.is_empty() {
+        // One y range for all, so that the panels compare at a glance.
+        let hi = distances
+            .iter()
+            .flat_map(|(_, l)| l.0.iter().map(|p| p.1))
+            .filter(|v| v.is_finite())
+            .fold(0.0, f64::max);
+        let areas = below.split_evenly((distances.len(), 1));
+        for (area, (label, line)) in areas.iter().zip(distances) {
+            let p = Panel {
+                title: format!("{label}: horizontal distance from the truth (m)"),
+                lines: vec![line],
+                hlines: vec![(0.0, GREY)],
+                y: Some((0.0, hi.max(1e-3) * 1.05)),
+                y_desc: Some("distance (m)".into()),
+                picked: true,
+                ..Default::default()
+            };
+            time_panel(area, &p, inp.t_max, sw)?;
+        }
+    }
     let mut notes = vec![
         format!(
-            "the solution's horizontal error (max {} m, see position_errors) is far below a pixel at this scale",
+            "the solution's horizontal error (max {} m) is far below a pixel on the map: the panels below it draw each run's distance from the truth",
             tick(hmax, hmax)
         ),
         "spherical polar stereographic projection (R = 6371 km), valid across the pole".to_owned(),
     ];
     notes.extend(switch_notes(sw));
     let mut entries = vec![
-        ("truth".to_owned(), Mark::Line(GREY, 7)),
+        ("truth".to_owned(), Mark::Line(GREY, TRUTH_TRACK_W)),
         (inp.labels[0].clone(), Mark::Line(BLUE, 2)),
     ];
     if let Some(r) = inp.labels.get(1) {
-        entries.push((r.clone(), Mark::Line(ORANGE, 2)));
+        entries.push((r.clone(), Mark::Line(ORANGE, COMPARE_TRACK_W)));
+        notes.insert(
+            1,
+            format!("{r} is drawn wider, under the solution: where the two coincide it is the orange rim"),
+        );
     }
     entries.push(("start".into(), Mark::Dot(GREEN)));
     entries.push(("end".into(), Mark::Square(RED_)));
