@@ -922,9 +922,10 @@ mod tests {
             if report.checksum == 1 {
                 assert_eq!(report.damaged_init_offset, Some(starts[init] as u64));
                 assert!(
-                    report
-                        .to_string()
-                        .contains(&format!("the frame at byte {} was an init record", starts[init])),
+                    report.to_string().contains(&format!(
+                        "the frame at byte {} was an init record",
+                        starts[init]
+                    )),
                     "{report}"
                 );
                 named += 1;

@@ -143,9 +143,9 @@ impl BatchError {
 /// a damaged frame reads as one, else any damaged frame (it may have been).
 fn skipped_init_note(read: &ReadReport) -> String {
     match (read.damaged_init_offset, read.first_skip_offset) {
-        (Some(at), _) => format!(
-            ": its init record at byte {at} is damaged (checksum mismatch) and was skipped"
-        ),
+        (Some(at), _) => {
+            format!(": its init record at byte {at} is damaged (checksum mismatch) and was skipped")
+        }
         (None, Some(at)) => format!(
             ": the reader skipped {} damaged frame(s), the first at byte {at}; the init record may be among them",
             read.skipped_frames()

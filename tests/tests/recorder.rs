@@ -343,7 +343,11 @@ fn stopped_in_the_units_shutdown_order_the_recording_holds_the_last_solution_and
     eprintln!(
         "recorder {} the daemon; recorded last solution t = {:?} ns, batch's t = {} ns; \
          last status cycles {:?}, the daemon's final {final_cycles}",
-        if recorder_first { "started before" } else { "started after" },
+        if recorder_first {
+            "started before"
+        } else {
+            "started after"
+        },
         last_solution.map(|s| s.t_ns),
         last_batch.t_ns,
         last_status.map(|s| s.cycles),
@@ -378,6 +382,9 @@ fn stopped_in_the_units_shutdown_order_the_recording_holds_the_last_solution_and
         .iter()
         .filter(|s| by_t.get(&s.t_ns).is_none_or(|b| *b != **s))
         .count();
-    assert_eq!(differing, 0, "batch on the recording differs from the live run");
+    assert_eq!(
+        differing, 0,
+        "batch on the recording differs from the live run"
+    );
     assert_eq!(replayed.last(), Some(&last_batch), "batch on the recording");
 }

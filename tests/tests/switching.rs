@@ -11,9 +11,7 @@ use polarnav::align::AlignmentAccumulator;
 use polarnav::frame_select::FramePolicy;
 use polarnav::navigator::{Conversion, NavigatorConfig};
 use polarnav_config::FilterSettings;
-use polarnav_tests::{
-    Run, deviation_after_switches, lasergyro, repo, rmse, run, simulate_records,
-};
+use polarnav_tests::{Run, deviation_after_switches, lasergyro, repo, rmse, run, simulate_records};
 use sensor_replay::interop::{AidSynthesis, import_psins};
 
 fn cfg(policy: FramePolicy, conversion: Conversion, filter: &FilterSettings) -> NavigatorConfig {
