@@ -3,8 +3,10 @@
 # over the North Pole to 68° N, through both frame switches), run the live
 # pipeline over iceoryx2 shared memory -- nav-daemon and the flight recorder as
 # services, sensor-replay publishing the flight at 200x wall-clock speed --
-# print the accuracy summary of the recorded live solution, and check that it
-# is, bit for bit, what `nav-daemon batch` computes from the same log.
+# and evaluate the recorded live solution. Detailed output goes to files in
+# out/quickstart/; the script ends with the accuracy table, the switch
+# transients and whether the live solution is, bit for bit, what
+# `nav-daemon batch` computes from the same log.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 scenario=${1:-config/scenarios/polar-crossing.toml}
@@ -25,45 +27,58 @@ wait_for() { # file text seconds
   echo "timed out waiting for '$2' in $1" >&2; cat "$1" >&2; exit 1
 }
 
-echo "== building (release)"
+echo "== building (release; the first build takes about 7 minutes on 2 cores)"
 cargo build --release --bins
-echo "== simulating $scenario"
-$B/sensor-replay simulate --scenario "$scenario" --out "$out/flight.navlog" --seed 1
+echo "== simulating $scenario into $out/flight.navlog"
+$B/sensor-replay simulate --scenario "$scenario" --out "$out/flight.navlog" --seed 1 2>&1 | tail -1
 # The shipped configuration, on a prefix of its own.
 sed "s/^prefix = .*/prefix = \"$prefix\"/" config/nav-daemon.toml > "$out/nav-daemon.toml"
 
-echo "== starting nav-daemon and the flight recorder (services $prefix/...)"
+echo "== live: nav-daemon and the flight recorder as services on $prefix/..., the flight replayed at ${speed}x"
 $B/nav-daemon --config "$out/nav-daemon.toml" > "$out/daemon.log" 2>&1 & pids+=($!)
 wait_for "$out/daemon.log" "services open" 30
 $B/sensor-replay record --prefix "$prefix" --out "$out/live.navlog" > "$out/record.log" 2>&1 & pids+=($!)
 wait_for "$out/record.log" "subscribed" 30
-
-echo "== replaying the flight at ${speed}x over iceoryx2"
 $B/sensor-replay play "$out/flight.navlog" --speed "$speed" --prefix "$prefix"
-
-echo "== stopping the daemon and the recorder"
+# Stopped as systemd stops the units: the daemon first, so that the
+# recording ends with its last solution and final status.
 kill -TERM "${pids[0]}"; wait "${pids[0]}" || true
 kill -TERM "${pids[1]}"; wait "${pids[1]}" || true
 pids=()
-grep -E "clean exit|frame switch" "$out/daemon.log" | sed 's/\x1b\[[0-9;]*m//g' | tail -3
-tail -1 "$out/record.log"
+echo "daemon ($out/daemon.log):"
+grep -E "clean exit|frame switch|the IMU stream runs at" "$out/daemon.log" | sed -e 's/\x1b\[[0-9;]*m//g' -e 's/^/  /'
+echo "recorder: $(tail -1 "$out/record.log")"
 
-echo "== accuracy of the live solution, and its switch transients against a never-switching run"
-$B/sensor-replay export "$out/live.navlog" --solution-csv "$out/live.csv"
+echo "== evaluating (eval's full report: $out/eval.txt; figures and summary.md in $out/)"
+$B/sensor-replay export "$out/live.navlog" --solution-csv "$out/live.csv" > "$out/export.log" 2>&1 ||
+  { cat "$out/export.log" >&2; exit 1; }
 # The transient of a switch is what it changes: the same log navigated
 # without that switch is the reference (the experiments' measure). A
 # geographic-only run cannot cross the pole, so the reference stays in the
 # grid frame from the first sample (--force-switch 0: one switch, at once).
-$B/nav-daemon batch --config "$out/nav-daemon.toml" --log "$out/flight.navlog" --force-switch 0 --out "$out/grid-throughout.csv" 2>&1 | grep -E "^batch:"
-$B/sensor-replay eval --log "$out/flight.navlog" --solution "$out/live.csv" --compare "$out/grid-throughout.csv" --out "$out"
-
-echo "== the live solution against batch on the same log"
-$B/nav-daemon batch --config "$out/nav-daemon.toml" --log "$out/flight.navlog" --out "$out/batch.csv" 2>&1 | grep -E "^batch:"
+$B/nav-daemon batch --config "$out/nav-daemon.toml" --log "$out/flight.navlog" --force-switch 0 --out "$out/grid-throughout.csv" > "$out/batch-grid.log" 2>&1 ||
+  { cat "$out/batch-grid.log" >&2; exit 1; }
+$B/sensor-replay eval --log "$out/flight.navlog" --solution "$out/live.csv" --compare "$out/grid-throughout.csv" --out "$out" > "$out/eval.txt"
+$B/nav-daemon batch --config "$out/nav-daemon.toml" --log "$out/flight.navlog" --out "$out/batch.csv" > "$out/batch.log" 2>&1 ||
+  { cat "$out/batch.log" >&2; exit 1; }
 if cmp -s "$out/live.csv" "$out/batch.csv"; then
-  echo "live and batch solutions are identical ($(($(wc -l < "$out/live.csv") - 1)) rows)"
+  verdict="live equals batch: the live solution is, bit for bit, what nav-daemon batch computes from the same log ($(($(wc -l < "$out/live.csv") - 1)) rows)"
   rm "$out/batch.csv"
 else
-  echo "live and batch solutions DIFFER: cmp $out/live.csv $out/batch.csv" >&2
-  exit 1
+  verdict="live and batch solutions DIFFER: cmp $out/live.csv $out/batch.csv"
 fi
 echo "== outputs in $out/ (batch mode: nav-daemon batch --log $out/flight.navlog --out solution.csv)"
+
+# Last, what the run shows: the live solution's accuracy against the truth,
+# each switch's transient against the run without it, and the verdict.
+# (Tables of eval's report: the first accuracy table and the transients.)
+echo
+echo "== accuracy of the live solution against the truth ($out/summary.md)"
+awk '/^## Accuracy: .*\(solution: / { on = 1 } on && /^\|/ { print; seen = 1; next } on && seen { exit }' "$out/eval.txt"
+echo
+echo "== each switch's transient: the live solution against the same log navigated without it"
+transients=$(awk '/^### Switch transients/ { on = 1; next } on && /^\|/ { print; seen = 1; next } on && seen { exit }' "$out/eval.txt")
+echo "${transients:-no frame switch in this flight}"
+echo
+echo "== $verdict"
+case "$verdict" in live\ equals*) ;; *) exit 1 ;; esac
