@@ -26,6 +26,7 @@ pub mod frame_select;
 pub mod frames;
 pub mod inbox;
 pub mod integrity;
+pub mod mat15;
 pub mod mech;
 pub mod navigator;
 pub mod row_interval;
