@@ -133,12 +133,20 @@ pub fn ecef_to_geodetic(r: &Vector3<f64>) -> Geodetic {
 
 /// Wraps an angle to (−π, π].
 pub fn wrap_pi(a: f64) -> f64 {
-    let w = a.rem_euclid(std::f64::consts::TAU);
-    if w > std::f64::consts::PI {
-        w - std::f64::consts::TAU
+    use std::f64::consts::TAU;
+    // `rem_euclid(TAU)` is `a % TAU`, plus TAU if negative; strictly
+    // within ±2π the remainder is `a` itself, exactly (at −2π it is −0), so
+    // the same value comes without
+    // the call to fmod (which cost as much as the rest of a mechanization
+    // step's position update).
+    let w = if (0.0..TAU).contains(&a) {
+        a
+    } else if a > -TAU && a < 0.0 {
+        a + TAU
     } else {
-        w
-    }
+        a.rem_euclid(TAU)
+    };
+    if w > std::f64::consts::PI { w - TAU } else { w }
 }
 
 /// ICAO standard atmosphere (troposphere and the isothermal lower
@@ -218,6 +226,45 @@ pub mod isa {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The fast path of `wrap_pi` gives `rem_euclid`'s result bit for bit:
+    /// at the edges (±0, ±π, ±2π and their neighbours), inside, outside
+    /// and for NaN.
+    #[test]
+    fn wrap_pi_is_rem_euclids_bit_for_bit() {
+        use std::f64::consts::{PI, TAU};
+        let reference = |a: f64| {
+            let w = a.rem_euclid(TAU);
+            if w > PI { w - TAU } else { w }
+        };
+        let mut values = vec![
+            0.0,
+            -0.0,
+            PI,
+            -PI,
+            TAU,
+            -TAU,
+            3.0 * PI,
+            -3.0 * PI,
+            1e300,
+            -1e300,
+        ];
+        for e in [PI, -PI, TAU, -TAU, 0.0] {
+            values.push(f64::from_bits(e.to_bits() + 1));
+            values.push(f64::from_bits(e.to_bits().wrapping_sub(1)));
+        }
+        let mut s = 11u64;
+        for _ in 0..100_000 {
+            s = s
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            values.push(((s >> 11) as f64 / (1u64 << 53) as f64 - 0.5) * 30.0);
+        }
+        for a in values {
+            assert_eq!(wrap_pi(a).to_bits(), reference(a).to_bits(), "{a:e}");
+        }
+        assert!(wrap_pi(f64::NAN).is_nan());
+    }
     use std::f64::consts::{FRAC_PI_2, PI};
 
     /// Independent inverse: Newton iteration on latitude (Bowring form), used
