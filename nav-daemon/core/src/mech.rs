@@ -367,7 +367,12 @@ impl AnyNav {
     /// Closed-loop feedback of an estimated error (φ, δv, δp of this frame):
     /// C_b^n ← R(φ) C_b^c (inverse of C_b^c = (I − φ×) C_b^n), v ← v − δv, p ← p − δp.
     pub fn correct(&mut self, phi: &Vector3<f64>, dv: &Vector3<f64>, dp: &Vector3<f64>) {
-        let rot = UnitQuaternion::from_scaled_axis(*phi);
+        self.correct_by(&UnitQuaternion::from_scaled_axis(*phi), dv, dp);
+    }
+
+    /// [`AnyNav::correct`] with the rotation R(φ) already made (the state
+    /// history applies one correction to many states).
+    pub fn correct_by(&mut self, rot: &UnitQuaternion<f64>, dv: &Vector3<f64>, dp: &Vector3<f64>) {
         match self {
             AnyNav::Geographic(s) => {
                 s.q_b_n = rot * s.q_b_n;

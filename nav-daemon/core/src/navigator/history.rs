@@ -62,13 +62,15 @@ impl History {
         dv: &Vector3<f64>,
         dp: &Vector3<f64>,
     ) {
+        // One rotation for all: R(φ) is the same for every stored state.
+        let rot = UnitQuaternion::from_scaled_axis(*phi);
         for k in 0..self.len {
             let i = (self.head + HISTORY - k) % HISTORY;
             if self.t_ns[i] < oldest_ns {
                 self.len = k;
                 break;
             }
-            self.nav[i].correct(phi, dv, dp);
+            self.nav[i].correct_by(&rot, dv, dp);
         }
     }
 
