@@ -17,6 +17,7 @@ use polarnav::row_interval::RowInterval;
 use polarnav::session::{Event, InitCounters, Input, PerStream, Session, Sink, Stream};
 use polarnav::smoother::{FileStore, SmoothReport, Smoother};
 
+use crate::csv_pipe::RowPipe;
 use crate::events::log_event;
 use crate::imu_rate::RateCheck;
 use polarnav::solution_csv;
@@ -172,6 +173,9 @@ struct CsvSink<'a, W: Write> {
     /// With `--smooth`: the forward run's tape and solutions, written
     /// smoothed at the end instead of as they come.
     smoother: Option<Smoother<FileStore>>,
+    /// While the log is read: the CSV rows' text is made on a thread of
+    /// its own (`csv_pipe`), the same text in the same order.
+    pipe: Option<RowPipe>,
 }
 
 /// Rejections logged per stream before the rest are only counted (status).
@@ -181,7 +185,11 @@ impl<W: Write> CsvSink<'_, W> {
     fn write(&mut self, s: &msgs::Solution) {
         match &mut self.out {
             Output::Csv(w) => {
-                if let Err(e) = self.csv.write(w, s) {
+                let written = match &mut self.pipe {
+                    Some(p) => p.push(w, s),
+                    None => self.csv.write(w, s),
+                };
+                if let Err(e) = written {
                     self.error = Some(e);
                     return;
                 }
@@ -346,6 +354,7 @@ pub fn run_to<R: BufRead + Send, W: Write>(
             Some(dir) => Some(Smoother::new(FileStore::new_in(dir)?)),
             None => None,
         },
+        pipe: None,
     };
     if sink.smoother.is_some() {
         session.keep_smoother_tape();
@@ -396,6 +405,10 @@ pub fn run_to<R: BufRead + Send, W: Write>(
     // decoding overlap on two cores); chunks go back to it for reuse, so
     // the steady state allocates nothing more than decoding itself does.
     let (read, sink_error) = std::thread::scope(|scope| {
+        // The forward solution as CSV: its text is made on a third thread.
+        if matches!(sink.out, Output::Csv(_)) && sink.smoother.is_none() {
+            sink.pipe = Some(RowPipe::start(scope).0);
+        }
         let (full_tx, full_rx) = std::sync::mpsc::sync_channel::<Vec<Record>>(CHUNKS_AHEAD);
         let (empty_tx, empty_rx) = std::sync::mpsc::sync_channel::<Vec<Record>>(CHUNKS_AHEAD + 2);
         let decoder = scope.spawn(move || {
@@ -429,8 +442,8 @@ pub fn run_to<R: BufRead + Send, W: Write>(
         });
         let mut sink_error = None;
         for mut chunk in full_rx.iter() {
-            for rec in chunk.drain(..) {
-                push(&rec, &mut session, &mut sink);
+            for rec in &chunk {
+                push(rec, &mut session, &mut sink);
                 if let Some(e) = sink.error.take() {
                     sink_error = Some(e);
                     break;
@@ -439,10 +452,19 @@ pub fn run_to<R: BufRead + Send, W: Write>(
             if sink_error.is_some() {
                 break;
             }
+            chunk.clear();
             // The decoder may have finished: a failed return is harmless.
             let _ = empty_tx.try_send(chunk);
         }
         drop(full_rx);
+        // The rows still being formatted are written before the scope ends
+        // (the last solution, emitted by `finish` below, is written directly).
+        if let (Some(pipe), Output::Csv(w)) = (sink.pipe.take(), &mut sink.out)
+            && sink_error.is_none()
+            && let Err(e) = pipe.finish(w)
+        {
+            sink_error = Some(e);
+        }
         let read = decoder
             .join()
             .unwrap_or_else(|p| std::panic::resume_unwind(p));

@@ -2,6 +2,7 @@
 //! iceoryx2 service and `batch` over a navlog.
 
 pub mod batch;
+pub mod csv_pipe;
 pub mod events;
 pub mod imu_rate;
 pub mod live;
