@@ -443,7 +443,7 @@ impl<R: BufRead> NavlogReader<R> {
                     Err(e) => return Err(e.into()),
                 }
             };
-            if let Some(i) = buf.iter().position(|&b| b == 0)
+            if let Some(i) = memchr::memchr(0, buf)
                 && i <= MAX_FRAME_BYTES
             {
                 let decoded = (i > 0).then(|| decode_frame(&buf[..i], &mut self.decoded));
@@ -531,7 +531,7 @@ fn read_frame<R: BufRead>(input: &mut R, frame: &mut Vec<u8>) -> std::io::Result
         if buf.is_empty() {
             return Ok(total);
         }
-        let (take, found) = match buf.iter().position(|&b| b == 0) {
+        let (take, found) = match memchr::memchr(0, buf) {
             Some(i) => (i + 1, true),
             None => (buf.len(), false),
         };
