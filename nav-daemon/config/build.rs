@@ -54,7 +54,15 @@ fn commit_files(root: &Path) -> Vec<PathBuf> {
 }
 
 fn main() {
-    let root = PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../..");
+    // The checkout this run builds, from cargo's environment at run time:
+    // `env!` would bake in the directory the script was compiled in, and
+    // cargo reuses a compiled build script for a copy of the checkout
+    // elsewhere (its fingerprint does not depend on the path).
+    let Some(manifest_dir) = std::env::var_os("CARGO_MANIFEST_DIR") else {
+        println!("cargo:rustc-env=POLARNAV_GIT_COMMIT=unknown");
+        return;
+    };
+    let root = PathBuf::from(manifest_dir).join("../..");
     let root = root.canonicalize().unwrap_or(root);
     // Only this workspace's own repository: a tarball unpacked inside some
     // other checkout must not take that checkout's commit.
