@@ -22,9 +22,8 @@ use msgs::navlog::{Header, NavlogWriter, Record, TruthBias};
 use msgs::{ImuSample, InitState, Solution, TruthRecord, solution_flags};
 use nalgebra::{UnitQuaternion, Vector3};
 use polarnav::earth::{self, Geodetic};
-use polarnav::solution_csv::{HEADER, RowWriter};
+use polarnav::solution_csv::{self, RowWriter};
 use polarnav_eval::run::{self, Args};
-use polarnav_eval::solution_file::BIAS_SIGMA_COLUMNS;
 
 /// The peak resident set eval stays under (MB), whatever the flight's length.
 const EVAL_RSS_BOUND_MB: f64 = 128.0;
@@ -67,7 +66,7 @@ fn write_files(dir: &Path, n: u64) -> (u64, u64, u64) {
     let mut with = NavlogWriter::new(open("flight.navlog"), header.clone()).expect("header");
     let mut bare = NavlogWriter::new(open("bare.navlog"), header).expect("header");
     let mut csv = open("solution.csv");
-    writeln!(csv, "{HEADER},{}", BIAS_SIGMA_COLUMNS.join(",")).expect("csv header");
+    writeln!(csv, "{}", solution_csv::header()).expect("csv header");
     let (r0, _, q0) = truth_at(0, n);
     let init = Record::Init(InitState {
         t_ns: 0,
@@ -80,7 +79,6 @@ fn write_files(dir: &Path, n: u64) -> (u64, u64, u64) {
     }
     let mut rows = RowWriter::new();
     let mut s = Solution::default();
-    let mut sig_text = String::new();
     for k in 0..n {
         // Every 1 000 003rd sample comes 20 ms late (and the solution with
         // it): gaps for the sampling review.
@@ -147,7 +145,8 @@ fn write_files(dir: &Path, n: u64) -> (u64, u64, u64) {
             s.gyro_bias_rps = [4.7e-8, -1e-8 * (ts * 1e-4).sin(), 2.1e-8];
             s.accel_bias_mps2 = [1e-3 * (1.0 + 1e-3 * (ts * 1e-3).sin()), -9.7e-4, 0.0];
             let (g, a) = (4e-8 / (1.0 + ts * 1e-3), 5e-4 / (1.0 + ts * 1e-3));
-            sig_text = format!("{g},{g},{g},{a},{a},{a}");
+            s.sigma_gyro_bias_rps = [g; 3];
+            s.sigma_accel_bias_mps2 = [a; 3];
         }
         s.flags = solution_flags::SRS_FRESH
             | solution_flags::BARO_FRESH
@@ -157,7 +156,7 @@ fn write_files(dir: &Path, n: u64) -> (u64, u64, u64) {
                 solution_flags::CNS_FRESH
             };
         s.switch_count = u32::from(k >= n / 3) + u32::from(k >= 2 * n / 3);
-        writeln!(csv, "{},{sig_text}", rows.row(&s).trim_end()).expect("row");
+        rows.write(&mut csv, &s).expect("row");
     }
     with.finish().expect("finish").flush().expect("flush");
     bare.finish().expect("finish").flush().expect("flush");
