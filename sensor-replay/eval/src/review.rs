@@ -606,32 +606,91 @@ pub fn aids_from_status(status: &[Status]) -> Option<Aids> {
     a.finish()
 }
 
-/// Flags drawn as lanes of the health timeline: (label, bit, set when the
-/// bit is clear).
-const LANES: [(&str, u32, bool); 8] = [
-    ("COASTING", solution_flags::COASTING, false),
-    ("IMU lost", solution_flags::IMU_LOST, false),
-    ("SRS stale", solution_flags::SRS_FRESH, true),
-    ("CNS stale", solution_flags::CNS_FRESH, true),
-    ("baro stale", solution_flags::BARO_FRESH, true),
-    ("aid reset", solution_flags::AID_RESET, false),
-    (
-        "last update rejected",
-        solution_flags::LAST_INNOVATION_REJECTED,
-        false,
-    ),
-    ("second publisher", solution_flags::SECOND_PUBLISHER, false),
-];
+/// The aids that are not autonomous (tested for integrity; `GNSS`).
+const NOT_AUTONOMOUS: usize = {
+    let mut n = 0;
+    let mut k = 0;
+    while k < msgs::AID_COUNT {
+        if !AidKind::ALL[k].decl().autonomous {
+            n += 1;
+        }
+        k += 1;
+    }
+    n
+};
 
-/// The label of lane `k` of [`LANES`]: a fresh flag that was clear in
+/// Lanes of the health timeline: COASTING and IMU lost, each aid stale,
+/// each aid that is not autonomous excluded, then aid reset, rejected
+/// update and second publisher.
+const LANE_COUNT: usize = 5 + msgs::AID_COUNT + NOT_AUTONOMOUS;
+
+/// A lane of the health timeline: a flag, set when `bit` is set (or clear,
+/// for a fresh flag drawn as stale). `aid`: whose freshness or exclusion.
+#[derive(Debug)]
+struct Lane {
+    name: String,
+    bit: u32,
+    clear: bool,
+    aid: Option<AidKind>,
+}
+
+/// The lanes, the aids' from their declaration (`msgs::for_each_aid!`).
+fn lanes() -> &'static [Lane; LANE_COUNT] {
+    static LANES: std::sync::OnceLock<[Lane; LANE_COUNT]> = std::sync::OnceLock::new();
+    LANES.get_or_init(|| {
+        let flag = |name: &str, bit| Lane {
+            name: name.into(),
+            bit,
+            clear: false,
+            aid: None,
+        };
+        let mut v = vec![
+            flag("COASTING", solution_flags::COASTING),
+            flag("IMU lost", solution_flags::IMU_LOST),
+        ];
+        v.extend(AidKind::ALL.iter().map(|k| Lane {
+            name: format!("{} stale", k.decl().label),
+            bit: k.decl().fresh_flag,
+            clear: true,
+            aid: Some(*k),
+        }));
+        v.extend(
+            AidKind::ALL
+                .iter()
+                .filter(|k| !k.decl().autonomous)
+                .map(|k| Lane {
+                    name: format!("{} excluded", k.decl().label),
+                    bit: k.decl().excluded_flag,
+                    clear: false,
+                    aid: Some(*k),
+                }),
+        );
+        v.push(flag("aid reset", solution_flags::AID_RESET));
+        v.push(flag(
+            "last update rejected",
+            solution_flags::LAST_INNOVATION_REJECTED,
+        ));
+        v.push(flag("second publisher", solution_flags::SECOND_PUBLISHER));
+        v.try_into().expect("LANE_COUNT lanes")
+    })
+}
+
+/// The lane of aid `k`'s freshness (`excluded`: of its exclusion).
+fn lane_of(k: AidKind, excluded: bool) -> Option<usize> {
+    lanes()
+        .iter()
+        .position(|l| l.aid == Some(k) && l.clear != excluded)
+}
+
+/// The label of lane `k` of [`lanes`]: a fresh flag that was clear in
 /// every row says the aid never fused in this flight (absent from the log,
 /// disabled, or always rejected), not that it went stale.
 fn lane_label(pass: &Pass, k: usize) -> String {
-    let (name, _, clear) = LANES[k];
-    if clear && pass.rows > 0 && pass.health_set[k + 1] == pass.rows {
-        name.replace("stale", "never fused")
+    let l = &lanes()[k];
+    if l.clear && pass.rows > 0 && pass.health_set[k + 1] == pass.rows {
+        l.name.replace("stale", "never fused")
     } else {
-        name.to_owned()
+        l.name.clone()
     }
 }
 
@@ -648,9 +707,12 @@ struct Pass {
     /// Bias estimates (°/h, µg) 0..6, est − σ 6..12, est + σ 12..18.
     bias: Envelope,
     rows_with_bias_sigma: u64,
-    /// Frame G 0, then the lanes of [`LANES`].
+    /// Frame G 0, then the lanes of [`lanes`].
     health: Envelope,
-    health_set: [u64; LANES.len() + 1],
+    health_set: [u64; LANE_COUNT + 1],
+    /// Exclusions and readmissions of the aids that are not autonomous,
+    /// from their flag in the rows: (time, aid, excluded).
+    exclusions: Vec<(f64, AidKind, bool)>,
     switches: Vec<Switch>,
     resets: Vec<f64>,
     where_: Where,
@@ -684,8 +746,9 @@ impl Pass {
             sigma: Envelope::new(9),
             bias: Envelope::new(18),
             rows_with_bias_sigma: 0,
-            health: Envelope::new(LANES.len() + 1),
-            health_set: [0; LANES.len() + 1],
+            health: Envelope::new(LANE_COUNT + 1),
+            health_set: [0; LANE_COUNT + 1],
+            exclusions: Vec::new(),
             switches: Vec::new(),
             resets: Vec::new(),
             where_: Where::default(),
@@ -731,10 +794,18 @@ impl Pass {
             }
         }
         self.bias.push(t, &b);
-        let mut h = [0.0; LANES.len() + 1];
+        let mut h = [0.0; LANE_COUNT + 1];
         h[0] = f64::from(u8::from(r.frame == 'G'));
-        for (k, (_, bit, clear)) in LANES.iter().enumerate() {
-            h[k + 1] = f64::from(u8::from((r.flags & bit != 0) != *clear));
+        for (k, l) in lanes().iter().enumerate() {
+            h[k + 1] = f64::from(u8::from((r.flags & l.bit != 0) != l.clear));
+        }
+        for k in AidKind::ALL.iter().filter(|k| !k.decl().autonomous) {
+            let bit = k.decl().excluded_flag;
+            let was = prev.is_some_and(|p| p.flags & bit != 0);
+            let is = r.flags & bit != 0;
+            if was != is && self.exclusions.len() < EVENTS_MAX {
+                self.exclusions.push((t, *k, is));
+            }
         }
         for (k, x) in h.iter().enumerate() {
             self.health_set[k] += u64::from(*x > 0.0);
@@ -837,6 +908,11 @@ pub struct Reviewer<'a> {
     ref_batch: Vec<TruthRecord>,
     sampling: SamplingAcc,
     status: StatusAids<Spill<AID_WORDS>>,
+    /// The integrity test's statistic over its threshold of each aid that
+    /// is not autonomous, from the status records (0: not tested yet, not
+    /// drawn), and the status records that had one.
+    integrity: Envelope,
+    integrity_tested: u64,
     header: Option<Header>,
 }
 
@@ -892,6 +968,8 @@ impl<'a> Reviewer<'a> {
             ref_batch: Vec::new(),
             sampling: SamplingAcc::new()?,
             status: StatusAids::new(try_map_aids(PerAid::from_fn(|_| spill()), |s| s)?),
+            integrity: Envelope::new(NOT_AUTONOMOUS.max(1)),
+            integrity_tested: 0,
             header: None,
         })
     }
@@ -903,8 +981,27 @@ impl<'a> Reviewer<'a> {
         match r {
             Record::Header(h) => self.header = Some((**h).clone()),
             Record::Imu(x) => self.sampling.push(x.t_ns)?,
-            Record::Status(st) => self.status.push(st).map_err(io_err)?,
+            Record::Status(st) => self.status_record(st)?,
             _ => {}
+        }
+        Ok(())
+    }
+
+    /// A status record of the log: the aids' last updates and the
+    /// integrity test's statistic.
+    pub fn status_record(&mut self, st: &Status) -> Result<(), String> {
+        self.status.push(st).map_err(io_err)?;
+        let mut v = [f64::NAN; NOT_AUTONOMOUS];
+        let tested = AidKind::ALL.iter().filter(|k| !k.decl().autonomous);
+        for (slot, k) in v.iter_mut().zip(tested) {
+            let r = st.aid(*k).integrity_ratio;
+            if r > 0.0 {
+                *slot = r;
+            }
+        }
+        if v.iter().any(|x| x.is_finite()) {
+            self.integrity_tested += 1;
+            self.integrity.push(st.t_ns as f64 * 1e-9, &v);
         }
         Ok(())
     }
@@ -988,6 +1085,7 @@ impl<'a> Reviewer<'a> {
         };
         let samp = self.sampling.finish()?;
         let mut at = std::mem::take(&mut self.pass.where_).seal()?;
+        let integrity = (self.integrity_tested > 0).then_some(&self.integrity);
         report(
             &self.pass,
             mcap_aids,
@@ -995,6 +1093,7 @@ impl<'a> Reviewer<'a> {
             &mut at,
             samp,
             self.header.as_ref(),
+            integrity,
             &self.opts,
         )
     }
@@ -1142,7 +1241,7 @@ pub fn review(log: &LogContents, opts: &Options<'_>) -> Result<Review, String> {
         r.sampling.push(x.t_ns)?;
     }
     for st in &log.status {
-        r.status.push(st).map_err(io_err)?;
+        r.status_record(st)?;
     }
     let mcap_aids = match mcap_aids {
         Some(a) => Some(aids_to_disk(a)?),
@@ -1159,8 +1258,10 @@ fn report(
     at: &mut WhereAt,
     samp: Option<Sampling>,
     header: Option<&Header>,
+    integrity: Option<&Envelope>,
     opts: &Options<'_>,
 ) -> Result<Review, String> {
+    let faults = injected(header);
     let (aids, aid_source) = match mcap_aids {
         Some(a) => (
             Some(a),
@@ -1376,6 +1477,25 @@ fn report(
             &|r| health_figure(r, pass, x),
             &|r| health_figure(r, pass, x),
         )?;
+        fig(
+            "aids",
+            (1700, 220 + 90 * msgs::AID_COUNT as u32),
+            "which aids navigated when: fused within their timeout, excluded by the integrity test, and the faults injected",
+            &|r| aids_figure(r, pass, &faults, x),
+            &|r| aids_figure(r, pass, &faults, x),
+        )?;
+        match integrity {
+            Some(env) => fig(
+                "integrity",
+                (1700, 700),
+                "the integrity test of the aids that are not autonomous: statistic over its threshold (log scale), exclusions, readmissions and the time to alarm",
+                &|r| integrity_figure(r, env, pass, &faults, x),
+                &|r| integrity_figure(r, env, pass, &faults, x),
+            )?,
+            None => missing.push(
+                "no `integrity` figure: the log has no status record with an integrity test (a live recording has them; `batch` writes none)".into(),
+            ),
+        }
         if let Some(sm) = &samp {
             fig(
                 "imu_sampling",
@@ -1508,7 +1628,7 @@ fn report(
         pass.switches.len(),
         pass.resets.len()
     );
-    for k in 0..LANES.len() {
+    for k in 0..LANE_COUNT {
         let name = lane_label(pass, k);
         if name.contains("never fused") {
             let _ = writeln!(
@@ -1520,6 +1640,7 @@ fn report(
         }
     }
     md.push('\n');
+    md.push_str(&aids_section(pass, &faults));
 
     Ok(Review {
         markdown: md,
@@ -1543,6 +1664,311 @@ fn report(
         }
         r
     })
+}
+
+/// Faults injected into the aids that are not autonomous, from the
+/// simulated scenario's text in the log's header (its `metadata`:
+/// `[[faults.event]]` tables whose
+/// `kind` starts with the aid's name): (aid, kind, start s). Empty for a
+/// real flight.
+fn injected(header: Option<&Header>) -> Vec<(AidKind, String, f64)> {
+    let Some(h) = header else {
+        return Vec::new();
+    };
+    h.metadata
+        .split("[[faults.event]]")
+        .skip(1)
+        .filter_map(|block| {
+            // The table ends where the next one starts.
+            let block = block.split("\n[").next()?;
+            let kind = block.lines().find_map(|l| {
+                let (k, v) = l.split_once('=')?;
+                (k.trim() == "kind").then(|| {
+                    v.split('#')
+                        .next()
+                        .unwrap_or("")
+                        .trim()
+                        .trim_matches('"')
+                        .to_owned()
+                })
+            })?;
+            let aid = AidKind::ALL.into_iter().find(|k| {
+                !k.decl().autonomous && kind.starts_with(&format!("{}_", k.decl().name))
+            })?;
+            Some((aid, kind, setting(block, "start_s")?))
+        })
+        .collect()
+}
+
+/// The first exclusion of `aid` at or after `t0` (s).
+fn first_exclusion(pass: &Pass, aid: AidKind, t0: f64) -> Option<f64> {
+    pass.exclusions
+        .iter()
+        .find(|(t, k, ex)| *k == aid && *ex && *t >= t0)
+        .map(|e| e.0)
+}
+
+/// The review's words on which aids navigated, the exclusions and the time
+/// to alarm of each injected fault.
+fn aids_section(pass: &Pass, faults: &[(AidKind, String, f64)]) -> String {
+    let mut md = String::from("### Which aids navigated\n\n");
+    let rows = pass.rows.max(1) as f64;
+    for k in AidKind::ALL {
+        let Some(c) = lane_of(k, false) else { continue };
+        let fresh = pass.rows - pass.health_set[c + 1];
+        let _ = write!(
+            md,
+            "- {} ({}): fused within its timeout in {:.2} % of rows",
+            k.decl().label,
+            k.decl().title,
+            100.0 * fresh as f64 / rows
+        );
+        if let Some(e) = lane_of(k, true) {
+            let ex: Vec<&(f64, AidKind, bool)> =
+                pass.exclusions.iter().filter(|x| x.1 == k).collect();
+            let n = ex.iter().filter(|x| x.2).count();
+            let _ = write!(
+                md,
+                "; excluded by its integrity test in {:.2} % of rows, {n} exclusion{}",
+                100.0 * pass.health_set[e + 1] as f64 / rows,
+                if n == 1 { "" } else { "s" }
+            );
+            let times: Vec<String> = ex
+                .iter()
+                .take(20)
+                .map(|(t, _, on)| {
+                    format!(
+                        "{} at {t:.3} s",
+                        if *on { "excluded" } else { "readmitted" }
+                    )
+                })
+                .collect();
+            if !times.is_empty() {
+                let _ = write!(md, " ({})", times.join(", "));
+            }
+        }
+        md.push('\n');
+    }
+    for (aid, kind, t0) in faults {
+        let _ = match first_exclusion(pass, *aid, *t0) {
+            Some(t) => writeln!(
+                md,
+                "- fault `{kind}` injected at {t0:.3} s: {} excluded at {t:.3} s, time to alarm {:.3} s",
+                aid.decl().label,
+                t - t0
+            ),
+            None => writeln!(
+                md,
+                "- fault `{kind}` injected at {t0:.3} s: {} never excluded after it (a jammed receiver stops giving fixes: the aid goes stale instead)",
+                aid.decl().label
+            ),
+        };
+    }
+    md.push('\n');
+    md
+}
+
+/// Which aids navigated when: one lane per aid, green where it was fused
+/// within its timeout, red where its integrity test excluded it; the
+/// faults the scenario injected as marks.
+fn aids_figure<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    pass: &Pass,
+    faults: &[(AidKind, String, f64)],
+    x: Option<(f64, f64)>,
+) -> Result<(), String> {
+    let (main, side) = split_title(root, "Which aids navigated: one lane per aid")?;
+    let (t0, t1) = x.unwrap_or((0.0, 1.0));
+    let names: Vec<String> = AidKind::ALL
+        .iter()
+        .map(|k| format!("{} ({})", k.decl().label, k.decl().name))
+        .collect();
+    let n = names.len() as f64;
+    let mut chart = ChartBuilder::on(&main)
+        .margin_left(10)
+        .margin_right(25)
+        .margin_top(10)
+        .x_label_area_size(42)
+        .y_label_area_size(130)
+        .build_cartesian_2d(t0..t1, -0.5..n - 0.5)
+        .map_err(plots::s)?;
+    let labels = names.clone();
+    chart
+        .configure_mesh()
+        .x_desc("t (s)")
+        .y_labels(names.len())
+        .y_label_formatter(&|v| {
+            let i = (n - 1.0 - v).round();
+            if (v - v.round()).abs() < 1e-6 && i >= 0.0 && (i as usize) < labels.len() {
+                labels[i as usize].clone()
+            } else {
+                String::new()
+            }
+        })
+        .label_style(("sans-serif", 15))
+        .axis_desc_style(("sans-serif", 15))
+        .light_line_style(WHITE.mix(0.0))
+        .bold_line_style(BLACK.mix(0.08))
+        .draw()
+        .map_err(plots::s)?;
+    let w = pass.health.width_s();
+    // A column's state holds until the next column with rows (a solution
+    // written every N samples leaves empty columns between its rows).
+    let spans = |c: usize| {
+        let cols: Vec<(f64, f64, f64)> = pass.health.column_range(c).collect();
+        let ends: Vec<f64> = cols
+            .iter()
+            .skip(1)
+            .map(|p| p.0 - w / 2.0)
+            .chain(cols.last().map(|p| p.0 + w / 2.0))
+            .collect();
+        cols.into_iter()
+            .zip(ends)
+            .map(|((t, lo, hi), end)| (t - w / 2.0, end, lo, hi))
+            .collect::<Vec<_>>()
+    };
+    for (i, k) in AidKind::ALL.iter().enumerate() {
+        let y = n - 1.0 - i as f64;
+        let Some(c) = lane_of(*k, false) else {
+            continue;
+        };
+        // The stale lane: min 0 = fused somewhere in the column, max 0 = throughout.
+        chart
+            .draw_series(
+                spans(c + 1)
+                    .into_iter()
+                    .filter(|p| p.2 < 0.5)
+                    .map(|(a, b, _, hi)| {
+                        let shade = if hi < 0.5 { 0.85 } else { 0.35 };
+                        Rectangle::new(
+                            [(a, y - 0.3), (b, y + 0.3)],
+                            plots::GREEN.mix(shade).filled(),
+                        )
+                    }),
+            )
+            .map_err(plots::s)?;
+        if let Some(e) = lane_of(*k, true) {
+            chart
+                .draw_series(
+                    spans(e + 1)
+                        .into_iter()
+                        .filter(|p| p.3 > 0.5)
+                        .map(|(a, b, _, _)| {
+                            Rectangle::new([(a, y - 0.42), (b, y - 0.3)], RED_.mix(0.9).filled())
+                        }),
+                )
+                .map_err(plots::s)?;
+        }
+        for (aid, _, t) in faults.iter().filter(|f| f.0 == *k) {
+            let _ = aid;
+            chart
+                .draw_series(std::iter::once(TriangleMarker::new(
+                    (*t, y + 0.38),
+                    9,
+                    BLACK.filled(),
+                )))
+                .map_err(plots::s)?;
+        }
+    }
+    let mut notes = vec![format!(
+        "a column is {}: dark green fused throughout it, light green in part of it",
+        if w < 1.0 {
+            format!("{:.0} ms", w * 1e3)
+        } else {
+            format!("{w:.1} s")
+        }
+    )];
+    for (aid, kind, t0) in faults {
+        notes.push(match first_exclusion(pass, *aid, *t0) {
+            Some(t) => format!("{kind} at {t0:.1} s: alarm after {:.2} s", t - t0),
+            None => format!("{kind} at {t0:.1} s: no exclusion"),
+        });
+    }
+    legend(
+        &side,
+        "aids",
+        &[
+            ("fused (within timeout)".into(), Mark::Square(plots::GREEN)),
+            ("excluded (integrity)".into(), Mark::Square(RED_)),
+            ("fault injected".into(), Mark::Triangle),
+        ],
+        &notes,
+    )
+}
+
+/// The integrity test's statistic over its threshold (the status records'
+/// `integrity_ratio`: q / χ² quantile; above 1 excludes) of each aid that is
+/// not autonomous, with its exclusions and readmissions from the rows.
+fn integrity_figure<DB: DrawingBackend>(
+    root: &DrawingArea<DB, Shift>,
+    env: &Envelope,
+    pass: &Pass,
+    faults: &[(AidKind, String, f64)],
+    x: Option<(f64, f64)>,
+) -> Result<(), String> {
+    let (main, side) = split_title(
+        root,
+        "Integrity test: statistic q over its threshold (log scale; above 1 excludes)",
+    )?;
+    let tested: Vec<AidKind> = AidKind::ALL
+        .into_iter()
+        .filter(|k| !k.decl().autonomous)
+        .collect();
+    let colors = [BLUE, plots::GREEN, GREY];
+    let mut bands = Vec::new();
+    let mut entries = Vec::new();
+    for (j, k) in tested.iter().enumerate() {
+        let c = colors[j % colors.len()];
+        let b: Vec<(f64, f64, f64)> = env
+            .column_range(j)
+            .filter(|p| p.1 > 0.0)
+            .map(|(t, lo, hi)| (t, lo.log10(), hi.log10()))
+            .collect();
+        bands.push((b, c));
+        entries.push((format!("{} q / threshold", k.decl().label), Mark::Band(c)));
+    }
+    let (lo, hi) = bands
+        .iter()
+        .flat_map(|b| b.0.iter().flat_map(|p| [p.1, p.2]))
+        .fold((-1.0f64, 0.5f64), |a, v| (a.0.min(v), a.1.max(v)));
+    let mut crosses = Vec::new();
+    let mut dots = Vec::new();
+    for (t, k, on) in &pass.exclusions {
+        if tested.contains(k) {
+            if *on {
+                crosses.push((*t, 0.0));
+            } else {
+                dots.push((*t, 0.0));
+            }
+        }
+    }
+    let p = Panel {
+        title: "each status record's last test (min and max of each time column)".into(),
+        bands,
+        hlines: vec![(0.0, RED_)],
+        crosses: vec![(crosses, RED_)],
+        dots: vec![(dots, plots::GREEN)],
+        y: Some((lo - 0.2, hi + 0.2)),
+        y_fmt: Some(log_fmt),
+        x,
+        y_desc: Some("q / threshold".into()),
+        ..Default::default()
+    };
+    time_panel(&main, &p, x.map_or(1.0, |r| r.1), &pass.switches)?;
+    entries.push(("threshold (χ² quantile)".into(), Mark::Line(RED_, 2)));
+    entries.push(("excluded".into(), Mark::Cross(RED_)));
+    entries.push(("readmitted".into(), Mark::Dot(plots::GREEN)));
+    let mut notes = vec![
+        "the threshold: the χ² quantile of the settings' false-alarm probability per test"
+            .to_owned(),
+    ];
+    for (aid, kind, t0) in faults {
+        notes.push(match first_exclusion(pass, *aid, *t0) {
+            Some(t) => format!("{kind} from {t0:.1} s: time to alarm {:.2} s", t - t0),
+            None => format!("{kind} from {t0:.1} s: no exclusion"),
+        });
+    }
+    legend(&side, "integrity", &entries, &notes)
 }
 
 fn split_title<DB: DrawingBackend>(
@@ -1668,7 +2094,7 @@ fn health_figure<DB: DrawingBackend>(
         "frame switch".into(),
         "reset".into(),
     ];
-    names.extend((0..LANES.len()).map(|k| lane_label(pass, k)));
+    names.extend((0..LANE_COUNT).map(|k| lane_label(pass, k)));
     let n = names.len() as f64;
     let mut chart = ChartBuilder::on(&main)
         .margin_left(10)
@@ -1701,7 +2127,7 @@ fn health_figure<DB: DrawingBackend>(
     let w = pass.health.width_s();
     // Frame and flag lanes: a bar over each time column where the flag was set.
     let lane_of = |c: usize| if c == 0 { 0 } else { c + 2 };
-    for c in 0..=LANES.len() {
+    for c in 0..=LANE_COUNT {
         let y = lane_y(lane_of(c));
         let color = if c == 0 { BLUE } else { RED_ };
         chart
@@ -2096,13 +2522,48 @@ mod tests {
             prev = Some(row);
         }
         let label = |name: &str| {
-            let k = LANES.iter().position(|l| l.0 == name).expect("lane");
+            let k = lanes().iter().position(|l| l.name == name).expect("lane");
             lane_label(&pass, k)
         };
         assert_eq!(label("SRS stale"), "SRS never fused");
         assert_eq!(label("baro stale"), "baro never fused");
         assert_eq!(label("CNS stale"), "CNS stale");
         assert_eq!(label("COASTING"), "COASTING");
+    }
+
+    /// The faults of a simulated scenario in the log's header, for the aids
+    /// that are not autonomous; the time to alarm from the rows' flags.
+    #[test]
+    fn time_to_alarm_from_the_scenario_and_the_exclusion_flag() {
+        let scenario = "name = \"x\"\n[gnss]\nrate_hz = 5.0\n\n[[faults.event]]\nkind = \"baro_spike\"\nstream = \"baro\"\nstart_s = 10.0\n\n[[faults.event]]\nkind = \"gnss_spoof\" # drag\nstream = \"gnss\"\nstart_s = 0.25\nmagnitude = 1.0\n[other]\nstart_s = 99.0\n";
+        let h = Header::new("test", "x", 1, scenario);
+        let f = injected(Some(&h));
+        assert_eq!(f, vec![(AidKind::Gnss, "gnss_spoof".to_owned(), 0.25)]);
+        let mut pass = Pass::new();
+        let mut prev: Option<Row> = None;
+        for k in 0..100u64 {
+            let flags = if (40..70).contains(&k) {
+                solution_flags::GNSS_EXCLUDED
+            } else {
+                0
+            };
+            let row = Row::from_solution(&msgs::Solution {
+                t_ns: k * 10_000_000,
+                q_b_e: [1.0, 0.0, 0.0, 0.0],
+                flags,
+                ..Default::default()
+            });
+            pass.push(&row, None, prev.as_ref()).expect("in memory");
+            prev = Some(row);
+        }
+        assert_eq!(pass.exclusions.len(), 2);
+        assert_eq!(first_exclusion(&pass, AidKind::Gnss, 0.25), Some(0.4));
+        let md = aids_section(&pass, &f);
+        assert!(md.contains("time to alarm 0.150 s"), "{md}");
+        assert!(
+            md.contains("1 exclusion (excluded at 0.400 s, readmitted at 0.700 s)"),
+            "{md}"
+        );
     }
 
     #[test]
