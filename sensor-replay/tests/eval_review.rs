@@ -198,6 +198,51 @@ fn eval_on_a_log_without_truth_and_a_csv_solution_exits_0_and_says_what_is_missi
     std::fs::remove_dir_all(&dir).ok();
 }
 
+/// The first minute of `transpolar-gnss` (every aid of the declaration,
+/// GNSS with its 6 innovation components) without truth, batch-processed
+/// to MCAP: the review draws one figure per aid, each component in a
+/// panel of its own.
+#[test]
+fn eval_of_a_flight_with_every_aid_draws_each_aids_figure_gnss_with_its_six_components() {
+    let dir = tmp("every-aid");
+    let text = std::fs::read_to_string(repo("config/scenarios/transpolar-gnss.toml"))
+        .expect("scenario")
+        .replace("duration_s = 4480.0", "duration_s = 60.0");
+    assert!(text.contains("duration_s = 60.0"));
+    let s = Scenario::parse(&text, "transpolar-gnss (short)").expect("scenario");
+    let full = dir.join("gnss-truth.navlog");
+    simulate(
+        &s,
+        &text,
+        SimOptions::default(),
+        std::fs::File::create(&full).expect("create"),
+    )
+    .expect("simulate");
+    let log = dir.join("gnss.navlog");
+    rewrite(&full, &log, no_truth);
+    let mcap = dir.join("gnss.mcap");
+    batch_to(&log, &mcap);
+    let figs = dir.join("figs");
+    let summary = eval(&[
+        "--log".as_ref(),
+        log.as_os_str(),
+        "--solution".as_ref(),
+        mcap.as_os_str(),
+        "--out".as_ref(),
+        figs.as_os_str(),
+    ]);
+    let names = check_named_figures(&summary, &figs);
+    for kind in AidKind::ALL {
+        let want = format!("aid_{}.", kind.decl().name);
+        assert!(
+            names.iter().any(|n| n.starts_with(&want)),
+            "{want} not named in:\n{summary}"
+        );
+    }
+    assert_eq!(AidKind::Gnss.decl().components.len(), 6);
+    std::fs::remove_dir_all(&dir).ok();
+}
+
 fn verdicts(log: &Path, dir: &Path) -> Vec<(&'static str, Verdict)> {
     let mcap = dir.join(format!(
         "{}.mcap",

@@ -1998,7 +1998,9 @@ fn aid_figure<DB: DrawingBackend>(
                 (sig.symmetric_band(0, 3.0), GREY),
                 (sig.symmetric_band(0, 1.0), BLUE),
             ],
-            dots: vec![(acc.line(0, 1.0), AXIS_COLORS[k])],
+            // Each component has a panel of its own: an aid of more than
+            // three (GNSS: position and velocity) takes the colours again.
+            dots: vec![(acc.line(0, 1.0), AXIS_COLORS[k % AXIS_COLORS.len()])],
             crosses: vec![(rej.line(0, 1.0), RED_)],
             hlines: vec![(0.0, GREY)],
             symmetric: true,
