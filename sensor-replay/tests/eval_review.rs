@@ -502,3 +502,91 @@ fn eval_into_a_closed_pipe_exits_0_quietly_and_writes_its_summary() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// A spoofed flight reviewed without truth: the aids figure and section say
+/// when GNSS was excluded and the time to alarm of the injected fault, and
+/// the integrity figure draws the status records' test statistic. (The
+/// statistic's values are written into the log here, 1 Hz as a recorder
+/// would have them: their computation is tested in the core and in
+/// `tests/gnss.rs`; this tests the review.)
+#[test]
+fn review_of_a_spoofed_flight_says_which_aids_navigated_and_the_time_to_alarm() {
+    let dir = tmp("spoofed");
+    let text = std::fs::read_to_string(repo("config/scenarios/transpolar-gnss.toml"))
+        .expect("scenario")
+        .replace("duration_s = 4480.0", "duration_s = 60.0")
+        + "\n[[faults.event]]\nkind = \"gnss_spoof\"\nstream = \"gnss\"\nstart_s = 20.0\nduration_s = 20.0\noffset_m = 500.0\ndelay_s = 0.2\n";
+    let s = Scenario::parse(&text, "transpolar-gnss (short, meaconed)").expect("scenario");
+    let full = dir.join("full.navlog");
+    simulate(
+        &s,
+        &text,
+        SimOptions::default(),
+        std::fs::File::create(&full).expect("create"),
+    )
+    .expect("simulate");
+    let (records, report) = read_all(&std::fs::read(&full).expect("read"));
+    assert!(report.is_clean());
+    let log = dir.join("spoofed.navlog");
+    let mut it = records.into_iter();
+    let Some(Record::Header(h)) = it.next() else {
+        panic!("no header");
+    };
+    let mut w = NavlogWriter::new(std::fs::File::create(&log).expect("create"), *h).expect("w");
+    for r in it.filter_map(no_truth) {
+        let second = match &r {
+            Record::Imu(x) if x.t_ns % 1_000_000_000 == 0 => Some(x.t_ns),
+            _ => None,
+        };
+        w.write(&r).expect("write");
+        if let Some(t_ns) = second {
+            let mut st = msgs::Status {
+                t_ns,
+                ..Default::default()
+            };
+            let t = t_ns as f64 * 1e-9;
+            st.aid_mut(AidKind::Gnss).integrity_ratio = if (20.0..40.0).contains(&t) {
+                12.0
+            } else {
+                0.1 + 0.05 * (t * 0.7).sin()
+            };
+            w.write(&Record::Status(Box::new(st))).expect("status");
+        }
+    }
+    w.finish().expect("finish");
+    let csv = dir.join("spoofed.csv");
+    batch_to(&log, &csv);
+    let figs = dir.join("figs");
+    let summary = eval(&[
+        "--log".as_ref(),
+        log.as_os_str(),
+        "--solution".as_ref(),
+        csv.as_os_str(),
+        "--out".as_ref(),
+        figs.as_os_str(),
+    ]);
+    let names = check_named_figures(&summary, &figs);
+    for want in ["aids.", "integrity."] {
+        assert!(
+            names.iter().any(|n| n.starts_with(want)),
+            "{want} not named in:\n{summary}"
+        );
+    }
+    // Meaconing is excluded at its first fix (tests/gnss.rs): 20 s, the
+    // first fix after the 0.2 s delay.
+    let line = summary
+        .lines()
+        .find(|l| l.contains("fault `gnss_spoof` injected at 20.000 s"))
+        .unwrap_or_else(|| panic!("no time to alarm in:\n{summary}"));
+    let alarm: f64 = line
+        .split("time to alarm ")
+        .nth(1)
+        .and_then(|x| x.trim_end_matches(" s").parse().ok())
+        .unwrap_or_else(|| panic!("{line}"));
+    assert!((0.0..=0.5).contains(&alarm), "{line}");
+    assert!(
+        summary.contains("1 exclusion (excluded at 20."),
+        "{summary}"
+    );
+    std::fs::remove_dir_all(&dir).ok();
+}
