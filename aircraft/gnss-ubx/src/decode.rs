@@ -42,32 +42,50 @@ pub const INVALID_LLH: u8 = 1;
 /// A NAV-PVT's fields that the driver uses, as sent (integers).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct Pvt {
+    /// `iTOW` (ms).
     pub itow_ms: u32,
+    /// UTC date and time with `valid`.
     pub date: PvtDate,
+    /// `fixType`.
     pub fix_type: u8,
+    /// `flags`.
     pub flags: u8,
+    /// `flags3`, low byte (bit 0 `invalidLlh`).
     pub flags3: u8,
+    /// `numSV`.
     pub num_sv: u8,
+    /// `lon` (1e-7 °).
     pub lon_e7: i32,
+    /// `lat` (1e-7 °).
     pub lat_e7: i32,
+    /// `height` above the ellipsoid (mm).
     pub height_mm: i32,
+    /// `hAcc` (mm).
     pub h_acc_mm: u32,
+    /// `vAcc` (mm).
     pub v_acc_mm: u32,
+    /// `velN`, `velE`, `velD` (mm/s).
     pub vel_ned_mmps: [i32; 3],
+    /// `sAcc` (mm/s).
     pub s_acc_mmps: u32,
+    /// `pDOP` (0.01).
     pub pdop_e2: u16,
 }
 
 /// A NAV-RELPOSNED (version 1): the baseline from the moving base.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct RelPosNed {
+    /// `iTOW` (ms).
     pub itow_ms: u32,
-    /// North, east, down (cm) with their 0.1 mm parts.
+    /// North, east, down (cm).
     pub rel_pos_cm: [i32; 3],
+    /// Their 0.1 mm parts.
     pub rel_pos_hp_01mm: [i8; 3],
+    /// Baseline length (cm).
     pub length_cm: i32,
-    /// 1e-5 °.
+    /// Heading of the baseline (1e-5 °).
     pub heading_e5: i32,
+    /// `flags` (bit 8 `relPosHeadingValid`).
     pub flags: u32,
 }
 
@@ -77,7 +95,9 @@ pub const REL_POS_HEADING_VALID: u32 = 1 << 8;
 /// What a good frame carried.
 #[derive(Debug, Clone, PartialEq)]
 pub enum Decoded {
+    /// A NAV-PVT.
     Pvt(Pvt),
+    /// A NAV-RELPOSNED.
     RelPosNed(RelPosNed),
     /// A class and id this driver does not use.
     Unused,

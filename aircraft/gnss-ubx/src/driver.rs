@@ -89,6 +89,7 @@ pub struct Driver {
 }
 
 impl Driver {
+    /// A driver stamping with `rule`.
     pub fn new(rule: TimeRule) -> Self {
         Self {
             framer: Framer::new(),
@@ -98,6 +99,7 @@ impl Driver {
         }
     }
 
+    /// Everything counted so far.
     pub fn counters(&self) -> Counters {
         Counters {
             framing: self.framer.counters(),

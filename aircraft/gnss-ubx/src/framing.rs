@@ -37,8 +37,11 @@ pub const MAX_PAYLOAD: usize = 8192;
 /// One frame with a good checksum.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct Frame<'a> {
+    /// Message class.
     pub class: u8,
+    /// Message id within the class.
     pub id: u8,
+    /// The payload (without header and checksum).
     pub payload: &'a [u8],
 }
 
@@ -100,10 +103,12 @@ fn complete_and_good(b: &[u8]) -> bool {
 }
 
 impl Framer {
+    /// A framer with nothing held.
     pub fn new() -> Self {
         Self::default()
     }
 
+    /// What it has seen so far.
     pub fn counters(&self) -> FrameCounters {
         self.counters
     }

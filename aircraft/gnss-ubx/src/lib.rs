@@ -12,7 +12,6 @@
 //! - [`settings`]: the settings file;
 //! - [`run`]: the loop around the device and the publisher.
 #![warn(missing_docs)]
-#![allow(missing_docs)] // field-level docs are in the tables of the module docs
 
 pub mod decode;
 pub mod driver;

@@ -44,8 +44,11 @@ pub enum RunError {
     /// (fix the setting, free the port, or plug the receiver in).
     #[error("{origin}: key `{key}`: {message}")]
     Open {
+        /// The settings file (or option) that named it.
         origin: String,
+        /// The key.
         key: &'static str,
+        /// What failed.
         message: String,
     },
     /// The transport failed: exit 1.
@@ -98,6 +101,7 @@ enum Input {
 /// What the run did.
 #[derive(Debug, Clone, Copy)]
 pub struct Summary {
+    /// The counters at exit.
     pub counters: Counters,
 }
 

@@ -50,12 +50,19 @@ pub enum LoadError {
     /// The file cannot be read: give an existing, readable file.
     #[error("{path}: cannot read: {source}")]
     Io {
+        /// The file.
         path: String,
+        /// Why.
         source: std::io::Error,
     },
     /// Not TOML: the message names the line.
     #[error("{path}: {message}")]
-    Parse { path: String, message: String },
+    Parse {
+        /// The file.
+        path: String,
+        /// The TOML parser's message (line and column).
+        message: String,
+    },
     /// A key unknown, of the wrong type or out of its bound.
     #[error(transparent)]
     Invalid(#[from] SettingsError),

@@ -43,11 +43,17 @@ pub const WEEK_PICK_LEAP_S: i64 = 18;
 /// The date and time fields of a NAV-PVT (UTC) with its `valid` flags.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq)]
 pub struct PvtDate {
+    /// Year (UTC).
     pub year: u16,
+    /// Month, 1..12.
     pub month: u8,
+    /// Day of the month, 1..31.
     pub day: u8,
+    /// Hour, 0..23.
     pub hour: u8,
+    /// Minute, 0..59.
     pub min: u8,
+    /// Second, 0..60.
     pub sec: u8,
     /// NAV-PVT `valid`: bit 0 validDate, bit 1 validTime.
     pub valid: u8,
@@ -116,8 +122,11 @@ pub enum Unstamped {
 /// How the week of a fix was found.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum WeekFrom {
+    /// The fix's own UTC date.
     Date,
+    /// The last week, across a rollover.
     Carried,
+    /// `time.week` of the settings.
     Setting,
 }
 
@@ -156,14 +165,17 @@ impl TimeRule {
         })
     }
 
+    /// GPS − UTC at the epoch (s).
     pub fn gps_utc_offset_s(&self) -> i64 {
         self.gps_utc_offset_s
     }
 
+    /// The constant added to every stamp (ns).
     pub fn offset_ns(&self) -> i64 {
         self.offset_ns
     }
 
+    /// `time.week`, if given.
     pub fn fallback_week(&self) -> Option<u32> {
         self.fallback_week
     }
