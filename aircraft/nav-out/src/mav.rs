@@ -105,7 +105,8 @@ pub fn time_usec(sol: &Solution) -> u64 {
 /// - `vn`, `ve`, `vd`: the solution's ENU velocity as NED (at the exact
 ///   pole, on the axes of the solution's longitude, like the position).
 /// - accuracies, HDOP/VDOP, satellites: [`Quality`]; HDOP and VDOP are
-///   flagged ignored (and `UINT16_MAX`, "unknown") without a usable fix.
+///   flagged ignored (and `UINT16_MAX`, "unknown") without a usable fix,
+///   accuracies flagged ignored (and 0) when unknown (a stale solution).
 /// - `yaw`: true heading in cdeg (north = 36000) where [`Quality`] has it,
 ///   else 0, "not available" (at and near the pole).
 /// - `time_week`, `time_week_ms`: GPS time of `unix` (the flight computer's
@@ -155,9 +156,30 @@ pub fn gps_input(
     d.alt = (s.h_m - geoid_m) as f32;
     let [ve, vn, vu] = s.v_enu_mps;
     (d.vn, d.ve, d.vd) = (vn as f32, ve as f32, -vu as f32);
-    d.horiz_accuracy = q.h_acc_m as f32;
-    d.vert_accuracy = q.v_acc_m as f32;
-    d.speed_accuracy = q.speed_acc_mps as f32;
+    // Accuracies unknown (a stale solution: no fix) are flagged, not NaN.
+    for (v, field, flag) in [
+        (
+            q.h_acc_m,
+            &mut d.horiz_accuracy,
+            GpsInputIgnoreFlags::GPS_INPUT_IGNORE_FLAG_HORIZONTAL_ACCURACY,
+        ),
+        (
+            q.v_acc_m,
+            &mut d.vert_accuracy,
+            GpsInputIgnoreFlags::GPS_INPUT_IGNORE_FLAG_VERTICAL_ACCURACY,
+        ),
+        (
+            q.speed_acc_mps,
+            &mut d.speed_accuracy,
+            GpsInputIgnoreFlags::GPS_INPUT_IGNORE_FLAG_SPEED_ACCURACY,
+        ),
+    ] {
+        if v.is_finite() {
+            *field = v as f32;
+        } else {
+            ignore |= flag;
+        }
+    }
     match (q.hdop, q.vdop) {
         (Some(h), Some(v)) => {
             d.hdop = h as f32;
