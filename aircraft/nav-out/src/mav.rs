@@ -313,7 +313,9 @@ impl Odometry {
         let p_n = a.c_e_n * (r_e - a.r_e);
         let c_b_e = q_b_e.to_rotation_matrix().into_inner();
         let c_frd_n = a.c_e_n * c_b_e * c_frd_b();
-        let q_out = UnitQuaternion::from_matrix(&c_frd_n);
+        // The quaternion with w ≥ 0 of the two that are this rotation.
+        let q_out = UnitQuaternion::from_matrix(&c_frd_n).into_inner();
+        let q_out = if q_out.w < 0.0 { -q_out } else { q_out };
         let v_frd = c_frd_b().transpose() * c_b_e.transpose() * v_e;
         // Position covariance: ENU → ECEF → anchored NED.
         let c_e_enu = {
@@ -376,4 +378,141 @@ impl Odometry {
 pub fn tri(i: usize, j: usize) -> usize {
     debug_assert!(i <= j && j < 6);
     6 * i - i * i.saturating_sub(1) / 2 + (j - i)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::health::{HealthSettings, Heard, assess};
+    use msgs::solution_flags;
+
+    #[test]
+    fn gps_week_of_a_known_date() {
+        // 2024-01-01T00:00:00Z: GPS week 2295 began the day before; +18 s.
+        assert_eq!(
+            gps_time(Duration::from_secs(1_704_067_200), 18),
+            (2295, 86_418_000)
+        );
+    }
+
+    #[test]
+    fn covariance_triangle_indices() {
+        assert_eq!(tri(0, 0), 0);
+        assert_eq!(tri(0, 5), 5);
+        assert_eq!(tri(1, 1), 6);
+        assert_eq!(tri(2, 2), 11);
+        assert_eq!(tri(3, 3), 15);
+        assert_eq!(tri(5, 5), 20);
+    }
+
+    /// A level aircraft flying east at (45° N, 10° E), body→ECEF built
+    /// from its axes (x right, y forward, z up).
+    fn flying_east() -> Solution {
+        let (lat, lon) = (45f64.to_radians(), 10f64.to_radians());
+        let c_e_n = geo::c_e_ned(lat, lon);
+        let (north, east, down) = (
+            c_e_n.row(0).transpose(),
+            c_e_n.row(1).transpose(),
+            c_e_n.row(2).transpose(),
+        );
+        // Forward = east, right = south, up = −down.
+        let c_b_e = Matrix3::from_columns(&[-north, east, -down]);
+        let q = UnitQuaternion::from_matrix(&c_b_e);
+        Solution {
+            lat_rad: lat,
+            lon_rad: lon,
+            h_m: 1000.0,
+            r_e_m: geo::geodetic_to_ecef(lat, lon, 1000.0),
+            v_e_mps: (east * 50.0).into(),
+            v_enu_mps: [50.0, 0.0, 0.0],
+            q_b_e: [q.w, q.i, q.j, q.k],
+            heading_rad: std::f64::consts::FRAC_PI_2,
+            sigma_pos_enu_m: [1.0, 2.0, 3.0],
+            sigma_vel_mps: [0.1; 3],
+            sigma_att_rad: [1e-3; 3],
+            flags: solution_flags::ALIGNED,
+            ..Default::default()
+        }
+    }
+
+    #[test]
+    fn odometry_of_an_aircraft_flying_east_is_yaw_90_and_forward_speed() {
+        let s = flying_east();
+        let q = assess(
+            &Heard {
+                solution: Some((&s, 0.0)),
+                status_age_s: Some(0.0),
+                publisher_present: true,
+            },
+            &HealthSettings::default(),
+        );
+        let mut o = Odometry::new(OdometryFrame::LocalNed, 100e3);
+        let Some(MavMessage::ODOMETRY(d)) = o.message(&s, &q) else {
+            panic!("no ODOMETRY");
+        };
+        // At the anchor: position 0, attitude a yaw of +90° (FRD → NED).
+        assert!(d.x.abs() < 1e-3 && d.y.abs() < 1e-3 && d.z.abs() < 1e-3);
+        let h = std::f32::consts::FRAC_1_SQRT_2;
+        for (got, want) in d.q.iter().zip([h, 0.0, 0.0, h]) {
+            assert!((got - want).abs() < 1e-6, "{:?}", d.q);
+        }
+        // Velocity in body FRD: all forward.
+        assert!((d.vx - 50.0).abs() < 1e-4 && d.vy.abs() < 1e-4 && d.vz.abs() < 1e-4);
+        // Position variances: north σ² = 4, east σ² = 1, down σ² = 9.
+        assert!((d.pose_covariance[tri(0, 0)] - 4.0).abs() < 1e-5);
+        assert!((d.pose_covariance[tri(1, 1)] - 1.0).abs() < 1e-5);
+        assert!((d.pose_covariance[tri(2, 2)] - 9.0).abs() < 1e-5);
+        assert_eq!(d.frame_id, MavFrame::MAV_FRAME_LOCAL_NED);
+        assert_eq!(d.child_frame_id, MavFrame::MAV_FRAME_BODY_FRD);
+        assert_eq!(d.quality, 100);
+        // 150 km on: the anchor moves and reset_counter counts it.
+        let mut far = flying_east();
+        far.lat_rad += 150e3 / 6.37e6;
+        far.r_e_m = geo::geodetic_to_ecef(far.lat_rad, far.lon_rad, 1000.0);
+        let Some(MavMessage::ODOMETRY(d)) = o.message(&far, &q) else {
+            panic!("no ODOMETRY");
+        };
+        assert_eq!((d.reset_counter, o.reanchors()), (1, 1));
+        assert!(d.x.abs() < 1e-3);
+    }
+
+    #[test]
+    fn gps_input_at_the_exact_pole_sends_no_yaw_and_exact_latitude() {
+        let mut s = flying_east();
+        s.lat_rad = std::f64::consts::FRAC_PI_2;
+        s.lon_rad = std::f64::consts::PI;
+        let q = assess(
+            &Heard {
+                solution: Some((&s, 0.0)),
+                status_age_s: Some(0.0),
+                publisher_present: true,
+            },
+            &HealthSettings::default(),
+        );
+        let MavMessage::GPS_INPUT(d) = gps_input(Some(&s), &q, 13.61, 0, (0, 0)) else {
+            panic!("not GPS_INPUT");
+        };
+        assert_eq!((d.lat, d.lon, d.yaw), (900_000_000, -1_800_000_000, 0));
+        assert_eq!(d.fix_type, GpsFixType::GPS_FIX_TYPE_3D_FIX);
+        assert!((d.alt - (1000.0 - 13.61)).abs() < 1e-3);
+        assert!(d.ignore_flags.is_empty());
+        // Away from the pole the heading goes out in cdeg.
+        let s = flying_east();
+        let MavMessage::GPS_INPUT(d) = gps_input(Some(&s), &q, 0.0, 0, (0, 0)) else {
+            panic!("not GPS_INPUT");
+        };
+        assert_eq!(d.yaw, 0, "the quality of the pole says no yaw");
+        let q = assess(
+            &Heard {
+                solution: Some((&s, 0.0)),
+                status_age_s: Some(0.0),
+                publisher_present: true,
+            },
+            &HealthSettings::default(),
+        );
+        let MavMessage::GPS_INPUT(d) = gps_input(Some(&s), &q, 0.0, 0, (0, 0)) else {
+            panic!("not GPS_INPUT");
+        };
+        assert_eq!(d.yaw, 9000);
+    }
 }

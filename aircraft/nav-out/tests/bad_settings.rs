@@ -184,3 +184,91 @@ fn the_shipped_settings_are_valid() {
         );
     }
 }
+
+/// Under systemd the bridges send from the UDP socket the `.socket` unit
+/// opened (the service has no network of its own): given one, a bridge uses
+/// it and never binds `udp_bind` (here a port in use, which it would refuse
+/// with exit 2). Run through `systemd-socket-activate`, which passes a socket
+/// as systemd does; skipped where that tool is not installed.
+#[test]
+fn a_socket_passed_by_systemd_is_used_instead_of_udp_bind() {
+    let Ok(tool) = which("systemd-socket-activate") else {
+        eprintln!("systemd-socket-activate not installed: skipped");
+        return;
+    };
+    let dir = scratch("socket-activation");
+    let rx = UdpSocket::bind("127.0.0.1:0").expect("receiver");
+    rx.set_read_timeout(Some(std::time::Duration::from_secs(20)))
+        .expect("timeout");
+    let held = UdpSocket::bind("127.0.0.1:0").expect("a port in use");
+    let listen = UdpSocket::bind("127.0.0.1:0").expect("free port");
+    let listen_port = listen.local_addr().expect("addr").port();
+    drop(listen);
+    let cfg_path = dir.join("nav-mavlink.toml");
+    std::fs::write(
+        &cfg_path,
+        format!(
+            "[output]\ntransport = \"udp\"\nudp_target = \"{}\"\nudp_bind = \"{}\"\n",
+            rx.local_addr().expect("addr"),
+            held.local_addr().expect("addr")
+        ),
+    )
+    .expect("settings");
+    let cfg = polarnav_ipc::TransportConfig::isolated("navsock");
+    let mut child = Command::new(tool)
+        .args(["-d", "-l", &format!("127.0.0.1:{listen_port}"), MAVLINK])
+        .arg("--config")
+        .arg(&cfg_path)
+        .arg("--prefix")
+        .arg(&cfg.prefix)
+        .env(
+            "POLARNAV_IOX_PREFIX",
+            cfg.iox_prefix.clone().expect("isolated"),
+        )
+        .env("POLARNAV_IOX_ROOT", cfg.iox_root.clone().expect("isolated"))
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("systemd-socket-activate");
+    // A datagram on the socket starts the service, as systemd would.
+    let poke = UdpSocket::bind("127.0.0.1:0").expect("poke");
+    let mut got = None;
+    for _ in 0..100 {
+        let _ = poke.send_to(b"start", ("127.0.0.1", listen_port));
+        rx.set_read_timeout(Some(std::time::Duration::from_millis(200)))
+            .expect("timeout");
+        let mut buf = [0u8; 300];
+        if let Ok((n, from)) = rx.recv_from(&mut buf) {
+            got = Some((buf[..n].to_vec(), from));
+            break;
+        }
+    }
+    let _ = Command::new("kill")
+        .args(["-TERM", &child.id().to_string()])
+        .status();
+    let status = child.wait().expect("wait");
+    let mut err = String::new();
+    if let Some(mut e) = child.stderr.take() {
+        use std::io::Read;
+        let _ = e.read_to_string(&mut err);
+    }
+    let (frame, from) = got.unwrap_or_else(|| panic!("nothing received: {err}"));
+    assert_eq!(frame[0], 0xFD, "a MAVLink 2 frame");
+    assert_eq!(
+        from.port(),
+        listen_port,
+        "sent from the passed socket: {err}"
+    );
+    assert!(err.contains("UDP socket that systemd opened"), "{err}");
+    assert!(status.success(), "{status}: {err}");
+    polarnav_ipc::remove_isolated(&cfg);
+}
+
+fn which(name: &str) -> Result<std::path::PathBuf, ()> {
+    std::env::var_os("PATH")
+        .and_then(|p| {
+            std::env::split_paths(&p)
+                .map(|d| d.join(name))
+                .find(|f| f.is_file())
+        })
+        .ok_or(())
+}
