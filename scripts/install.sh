@@ -10,8 +10,8 @@
 # PREFIX (default /usr/local) holds bin/ and share/doc/polarnav/; the
 # installed units start $PREFIX/bin/... and name $PREFIX/share/doc/polarnav
 # (the units in systemd/ say /usr/local, rewritten here). An existing /etc/polarnav/nav-daemon.toml is kept
-# (the shipped one is installed beside it as nav-daemon.toml.dist), and so is
-# /etc/polarnav/gnss-ubx.toml. Without
+# (the shipped one is installed beside it as nav-daemon.toml.dist; the same
+# for gnss-ubx.toml, nav-mavlink.toml and nav-nmea.toml). Without
 # DESTDIR, on a machine run by systemd, the user, group and directories are
 # created and systemd reloaded; nothing is enabled or started.
 set -euo pipefail
@@ -30,14 +30,16 @@ case "$PREFIX" in
 esac
 PREFIX=${PREFIX%/}
 
-for b in nav-daemon sensor-replay gnss-ubx; do
+for b in nav-daemon sensor-replay gnss-ubx nav-mavlink nav-nmea; do
   [ -x "$BIN_DIR/$b" ] || { echo "install: $BIN_DIR/$b not built (cargo build --release)" >&2; exit 2; }
 done
 install -d -m 0755 "$DESTDIR$PREFIX/bin" "$DESTDIR$PREFIX/share/doc/polarnav" \
   "$DESTDIR/etc/systemd/system" "$DESTDIR/etc/sysusers.d" "$DESTDIR/etc/tmpfiles.d"
 install -d -m 0755 "$DESTDIR/etc/polarnav"
-install -m 0755 "$BIN_DIR/nav-daemon" "$BIN_DIR/sensor-replay" "$BIN_DIR/gnss-ubx" "$DESTDIR$PREFIX/bin/"
-units="nav-daemon.service nav-recorder.service nav-view.service sensor-replay@.service gnss-ubx.service"
+install -m 0755 "$BIN_DIR/nav-daemon" "$BIN_DIR/sensor-replay" "$BIN_DIR/gnss-ubx" \
+  "$BIN_DIR/nav-mavlink" "$BIN_DIR/nav-nmea" "$DESTDIR$PREFIX/bin/"
+units="nav-daemon.service nav-recorder.service nav-view.service sensor-replay@.service
+  gnss-ubx.service nav-mavlink.service nav-mavlink.socket nav-nmea.service nav-nmea.socket"
 for u in $units; do
   # The units start the binaries where this script puts them.
   sed -e "s|/usr/local/bin/|$PREFIX/bin/|g" \
@@ -50,12 +52,12 @@ install -m 0644 systemd/polarnav.sysusers "$DESTDIR/etc/sysusers.d/polarnav.conf
 install -m 0644 systemd/polarnav.tmpfiles "$DESTDIR/etc/tmpfiles.d/polarnav.conf"
 install -m 0644 README.md "$DESTDIR$PREFIX/share/doc/polarnav/README.md"
 install -m 0644 msgs/include/polarnav_msgs.h "$DESTDIR$PREFIX/share/doc/polarnav/"
-for conf in nav-daemon.toml gnss-ubx.toml; do
-  if [ -e "$DESTDIR/etc/polarnav/$conf" ]; then
-    install -m 0644 "config/$conf" "$DESTDIR/etc/polarnav/$conf.dist"
-    echo "install: kept /etc/polarnav/$conf (the shipped one is $conf.dist)"
+for c in nav-daemon.toml gnss-ubx.toml nav-mavlink.toml nav-nmea.toml; do
+  if [ -e "$DESTDIR/etc/polarnav/$c" ]; then
+    install -m 0644 "config/$c" "$DESTDIR/etc/polarnav/$c.dist"
+    echo "install: kept /etc/polarnav/$c (the shipped one is $c.dist)"
   else
-    install -m 0644 "config/$conf" "$DESTDIR/etc/polarnav/$conf"
+    install -m 0644 "config/$c" "$DESTDIR/etc/polarnav/$c"
   fi
 done
 # The installed configuration must pass the daemon's own check, and the
@@ -64,6 +66,8 @@ done
 if "$DESTDIR$PREFIX/bin/nav-daemon" --version >/dev/null 2>&1; then
   "$DESTDIR$PREFIX/bin/nav-daemon" --check-config "$DESTDIR/etc/polarnav/nav-daemon.toml" >/dev/null
   "$DESTDIR$PREFIX/bin/gnss-ubx" --check-config "$DESTDIR/etc/polarnav/gnss-ubx.toml" >/dev/null
+  "$DESTDIR$PREFIX/bin/nav-mavlink" --check-config "$DESTDIR/etc/polarnav/nav-mavlink.toml" >/dev/null
+  "$DESTDIR$PREFIX/bin/nav-nmea" --check-config "$DESTDIR/etc/polarnav/nav-nmea.toml" >/dev/null
   share="$DESTDIR$PREFIX/share"
   install -d -m 0755 "$share/bash-completion/completions" "$share/zsh/site-functions" \
     "$share/fish/vendor_completions.d" "$share/man/man1"
