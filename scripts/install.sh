@@ -10,7 +10,8 @@
 # PREFIX (default /usr/local) holds bin/ and share/doc/polarnav/; the
 # installed units start $PREFIX/bin/... and name $PREFIX/share/doc/polarnav
 # (the units in systemd/ say /usr/local, rewritten here). An existing /etc/polarnav/nav-daemon.toml is kept
-# (the shipped one is installed beside it as nav-daemon.toml.dist). Without
+# (the shipped one is installed beside it as nav-daemon.toml.dist; the same
+# for gnss-ubx.toml, nav-mavlink.toml and nav-nmea.toml). Without
 # DESTDIR, on a machine run by systemd, the user, group and directories are
 # created and systemd reloaded; nothing is enabled or started.
 set -euo pipefail
@@ -29,14 +30,16 @@ case "$PREFIX" in
 esac
 PREFIX=${PREFIX%/}
 
-for b in nav-daemon sensor-replay; do
+for b in nav-daemon sensor-replay gnss-ubx nav-mavlink nav-nmea; do
   [ -x "$BIN_DIR/$b" ] || { echo "install: $BIN_DIR/$b not built (cargo build --release)" >&2; exit 2; }
 done
 install -d -m 0755 "$DESTDIR$PREFIX/bin" "$DESTDIR$PREFIX/share/doc/polarnav" \
   "$DESTDIR/etc/systemd/system" "$DESTDIR/etc/sysusers.d" "$DESTDIR/etc/tmpfiles.d"
 install -d -m 0755 "$DESTDIR/etc/polarnav"
-install -m 0755 "$BIN_DIR/nav-daemon" "$BIN_DIR/sensor-replay" "$DESTDIR$PREFIX/bin/"
-units="nav-daemon.service nav-recorder.service nav-view.service sensor-replay@.service"
+install -m 0755 "$BIN_DIR/nav-daemon" "$BIN_DIR/sensor-replay" "$BIN_DIR/gnss-ubx" \
+  "$BIN_DIR/nav-mavlink" "$BIN_DIR/nav-nmea" "$DESTDIR$PREFIX/bin/"
+units="nav-daemon.service nav-recorder.service nav-view.service sensor-replay@.service
+  gnss-ubx.service nav-mavlink.service nav-mavlink.socket nav-nmea.service nav-nmea.socket"
 for u in $units; do
   # The units start the binaries where this script puts them.
   sed -e "s|/usr/local/bin/|$PREFIX/bin/|g" \
@@ -49,17 +52,22 @@ install -m 0644 systemd/polarnav.sysusers "$DESTDIR/etc/sysusers.d/polarnav.conf
 install -m 0644 systemd/polarnav.tmpfiles "$DESTDIR/etc/tmpfiles.d/polarnav.conf"
 install -m 0644 README.md "$DESTDIR$PREFIX/share/doc/polarnav/README.md"
 install -m 0644 msgs/include/polarnav_msgs.h "$DESTDIR$PREFIX/share/doc/polarnav/"
-if [ -e "$DESTDIR/etc/polarnav/nav-daemon.toml" ]; then
-  install -m 0644 config/nav-daemon.toml "$DESTDIR/etc/polarnav/nav-daemon.toml.dist"
-  echo "install: kept /etc/polarnav/nav-daemon.toml (the shipped one is nav-daemon.toml.dist)"
-else
-  install -m 0644 config/nav-daemon.toml "$DESTDIR/etc/polarnav/nav-daemon.toml"
-fi
+for c in nav-daemon.toml gnss-ubx.toml nav-mavlink.toml nav-nmea.toml; do
+  if [ -e "$DESTDIR/etc/polarnav/$c" ]; then
+    install -m 0644 "config/$c" "$DESTDIR/etc/polarnav/$c.dist"
+    echo "install: kept /etc/polarnav/$c (the shipped one is $c.dist)"
+  else
+    install -m 0644 "config/$c" "$DESTDIR/etc/polarnav/$c"
+  fi
+done
 # The installed configuration must pass the daemon's own check, and the
 # binaries write their shell completions and manual pages (both skipped for
 # a binary of another architecture, which cannot run here).
 if "$DESTDIR$PREFIX/bin/nav-daemon" --version >/dev/null 2>&1; then
   "$DESTDIR$PREFIX/bin/nav-daemon" --check-config "$DESTDIR/etc/polarnav/nav-daemon.toml" >/dev/null
+  "$DESTDIR$PREFIX/bin/gnss-ubx" --check-config "$DESTDIR/etc/polarnav/gnss-ubx.toml" >/dev/null
+  "$DESTDIR$PREFIX/bin/nav-mavlink" --check-config "$DESTDIR/etc/polarnav/nav-mavlink.toml" >/dev/null
+  "$DESTDIR$PREFIX/bin/nav-nmea" --check-config "$DESTDIR/etc/polarnav/nav-nmea.toml" >/dev/null
   share="$DESTDIR$PREFIX/share"
   install -d -m 0755 "$share/bash-completion/completions" "$share/zsh/site-functions" \
     "$share/fish/vendor_completions.d" "$share/man/man1"
@@ -80,7 +88,7 @@ if [ -z "$DESTDIR" ] && [ -d /run/systemd/system ]; then
   systemd-sysusers /etc/sysusers.d/polarnav.conf
   systemd-tmpfiles --create /etc/tmpfiles.d/polarnav.conf
   systemctl daemon-reload
-  echo "install: done; start with: systemctl enable --now nav-daemon.service"
+  echo "install: done; start with: systemctl enable --now nav-daemon.service (and gnss-ubx.service once /etc/polarnav/gnss-ubx.toml names the receiver's port)"
 else
   echo "install: staged under ${DESTDIR:-/} (user, group and directories are created at boot by systemd-sysusers and systemd-tmpfiles)"
 fi

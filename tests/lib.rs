@@ -55,13 +55,19 @@ pub fn bin(name: &str) -> PathBuf {
 
 /// The Python packages the tests run against, pinned: the iceoryx2 binding
 /// (the Python consumer), the reference MCAP reader with its protobuf
-/// decoder, and a WebSocket client for the Foxglove live view.
-pub const PYTHON_PACKAGES: [&str; 5] = [
+/// decoder, a WebSocket client for the Foxglove live view, pyubx2 (a
+/// UBX implementation independent of gnss-ubx's, which makes its frames),
+/// and the independent MAVLink and NMEA decoders of the bridges' output
+/// (`tests/nav_out.rs`; nav-out's own tests pin the same two).
+pub const PYTHON_PACKAGES: [&str; 8] = [
     "iceoryx2==0.10.0",
     "mcap==1.6.0",
     "mcap-protobuf-support==0.6.0",
     "zstandard==0.25.0",
     "websockets==17.4",
+    "pyubx2==1.4.0",
+    "pymavlink==2.4.50",
+    "pynmeagps==1.1.8",
 ];
 
 /// A Python interpreter with [`PYTHON_PACKAGES`]: a virtual environment in

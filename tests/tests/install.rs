@@ -21,6 +21,9 @@ fn install(name: &str, prefix: &str) -> PathBuf {
     std::fs::create_dir_all(&stage).expect("stage");
     let bin_dir = bin("nav-daemon").parent().expect("bin dir").to_path_buf();
     bin("sensor-replay");
+    bin("gnss-ubx");
+    bin("nav-mavlink");
+    bin("nav-nmea");
     let o = Command::new("bash")
         .arg(repo().join("scripts/install.sh"))
         .env("DESTDIR", &stage)
