@@ -713,6 +713,11 @@ struct Pass {
     /// Exclusions and readmissions of the aids that are not autonomous,
     /// from their flag in the rows: (time, aid, excluded).
     exclusions: Vec<(f64, AidKind, bool)>,
+    /// The integrity test's statistic over its threshold of each aid that
+    /// is not autonomous, from the log's status records (0: not tested
+    /// yet, not drawn), and the status records that had one.
+    integrity: Envelope,
+    integrity_tested: u64,
     switches: Vec<Switch>,
     resets: Vec<f64>,
     where_: Where,
@@ -749,6 +754,8 @@ impl Pass {
             health: Envelope::new(LANE_COUNT + 1),
             health_set: [0; LANE_COUNT + 1],
             exclusions: Vec::new(),
+            integrity: Envelope::new(NOT_AUTONOMOUS.max(1)),
+            integrity_tested: 0,
             switches: Vec::new(),
             resets: Vec::new(),
             where_: Where::default(),
@@ -908,11 +915,6 @@ pub struct Reviewer<'a> {
     ref_batch: Vec<TruthRecord>,
     sampling: SamplingAcc,
     status: StatusAids<Spill<AID_WORDS>>,
-    /// The integrity test's statistic over its threshold of each aid that
-    /// is not autonomous, from the status records (0: not tested yet, not
-    /// drawn), and the status records that had one.
-    integrity: Envelope,
-    integrity_tested: u64,
     header: Option<Header>,
 }
 
@@ -968,8 +970,6 @@ impl<'a> Reviewer<'a> {
             ref_batch: Vec::new(),
             sampling: SamplingAcc::new()?,
             status: StatusAids::new(try_map_aids(PerAid::from_fn(|_| spill()), |s| s)?),
-            integrity: Envelope::new(NOT_AUTONOMOUS.max(1)),
-            integrity_tested: 0,
             header: None,
         })
     }
@@ -1000,8 +1000,8 @@ impl<'a> Reviewer<'a> {
             }
         }
         if v.iter().any(|x| x.is_finite()) {
-            self.integrity_tested += 1;
-            self.integrity.push(st.t_ns as f64 * 1e-9, &v);
+            self.pass.integrity_tested += 1;
+            self.pass.integrity.push(st.t_ns as f64 * 1e-9, &v);
         }
         Ok(())
     }
@@ -1085,7 +1085,6 @@ impl<'a> Reviewer<'a> {
         };
         let samp = self.sampling.finish()?;
         let mut at = std::mem::take(&mut self.pass.where_).seal()?;
-        let integrity = (self.integrity_tested > 0).then_some(&self.integrity);
         report(
             &self.pass,
             mcap_aids,
@@ -1093,7 +1092,6 @@ impl<'a> Reviewer<'a> {
             &mut at,
             samp,
             self.header.as_ref(),
-            integrity,
             &self.opts,
         )
     }
@@ -1258,10 +1256,10 @@ fn report(
     at: &mut WhereAt,
     samp: Option<Sampling>,
     header: Option<&Header>,
-    integrity: Option<&Envelope>,
     opts: &Options<'_>,
 ) -> Result<Review, String> {
     let faults = injected(header);
+    let integrity = (pass.integrity_tested > 0).then_some(&pass.integrity);
     let (aids, aid_source) = match mcap_aids {
         Some(a) => (
             Some(a),
