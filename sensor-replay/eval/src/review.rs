@@ -1766,6 +1766,51 @@ fn aids_section(pass: &Pass, faults: &[(AidKind, String, f64)]) -> String {
     md
 }
 
+/// A chart of horizontal lanes over time, `names[0]` at the top, each lane
+/// `i` centred on y = `names.len() − 1 − i` (the health and aids figures).
+fn lane_chart<'a, DB: DrawingBackend>(
+    area: &'a DrawingArea<DB, Shift>,
+    names: &[String],
+    (t0, t1): (f64, f64),
+    label_width: u32,
+) -> Result<
+    ChartContext<
+        'a,
+        DB,
+        Cartesian2d<plotters::coord::types::RangedCoordf64, plotters::coord::types::RangedCoordf64>,
+    >,
+    String,
+> {
+    let n = names.len() as f64;
+    let mut chart = ChartBuilder::on(area)
+        .margin_left(10)
+        .margin_right(25)
+        .margin_top(10)
+        .x_label_area_size(42)
+        .y_label_area_size(label_width)
+        .build_cartesian_2d(t0..t1, -0.5..n - 0.5)
+        .map_err(plots::s)?;
+    chart
+        .configure_mesh()
+        .x_desc("t (s)")
+        .y_labels(names.len())
+        .y_label_formatter(&|v| {
+            let i = (n - 1.0 - v).round();
+            if (v - v.round()).abs() < 1e-6 && i >= 0.0 && (i as usize) < names.len() {
+                names[i as usize].clone()
+            } else {
+                String::new()
+            }
+        })
+        .label_style(("sans-serif", 15))
+        .axis_desc_style(("sans-serif", 15))
+        .light_line_style(WHITE.mix(0.0))
+        .bold_line_style(BLACK.mix(0.08))
+        .draw()
+        .map_err(plots::s)?;
+    Ok(chart)
+}
+
 /// Which aids navigated when: one lane per aid, green where it was fused
 /// within its timeout, red where its integrity test excluded it; the
 /// faults the scenario injected as marks.
@@ -1782,33 +1827,7 @@ fn aids_figure<DB: DrawingBackend>(
         .map(|k| format!("{} ({})", k.decl().label, k.decl().name))
         .collect();
     let n = names.len() as f64;
-    let mut chart = ChartBuilder::on(&main)
-        .margin_left(10)
-        .margin_right(25)
-        .margin_top(10)
-        .x_label_area_size(42)
-        .y_label_area_size(130)
-        .build_cartesian_2d(t0..t1, -0.5..n - 0.5)
-        .map_err(plots::s)?;
-    let labels = names.clone();
-    chart
-        .configure_mesh()
-        .x_desc("t (s)")
-        .y_labels(names.len())
-        .y_label_formatter(&|v| {
-            let i = (n - 1.0 - v).round();
-            if (v - v.round()).abs() < 1e-6 && i >= 0.0 && (i as usize) < labels.len() {
-                labels[i as usize].clone()
-            } else {
-                String::new()
-            }
-        })
-        .label_style(("sans-serif", 15))
-        .axis_desc_style(("sans-serif", 15))
-        .light_line_style(WHITE.mix(0.0))
-        .bold_line_style(BLACK.mix(0.08))
-        .draw()
-        .map_err(plots::s)?;
+    let mut chart = lane_chart(&main, &names, (t0, t1), 130)?;
     let w = pass.health.width_s();
     // A column's state holds until the next column with rows (a solution
     // written every N samples leaves empty columns between its rows).
@@ -2096,33 +2115,7 @@ fn health_figure<DB: DrawingBackend>(
     ];
     names.extend((0..LANE_COUNT).map(|k| lane_label(pass, k)));
     let n = names.len() as f64;
-    let mut chart = ChartBuilder::on(&main)
-        .margin_left(10)
-        .margin_right(25)
-        .margin_top(10)
-        .x_label_area_size(42)
-        .y_label_area_size(200)
-        .build_cartesian_2d(t0..t1, -0.5..n - 0.5)
-        .map_err(plots::s)?;
-    let labels = names.clone();
-    chart
-        .configure_mesh()
-        .x_desc("t (s)")
-        .y_labels(names.len())
-        .y_label_formatter(&|v| {
-            let i = (n - 1.0 - v).round();
-            if (v - v.round()).abs() < 1e-6 && i >= 0.0 && (i as usize) < labels.len() {
-                labels[i as usize].clone()
-            } else {
-                String::new()
-            }
-        })
-        .label_style(("sans-serif", 15))
-        .axis_desc_style(("sans-serif", 15))
-        .light_line_style(WHITE.mix(0.0))
-        .bold_line_style(BLACK.mix(0.08))
-        .draw()
-        .map_err(plots::s)?;
+    let mut chart = lane_chart(&main, &names, (t0, t1), 200)?;
     let lane_y = |i: usize| n - 1.0 - i as f64;
     let w = pass.health.width_s();
     // Frame and flag lanes: a bar over each time column where the flag was set.
