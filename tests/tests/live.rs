@@ -921,7 +921,7 @@ fn units_order_after_a_daemon_that_is_ready_without_input() {
     let daemon = read("nav-daemon.service");
     assert_eq!(keys(&daemon, "Type"), ["notify"]);
     assert!(!keys(&daemon, "TimeoutStartSec").is_empty());
-    let mut clients = 0;
+    let mut clients = std::collections::BTreeSet::new();
     for entry in std::fs::read_dir(&dir).expect("systemd/") {
         let name = entry
             .expect("entry")
@@ -940,7 +940,7 @@ fn units_order_after_a_daemon_that_is_ready_without_input() {
             .iter()
             .any(|u| u == "nav-daemon.service")
         {
-            clients += 1;
+            clients.insert(name.clone());
             for key in ["After", "Requires", "Wants", "BindsTo", "Requisite"] {
                 let unit_name = name.replace('@', "@*");
                 assert!(
@@ -962,7 +962,19 @@ fn units_order_after_a_daemon_that_is_ready_without_input() {
             );
         }
     }
-    assert_eq!(clients, 2, "replay and view are ordered after the daemon");
+    // The replay and the view, the receiver's driver and the two bridges
+    // of the aircraft I/O: every client of the daemon's services.
+    assert_eq!(
+        clients.iter().map(String::as_str).collect::<Vec<_>>(),
+        [
+            "gnss-ubx.service",
+            "nav-mavlink.service",
+            "nav-nmea.service",
+            "nav-view.service",
+            "sensor-replay@.service"
+        ],
+        "the daemon's clients are ordered after it"
+    );
     let recorder = read("nav-recorder.service");
     assert!(
         keys(&recorder, "Before")
