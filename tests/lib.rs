@@ -204,6 +204,8 @@ pub struct Snapshot {
     /// The solution flags, as the session publishes them (an aid's
     /// exclusion included).
     pub flags: u32,
+    /// Levels fused from the accelerometers so far (paper 003 §4.5).
+    pub levels_fused: u64,
 }
 
 /// One run: snapshots at every truth epoch, switches, aid accounting.
@@ -219,6 +221,9 @@ pub struct Run {
     pub integrity: Vec<(u64, Test, Verdict)>,
     /// The final status.
     pub status: msgs::Status,
+    /// The flight-state recognition's and the level compensation's counts
+    /// at the end.
+    pub level: polarnav::navigator::LevelCounters,
 }
 
 impl Run {
@@ -300,6 +305,7 @@ pub fn run(records: &[Record], cfg: &NavigatorConfig, init: Option<InitState>) -
                         cov_att,
                         frame: nav.solution().frame,
                         flags: nav.solution().flags | excluded_flags(&session),
+                        levels_fused: nav.level_counters().fused,
                     });
                     out.truth.push(*t);
                 }
@@ -312,6 +318,9 @@ pub fn run(records: &[Record], cfg: &NavigatorConfig, init: Option<InitState>) -
         }
     }
     session.finish(&mut sink);
+    if let Some(n) = session.navigator() {
+        out.level = n.level_counters();
+    }
     assert_eq!(
         sink.rejected_imu, 0,
         "an IMU sample of a clean log was refused"

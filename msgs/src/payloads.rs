@@ -213,6 +213,15 @@ pub mod solution_flags {
     /// GNSS is excluded by its integrity test (it disagreed with the
     /// autonomous solution; the solution is the autonomous one).
     pub const GNSS_EXCLUDED: u32 = 1 << 12;
+    // Bits 13 and 14: the dual-antenna baseline and magnetometer aids'
+    // freshness (issue 30).
+    /// Bits 15–16: the flight state the IMU shows (paper 003 §4.5): 0 not
+    /// yet known, 1 ground, 2 steady, 3 manoeuvre.
+    pub const FLIGHT_STATE_SHIFT: u32 = 15;
+    pub const FLIGHT_STATE_MASK: u32 = 0b11 << FLIGHT_STATE_SHIFT;
+    /// Roll and pitch were fused from the accelerometers (a steady window
+    /// while no aid observing tilt was fresh) within the last two windows.
+    pub const LEVEL_FUSED: u32 = 1 << 17;
 }
 
 /// Full navigation solution, one per filter cycle.

@@ -46,7 +46,8 @@ pub fn log_event(log: &str, e: &Event) {
             sigma_tilt_arcmin = a.sigma_tilt_rad.to_degrees() * 60.0,
             sigma_heading_arcmin = a.sigma_heading_rad.to_degrees() * 60.0,
             time_s = a.time_s,
-            "{log}: stationary alignment"
+            "{log}: stationary alignment by {}",
+            a.method
         ),
         Event::AlignmentFailed(err) => tracing::error!("{log}: alignment failed: {err}"),
         Event::Reinitialized { t_ns } => {

@@ -36,6 +36,10 @@ const ADDED_SINCE_THE_PIN: &[(&str, &str)] = &[
     ("csv column star_fresh", AID_COLUMNS),
     ("csv column gnss_fresh", AID_COLUMNS),
     ("csv column gnss_excluded", AID_COLUMNS),
+    (
+        "mcap metadata polarnav.settings filter.flight_state",
+        FLIGHT_STATE,
+    ),
 ];
 
 /// The solution CSV's aid group (issue 29): a freshness column for each
@@ -45,6 +49,14 @@ const AID_COLUMNS: &str = "the CSV's aid group: star_fresh, gnss_fresh, gnss_exc
 /// GNSS, the fifth aid (issue 29): its settings, and its name among the
 /// aids fused by default.
 const GNSS: &str = "GNSS, the fifth aid, and its settings (issue 29)";
+
+/// Paper 003's flight state and the accelerometers' level (issue 30):
+/// their settings, and the bits of the solution flags they take (15–17),
+/// cleared before `flags` is hashed in the CSV, `/solution` and `/status`:
+/// every other bit stays pinned.
+const FLIGHT_STATE: &str = "flight state and the accelerometers' level (issue 30)";
+const FLIGHT_STATE_BITS: u32 =
+    msgs::solution_flags::FLIGHT_STATE_MASK | msgs::solution_flags::LEVEL_FUSED;
 
 /// Pinned items whose value has changed on purpose since the pin, each
 /// with the change (exact item names). Everything else they carry is
@@ -90,6 +102,7 @@ fn canonical(topic: &str, data: &[u8]) -> Vec<u8> {
         s.star_fresh = false;
         s.gnss_fresh = false;
         s.gnss_excluded = false;
+        s.flags &= !FLIGHT_STATE_BITS;
         return prost::Message::encode_to_vec(&s);
     }
     if topic != "/status" {
@@ -97,6 +110,7 @@ fn canonical(topic: &str, data: &[u8]) -> Vec<u8> {
     }
     let mut s: polarnav_proto::Status = prost::Message::decode(data).expect("a polarnav.Status");
     s.aids.clear();
+    s.flags &= !FLIGHT_STATE_BITS;
     let legacy = [&mut s.imu, &mut s.srs, &mut s.cns, &mut s.baro, &mut s.star];
     for c in legacy.into_iter().flatten() {
         c.rejected_integrity = 0;
@@ -210,8 +224,13 @@ impl CsvItems {
         } else {
             let cells: Vec<&str> = line.split(',').collect();
             assert_eq!(cells.len(), self.names.len(), "row {}", self.rows + 1);
-            for (d, c) in self.columns.iter_mut().zip(cells) {
-                d.update(c.as_bytes());
+            for ((d, c), name) in self.columns.iter_mut().zip(cells).zip(&self.names) {
+                if name == "flags" {
+                    let f: u32 = c.parse().expect("flags");
+                    d.update((f & !FLIGHT_STATE_BITS).to_string().as_bytes());
+                } else {
+                    d.update(c.as_bytes());
+                }
                 d.update(b"\n");
             }
             self.rows += 1;

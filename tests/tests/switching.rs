@@ -201,7 +201,8 @@ fn real_rlg_record_forced_switches_match_a_never_switching_run() {
             }
         }
     }
-    let (aligned, a) = polarnav::align::aligned_init(&init, &filter, &acc, t_end).expect("align");
+    let (aligned, a) =
+        polarnav::align::aligned_init(&init, &filter, &acc, t_end, |_| None).expect("align");
     eprintln!(
         "RLG alignment: heading {:.2}° (σ {:.1}°), pitch {:.3}°, roll {:.3}°; header says heading 90.6°",
         a.heading_rad.to_degrees(),

@@ -22,6 +22,7 @@ pub mod chi2;
 pub mod earth;
 pub mod error_model;
 pub mod filter;
+pub mod flight_state;
 pub mod frame_select;
 pub mod frames;
 pub mod inbox;

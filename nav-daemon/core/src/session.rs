@@ -59,7 +59,8 @@ use msgs::{
     AidKind, AidSample, AidStatus, ImuSample, InitState, PerAid, Solution, Status, StreamCounters,
 };
 
-use crate::align::{AlignError, Alignment, AlignmentAccumulator, aligned_init};
+use crate::aids::{AidError, HeadingFix, Levelled, OwnAidSettings, OwnOf};
+use crate::align::{AlignError, Alignment, AlignmentAccumulator, aligned_init, best_heading};
 use crate::checkpoint::{Checkpoint, CheckpointError};
 use crate::integrity::{IntegritySettings, Monitor, Test, Verdict};
 use crate::navigator::{
@@ -425,6 +426,9 @@ pub struct Session {
     smoother_tape: bool,
     /// Alignment in progress: the init it started from and the accumulator.
     aligning: Option<(InitState, AlignmentAccumulator)>,
+    /// The newest sample of each aid received during the alignment: a
+    /// MEMS IMU takes its heading from those that observe it.
+    align_samples: PerAid<Option<AidSample>>,
     /// A checkpoint to resume from if the IMU continues from it.
     resume: Option<Checkpoint>,
     /// The newest init not yet applied (ahead of the IMU, or before the start).
@@ -459,6 +463,7 @@ impl Session {
             reference: None,
             integrity: PerAid::default(),
             aligning: None,
+            align_samples: PerAid::default(),
             resume: None,
             held_init: None,
             queue: AidQueue::new(),
@@ -1127,7 +1132,21 @@ impl Session {
         if acc.time_s() < need_s {
             return;
         }
-        let result = aligned_init(init, &self.settings.navigator.filter, acc, s.t_ns);
+        let nav = &self.settings.navigator;
+        let samples = std::mem::take(&mut self.align_samples);
+        let heading = |l: &Levelled| {
+            best_heading(AidKind::ALL.into_iter().filter_map(|k| {
+                let x = samples[k].as_ref()?;
+                // An aid switched off, or a sample older than its timeout,
+                // does not align.
+                let age_s = s.t_ns.saturating_sub(x.t_ns()) as f64 * 1e-9;
+                if !nav.aids.has(k) || age_s > nav.aid_settings.timeout_s[k] {
+                    return None;
+                }
+                msgs::match_aid!(x, p => heading_of(p, l, &nav.aid_settings.own)).map(|r| (k, r))
+            }))
+        };
+        let result = aligned_init(init, &nav.filter, acc, s.t_ns, heading);
         self.aligning = None;
         match result {
             Ok((aligned, a)) => {
@@ -1153,6 +1172,10 @@ impl Session {
     // ---- aids --------------------------------------------------------
 
     fn push_aid(&mut self, a: AidSample, sink: &mut impl Sink) {
+        if self.aligning.is_some() {
+            // Not fused (nothing navigates yet): kept for a heading.
+            self.align_samples[a.kind()] = Some(a);
+        }
         let Some(n) = self.nav.as_ref().filter(|_| self.aligning.is_none()) else {
             self.count_outside(stream_of(&a), |c| c.not_used += 1);
             return;
@@ -1362,4 +1385,13 @@ mod tests {
             assert!(s.resume.is_none(), "{what} kept");
         }
     }
+}
+
+/// An aid sample's heading for an alignment, with its own settings.
+fn heading_of<A: OwnOf>(
+    x: &A,
+    l: &Levelled,
+    own: &OwnAidSettings,
+) -> Option<Result<HeadingFix, AidError>> {
+    x.align_heading(l, A::own(own))
 }

@@ -408,6 +408,9 @@ pub struct FilterSettings {
     pub imu_max_coast_s: f64,
     pub coast_accel_mps2: f64,
     pub coast_rate_dps: f64,
+    /// `[filter.flight_state]`: flight-state recognition and the
+    /// accelerometers' attitude compensation (paper 003 §4.5).
+    pub flight_state: crate::flight_state::FlightStateSettings,
 }
 
 impl Default for FilterSettings {
@@ -430,6 +433,7 @@ impl Default for FilterSettings {
             imu_max_coast_s: 60.0,
             coast_accel_mps2: 1.0,
             coast_rate_dps: 0.05,
+            flight_state: Default::default(),
         }
     }
 }
@@ -766,6 +770,7 @@ impl FilterSettings {
             above: "a HALE airframe does not turn a full circle per second",
         }
         .check(origin, "filter.coast_rate_dps", self.coast_rate_dps)?;
+        self.flight_state.validate(origin)?;
         Ok(())
     }
 

@@ -619,17 +619,20 @@ const NOT_AUTONOMOUS: usize = {
     n
 };
 
-/// Lanes of the health timeline: COASTING and IMU lost, each aid stale,
-/// each aid that is not autonomous excluded, then aid reset, rejected
-/// update and second publisher.
-const LANE_COUNT: usize = 5 + msgs::AID_COUNT + NOT_AUTONOMOUS;
+/// Lanes of the health timeline: COASTING and IMU lost, the flight state
+/// (on the ground, manoeuvre) and the accelerometers' level, each aid
+/// stale, each aid that is not autonomous excluded, then aid reset,
+/// rejected update and second publisher.
+const LANE_COUNT: usize = 8 + msgs::AID_COUNT + NOT_AUTONOMOUS;
 
-/// A lane of the health timeline: a flag, set when `bit` is set (or clear,
-/// for a fresh flag drawn as stale). `aid`: whose freshness or exclusion.
+/// A lane of the health timeline: set when the flags' bits `mask` equal
+/// `value` (or differ, `clear`, for a fresh flag drawn as stale). `aid`:
+/// whose freshness or exclusion.
 #[derive(Debug)]
 struct Lane {
     name: String,
-    bit: u32,
+    mask: u32,
+    value: u32,
     clear: bool,
     aid: Option<AidKind>,
 }
@@ -640,17 +643,31 @@ fn lanes() -> &'static [Lane; LANE_COUNT] {
     LANES.get_or_init(|| {
         let flag = |name: &str, bit| Lane {
             name: name.into(),
-            bit,
+            mask: bit,
+            value: bit,
+            clear: false,
+            aid: None,
+        };
+        let state = |name: &str, s: u32| Lane {
+            name: name.into(),
+            mask: solution_flags::FLIGHT_STATE_MASK,
+            value: s << solution_flags::FLIGHT_STATE_SHIFT,
             clear: false,
             aid: None,
         };
         let mut v = vec![
             flag("COASTING", solution_flags::COASTING),
             flag("IMU lost", solution_flags::IMU_LOST),
+            // Paper 003 §4.5's flight state (1 ground, 3 manoeuvre; steady
+            // is neither) and its attitude compensation.
+            state("on the ground", 1),
+            state("manoeuvre", 3),
+            flag("level from accelerometers", solution_flags::LEVEL_FUSED),
         ];
         v.extend(AidKind::ALL.iter().map(|k| Lane {
             name: format!("{} stale", k.decl().label),
-            bit: k.decl().fresh_flag,
+            mask: k.decl().fresh_flag,
+            value: k.decl().fresh_flag,
             clear: true,
             aid: Some(*k),
         }));
@@ -660,7 +677,8 @@ fn lanes() -> &'static [Lane; LANE_COUNT] {
                 .filter(|k| !k.decl().autonomous)
                 .map(|k| Lane {
                     name: format!("{} excluded", k.decl().label),
-                    bit: k.decl().excluded_flag,
+                    mask: k.decl().excluded_flag,
+                    value: k.decl().excluded_flag,
                     clear: false,
                     aid: Some(*k),
                 }),
@@ -804,7 +822,7 @@ impl Pass {
         let mut h = [0.0; LANE_COUNT + 1];
         h[0] = f64::from(u8::from(r.frame == 'G'));
         for (k, l) in lanes().iter().enumerate() {
-            h[k + 1] = f64::from(u8::from((r.flags & l.bit != 0) != l.clear));
+            h[k + 1] = f64::from(u8::from((r.flags & l.mask == l.value) != l.clear));
         }
         for k in AidKind::ALL.iter().filter(|k| !k.decl().autonomous) {
             let bit = k.decl().excluded_flag;

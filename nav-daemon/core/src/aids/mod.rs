@@ -42,6 +42,45 @@ pub trait Aid: AidPayload {
         ctx: &Context,
         settings: &Self::Settings,
     ) -> Result<Measured, AidError>;
+    /// The body's heading from this sample for a stationary alignment of
+    /// a MEMS IMU (paper 003 §4.4), given the attitude levelled from the
+    /// accelerometers; `None` for an aid that does not observe heading
+    /// (the default). An aid that does observe it but cannot give it from
+    /// this sample (refused, disabled near a magnetic pole) returns the
+    /// error that says why.
+    fn align_heading(
+        &self,
+        _level: &Levelled,
+        _settings: &Self::Settings,
+    ) -> Option<Result<HeadingFix, AidError>> {
+        None
+    }
+}
+
+/// What a stationary alignment knows when it asks an aid for heading.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Levelled {
+    /// Body → local geographic (ENU) DCM of the levelled attitude with a
+    /// heading of 0: roll and pitch from the accelerometers
+    /// ([`crate::frames::c_b_n_from_euler`]`(0, pitch, roll)`; body axes x
+    /// right, y forward, z up). The true attitude is `R_z(−ψ) · c_b_l`.
+    pub c_b_l: Matrix3<f64>,
+    /// 1-σ of each levelled angle (rad).
+    pub sigma_tilt_rad: f64,
+    /// Where the vehicle stands (the init record's position).
+    pub geo: earth::Geodetic,
+    /// Time of the alignment (sensor time, ns).
+    pub t_ns: u64,
+}
+
+/// A heading for the alignment: ψ clockwise from true (geographic) north,
+/// as [`crate::frames::euler_from_c_b_n`] gives it, in [0, 2π).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct HeadingFix {
+    pub heading_rad: f64,
+    /// Its 1-σ (rad), from the aid's noise and, where it matters, the
+    /// tilt's σ; it becomes the init record's `sigma_heading_rad`.
+    pub sigma_rad: f64,
 }
 
 /// What a measurement model may need of the navigator besides the state.

@@ -66,7 +66,7 @@ impl AidGate {
 }
 
 /// The blocks of states an aid observes.
-fn observed_blocks(which: AidKind) -> &'static [usize] {
+pub(super) fn observed_blocks(which: AidKind) -> &'static [usize] {
     msgs::match_aid_kind!(which, P => <P as Aid>::OBSERVED)
 }
 
@@ -155,7 +155,7 @@ impl Navigator {
     }
 
     /// Closed-loop feedback of an estimated error `dx` at `t_ns`.
-    fn feed_back(&mut self, t_ns: u64, dx: &SVector<f64, 15>) {
+    pub(super) fn feed_back(&mut self, t_ns: u64, dx: &SVector<f64, 15>) {
         let part = |o: usize| Vector3::new(dx[o], dx[o + 1], dx[o + 2]);
         let (phi, dv, dp) = (part(idx::PHI), part(idx::DV), part(idx::DP));
         self.nominal.correct(&phi, &dv, &dp);

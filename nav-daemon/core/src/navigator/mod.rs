@@ -27,6 +27,7 @@ mod error_state;
 mod gating;
 mod history;
 mod imu_input;
+mod level;
 mod recovery;
 mod reference;
 pub(crate) mod report;
@@ -38,6 +39,7 @@ pub use history::HISTORY as STATE_HISTORY_LEN;
 use history::History;
 use imu_input::ImuLimits;
 pub use imu_input::{IMU_DT_RANGE_S, MAX_BRIDGE_STEPS};
+pub use level::LevelCounters;
 pub use recovery::{StreakVerdict, chi2_999_per_dof};
 
 /// Navigator settings.
@@ -154,6 +156,8 @@ pub struct Navigator {
     resumed: bool,
     reset: ResetRecord,
     history: History,
+    /// Flight-state recognition and attitude compensation.
+    level: level::Level,
     /// Mechanization steps and covariance propagations since the start: the
     /// work the navigator did, for tests that bound the work per input.
     work: u64,
@@ -279,6 +283,7 @@ impl Navigator {
             resumed: false,
             reset: ResetRecord::default(),
             history: History::new(nav),
+            level: level::Level::new(&f.flight_state, f.process_noise().vrw),
         }
     }
 
@@ -531,6 +536,7 @@ impl Navigator {
             self.bridge(missing_s, &inc);
         }
         self.integrate(&inc);
+        self.flight_step(&inc);
         self.t_ns = s.t_ns;
         self.err.set_clock(s.t_ns, false);
         self.seq += 1;

@@ -69,6 +69,10 @@ impl Navigator {
         if self.aids.reset_pending_flag.is_some() {
             f |= solution_flags::AID_RESET;
         }
+        f |= self.flight_state().flags();
+        if self.level_fresh() {
+            f |= solution_flags::LEVEL_FUSED;
+        }
         f
     }
 
