@@ -213,6 +213,11 @@ pub mod solution_flags {
     /// GNSS is excluded by its integrity test (it disagreed with the
     /// autonomous solution; the solution is the autonomous one).
     pub const GNSS_EXCLUDED: u32 = 1 << 12;
+    /// A magnetometer heading was fused within its timeout. (Bit 13 is
+    /// the dual-antenna baseline's, bits 15–16 the flight state's; the
+    /// magnetometer disabled near a magnetic pole has no bit of its own:
+    /// its status counts and names the cause.)
+    pub const MAG_FRESH: u32 = 1 << 14;
 }
 
 /// Full navigation solution, one per filter cycle.
