@@ -25,6 +25,7 @@ FLAG_STAR_FRESH = 1 << 9
 FLAG_SECOND_PUBLISHER = 1 << 10
 FLAG_GNSS_FRESH = 1 << 11
 FLAG_GNSS_EXCLUDED = 1 << 12
+FLAG_MAG_FRESH = 1 << 14
 
 # WireFrame
 FRAME_GEOGRAPHIC = 0
@@ -32,7 +33,7 @@ FRAME_GRID = 1
 
 # The aids, in the order of Status.aids (the Rust declaration's, msgs/src/aids.rs:
 # the layout test holds this tuple to it). Status.streams has the IMU first.
-AIDS = ("srs", "cns", "baro", "star", "gnss")
+AIDS = ("srs", "cns", "baro", "star", "gnss", "mag")
 AID_COUNT = len(AIDS)
 STREAM_COUNT = AID_COUNT + 1
 MAX_COMPONENTS = 6
@@ -172,7 +173,7 @@ class Status(ctypes.Structure):
 
     @staticmethod
     def type_name() -> str:
-        return "polarnav::Status_v6"
+        return "polarnav::Status_v7"
 
 
 class StarSample(ctypes.Structure):
@@ -221,10 +222,28 @@ class GnssFix(ctypes.Structure):
         return "polarnav::GnssFix_v1"
 
 
+class MagSample(ctypes.Structure):
+    """One magnetometer sample (`polarnav/mag`): the raw field in body axes
+    (x right, y forward, z up) in nT, hard and soft iron still in it (the
+    navigator calibrates it from its [aids.mag] settings), and the 1-sigma
+    white noise of each axis (nT)."""
+
+    _fields_ = [
+        ("t_ns", ctypes.c_uint64),
+        ("seq", ctypes.c_uint64),
+        ("field_b_nt", V3),
+        ("sigma_nt", V3),
+    ]
+
+    @staticmethod
+    def type_name() -> str:
+        return "polarnav::MagSample_v1"
+
+
 def layout() -> dict:
     """Sizes and field offsets, for the layout test."""
     out = {}
-    for t in (Solution, StreamCounters, AidStatus, Status, StarSample, GnssFix):
+    for t in (Solution, StreamCounters, AidStatus, Status, StarSample, GnssFix, MagSample):
         out[t.__name__] = ctypes.sizeof(t)
         for name, _ in t._fields_:
             out[f"{t.__name__}.{name}"] = getattr(t, name).offset

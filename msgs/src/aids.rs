@@ -39,6 +39,7 @@
 //! compiler hold it and the list to the same aids in the same order.
 
 use crate::gnss::GnssFix;
+use crate::mag::MagSample;
 use crate::payloads::{BaroSample, CnsFix, SrsSample, StarSample};
 use crate::solution_flags;
 
@@ -56,6 +57,8 @@ pub enum AidKind {
     Star = 3,
     /// GNSS position and velocity (not autonomous: tested for integrity).
     Gnss = 4,
+    /// Magnetometer heading (the World Magnetic Model's declination).
+    Mag = 5,
 }
 
 /// The most innovation components an aid has (the length of
@@ -67,7 +70,7 @@ pub const MAX_COMPONENTS: usize = 6;
 pub const MAX_CAUSES: usize = 4;
 
 /// Number of aids (the length of `Status::aids`).
-pub const AID_COUNT: usize = 5;
+pub const AID_COUNT: usize = 6;
 /// Number of input streams with counters: the IMU and the aids (the
 /// length of `Status::streams`).
 pub const STREAM_COUNT: usize = AID_COUNT + 1;
@@ -165,6 +168,23 @@ macro_rules! for_each_aid {
                 ],
                 autonomous: false,
                 excluded_flag: GNSS_EXCLUDED,
+            }),
+            (Mag, mag, MagSample, {
+                label: "mag",
+                title: "magnetometer heading",
+                record: 13,
+                fresh_flag: MAG_FRESH,
+                components: &[Component::new("heading about up", Unit::Rad)],
+                gate: 10.828,
+                timeout_s: 3.0,
+                causes: &[
+                    "invalid content",
+                    "horizontal field below bound",
+                    "field strength disagrees with the model",
+                    "outside the magnetic model",
+                ],
+                autonomous: true,
+                excluded_flag: 0,
             }),
         ] }
     };

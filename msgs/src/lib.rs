@@ -19,6 +19,7 @@
 
 pub mod aids;
 pub mod gnss;
+pub mod mag;
 pub mod navlog;
 pub mod payloads;
 pub mod service;
@@ -28,5 +29,6 @@ pub use aids::{
     AID_COUNT, AidDecl, AidKind, AidPayload, AidSample, PerAid, PerStream, STREAM_COUNT, Stream,
 };
 pub use gnss::GnssFix;
+pub use mag::MagSample;
 pub use payloads::*;
 pub use status::{AidStatus, Status, StreamCounters};

@@ -213,8 +213,10 @@ pub mod solution_flags {
     /// GNSS is excluded by its integrity test (it disagreed with the
     /// autonomous solution; the solution is the autonomous one).
     pub const GNSS_EXCLUDED: u32 = 1 << 12;
-    // Bits 13 and 14: the dual-antenna baseline and magnetometer aids'
-    // freshness (issue 30).
+    /// A magnetometer heading was fused within its timeout. (The
+    /// magnetometer disabled near a magnetic pole has no bit of its own:
+    /// its status counts and names the cause.)
+    pub const MAG_FRESH: u32 = 1 << 14;
     /// Bits 15–16: the flight state the IMU shows (paper 003 §4.5): 0 not
     /// yet known, 1 ground, 2 steady, 3 manoeuvre.
     pub const FLIGHT_STATE_SHIFT: u32 = 15;

@@ -40,7 +40,14 @@ const ADDED_SINCE_THE_PIN: &[(&str, &str)] = &[
         "mcap metadata polarnav.settings filter.flight_state",
         FLIGHT_STATE,
     ),
+    ("csv column mag_fresh", MAG),
+    ("mcap metadata polarnav.settings aids.mag", MAG),
 ];
+
+/// The magnetometer, the sixth aid (issue 30): its settings (`[aids.mag]`,
+/// `mag_gate`, `mag_timeout_s`), its freshness column, and its name among
+/// the aids fused by default.
+const MAG: &str = "the magnetometer, the sixth aid, and its settings (issue 30)";
 
 /// The solution CSV's aid group (issue 29): a freshness column for each
 /// aid that had none (star, GNSS) and GNSS's exclusion, after the bias σ.
@@ -68,7 +75,7 @@ const CHANGED_SINCE_THE_PIN: &[(&str, &str)] = &[
     ("navlog record 00 (1 frames)", FORMAT_5),
     ("navlog header format_version", FORMAT_5),
     ("mcap metadata polarnav navlog_format_version", FORMAT_5),
-    ("mcap metadata polarnav.settings aids.fuse", GNSS),
+    ("mcap metadata polarnav.settings aids.fuse", GNSS_AND_MAG),
     ("mcap schema polarnav.AidUpdate", SCHEMA),
     ("mcap schema polarnav.BaroSample", SCHEMA),
     ("mcap schema polarnav.CnsFix", SCHEMA),
@@ -83,9 +90,14 @@ const CHANGED_SINCE_THE_PIN: &[(&str, &str)] = &[
     ("mcap schema polarnav.TruthBias", SCHEMA),
 ];
 
-/// The navlog's format version 4 → 6 (the `_v5` then `_v6` status record,
-/// the GNSS record): the header's one field and what contains it.
-const FORMAT_5: &str = "navlog format 6: the _v6 status record and the GNSS record (issue 29)";
+/// The navlog's format version 4 → 7 (the `_v5`, `_v6` then `_v7` status
+/// record, the GNSS and magnetometer records): the header's one field and
+/// what contains it.
+const FORMAT_5: &str = "navlog format 7: the _v7 status record, the GNSS (issue 29) and magnetometer (issue 30) records";
+/// The default list of aids fused grew by GNSS (issue 29) and the
+/// magnetometer (issue 30).
+const GNSS_AND_MAG: &str =
+    "GNSS (issue 29) and the magnetometer (issue 30) among the aids fused by default";
 /// `polarnav.proto` grew: Status.aids (every aid by name),
 /// StreamCounters.rejected_integrity, AidStatus' integrity and refusal
 /// fields (issue 29). Every channel's messages stay pinned.
@@ -103,6 +115,7 @@ fn canonical(topic: &str, data: &[u8]) -> Vec<u8> {
         s.gnss_fresh = false;
         s.gnss_excluded = false;
         s.flags &= !FLIGHT_STATE_BITS;
+        s.mag_fresh = false;
         return prost::Message::encode_to_vec(&s);
     }
     if topic != "/status" {

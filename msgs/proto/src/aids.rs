@@ -146,6 +146,30 @@ impl AidMessage for msgs::GnssFix {
     }
 }
 
+// ---- magnetometer -------------------------------------------------------
+
+impl ProtoName for pb::MagSample {
+    const NAME: &'static str = "polarnav.MagSample";
+}
+
+impl AidMessage for msgs::MagSample {
+    type Proto = pb::MagSample;
+    fn to_proto(&self) -> pb::MagSample {
+        let [field_x_nt, field_y_nt, field_z_nt] = self.field_b_nt;
+        let [sigma_x_nt, sigma_y_nt, sigma_z_nt] = self.sigma_nt;
+        pb::MagSample {
+            t_ns: self.t_ns,
+            seq: self.seq,
+            field_x_nt,
+            field_y_nt,
+            field_z_nt,
+            sigma_x_nt,
+            sigma_y_nt,
+            sigma_z_nt,
+        }
+    }
+}
+
 /// Every aid has its message: a registration without one fails here.
 macro_rules! every_aid_has_a_message {
     ([$(($K:ident, $n:ident, $P:ident, $d:tt)),* $(,)?]) => {

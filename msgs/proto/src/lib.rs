@@ -51,8 +51,8 @@ mod tests {
     use prost_types::{DescriptorProto, FileDescriptorSet};
 
     /// The units a field name may end in.
-    const UNITS: [&str; 11] = [
-        "_m", "_mps", "_mps2", "_rad", "_deg", "_rps", "_s", "_ns", "_pa", "_k", "_arcsec",
+    const UNITS: [&str; 12] = [
+        "_m", "_mps", "_mps2", "_rad", "_deg", "_rps", "_s", "_ns", "_pa", "_k", "_arcsec", "_nt",
     ];
 
     /// Dimensionless floating-point fields, by the name patterns the

@@ -87,6 +87,10 @@ impl Owned {
                 g.fix_type,
                 g.flags
             ),
+            Owned::Aid(msgs::AidSample::Mag(m)) => format!(
+                "mag t_ns={} seq={} field_nt={:?} sigma_nt={:?}",
+                m.t_ns, m.seq, m.field_b_nt, m.sigma_nt
+            ),
             Owned::Init(i) => format!(
                 "init t_ns={} seq={} r_e={:?} v_e={:?} q={:?} sigmas=[{:e}, {:e}, {:e}, {:e}, {:e}, {:e}]",
                 i.t_ns,

@@ -815,13 +815,17 @@ mod tests {
         // the first three have no freshness column among the required ones,
         // and GNSS alone is not autonomous.
         let names: Vec<&str> = aid_columns().iter().map(|(n, _)| n.as_str()).collect();
-        assert_eq!(names, ["star_fresh", "gnss_fresh", "gnss_excluded"]);
+        assert_eq!(
+            names,
+            ["star_fresh", "gnss_fresh", "mag_fresh", "gnss_excluded"]
+        );
         let bits: Vec<u32> = aid_columns().iter().map(|&(_, b)| b).collect();
         assert_eq!(
             bits,
             [
                 solution_flags::STAR_FRESH,
                 solution_flags::GNSS_FRESH,
+                solution_flags::MAG_FRESH,
                 solution_flags::GNSS_EXCLUDED
             ]
         );
@@ -839,10 +843,11 @@ mod tests {
             ),
         ] {
             let s = Solution { flags, ..sample() };
+            let want = [want[0], want[1], "0", want[2]];
             let text = csv_of(&s);
             let row: Vec<&str> = text.lines().nth(1).expect("row").split(',').collect();
             assert_eq!(row.len(), head.len());
-            for (name, w) in ["star_fresh", "gnss_fresh", "gnss_excluded"]
+            for (name, w) in ["star_fresh", "gnss_fresh", "mag_fresh", "gnss_excluded"]
                 .iter()
                 .zip(want)
             {

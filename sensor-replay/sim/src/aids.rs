@@ -5,7 +5,7 @@
 //! scenario, in the declared order, at each IMU epoch.
 
 use msgs::gnss::{fix_flags, fix_type};
-use msgs::{AidPayload, AidSample, BaroSample, CnsFix, GnssFix, SrsSample, StarSample};
+use msgs::{AidPayload, AidSample, BaroSample, CnsFix, GnssFix, MagSample, SrsSample, StarSample};
 use nalgebra::Vector3;
 use polarnav::earth::{self, isa};
 use polarnav::frames;
@@ -587,6 +587,119 @@ impl SimAid for GnssFix {
         match c {
             Corruption::Outlier(magnitude) => self.lat_rad += magnitude / earth::A,
             Corruption::Nan => self.lat_rad = f64::NAN,
+        }
+    }
+}
+
+// ---- magnetometer ---------------------------------------------------------
+
+/// `[mag]`: a three-axis magnetometer. Its truth is the World Magnetic
+/// Model (the same crate the navigator uses) at the true position and
+/// date, turned into body axes with the true attitude, then distorted by
+/// the airframe's iron, b_raw = S b + h with S = W⁻¹ of the calibration
+/// `hard_iron_nt`/`soft_iron` (the truth calibration: a scenario gives its
+/// navigator the same values under `[navigator] aids.mag`), plus white
+/// noise of `sigma_nt` per axis. The date of t_ns = 0 is `epoch_utc`.
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MagSpec {
+    pub rate_hz: f64,
+    /// White noise per axis (nT), also the σ the sample states.
+    #[serde(default = "mag_defaults::sigma")]
+    pub sigma_nt: f64,
+    /// UTC of t_ns = 0 (RFC 3339); must lie so that the flight is within
+    /// the model (2020–2029).
+    pub epoch_utc: String,
+    /// The airframe's hard iron h (nT, body axes).
+    #[serde(default)]
+    pub hard_iron_nt: [f64; 3],
+    /// The calibration W = S⁻¹ (rows); identity without soft iron.
+    #[serde(default = "mag_defaults::identity")]
+    pub soft_iron: [[f64; 3]; 3],
+}
+
+mod mag_defaults {
+    pub fn sigma() -> f64 {
+        100.0
+    }
+    pub fn identity() -> [[f64; 3]; 3] {
+        [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]
+    }
+}
+
+impl MagSpec {
+    /// The navigator's calibration settings that match this truth.
+    pub fn settings(&self) -> polarnav::aids::mag::MagSettings {
+        polarnav::aids::mag::MagSettings {
+            hard_iron_nt: self.hard_iron_nt,
+            soft_iron: self.soft_iron,
+            epoch_utc: self.epoch_utc.clone(),
+            ..Default::default()
+        }
+    }
+}
+
+impl SimAid for MagSample {
+    type Spec = MagSpec;
+    type State = ();
+    /// Stream 8: a scenario with `[mag]` has every other sample exactly as
+    /// the same scenario without.
+    const OWN_STREAM: Option<u64> = Some(8);
+    fn rate_hz(spec: &MagSpec) -> f64 {
+        spec.rate_hz
+    }
+    fn validate(g: &MagSpec) -> Result<(), (String, String)> {
+        use polarnav::aids::OwnSettings;
+        positive("rate_hz", g.rate_hz)?;
+        positive("sigma_nt", g.sigma_nt)?;
+        // The calibration's own bounds (the navigator's), named as here.
+        g.settings()
+            .validate("scenario", "mag")
+            .map_err(|e| (e.key.trim_start_matches("mag.").to_owned(), e.message))
+    }
+    fn start(_: &MagSpec) {}
+    fn sample(
+        g: &MagSpec,
+        _: &mut (),
+        rng: &mut ChaCha20Rng,
+        t_ns: u64,
+        seq: u64,
+        truth: &TruthSample,
+        noisy: bool,
+    ) -> Self {
+        use polarnav::aids::mag;
+        let settings = g.settings();
+        let geo = earth::ecef_to_geodetic(&truth.r_e);
+        // Outside the model (a date the scenario did not set) the sensor
+        // still reads a field; NaN makes it refused as invalid.
+        let b_e = mag::date_of(t_ns, &settings)
+            .and_then(|d| mag::model_field(&geo, d))
+            .map_or(Vector3::repeat(f64::NAN), |f| {
+                frames::c_e_g(geo.lat_rad, geo.lon_rad).transpose() * f.b_enu_nt
+            });
+        let b = truth.q_b_e.inverse() * b_e;
+        let s = settings
+            .w()
+            .try_inverse()
+            .unwrap_or_else(nalgebra::Matrix3::identity);
+        let mut raw = s * b + Vector3::from(g.hard_iron_nt);
+        if noisy {
+            for x in raw.iter_mut() {
+                *x += g.sigma_nt * sensors::normal(rng);
+            }
+        }
+        MagSample {
+            t_ns,
+            seq,
+            field_b_nt: raw.into(),
+            sigma_nt: [g.sigma_nt; 3],
+        }
+    }
+    /// `magnitude` nT added along body x (a disturbance), or a NaN.
+    fn corrupt(&mut self, c: Corruption) {
+        match c {
+            Corruption::Outlier(magnitude) => self.field_b_nt[0] += magnitude,
+            Corruption::Nan => self.field_b_nt[0] = f64::NAN,
         }
     }
 }

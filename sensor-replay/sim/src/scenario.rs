@@ -8,7 +8,7 @@ use std::path::Path;
 use serde::Deserialize;
 
 use crate::aids::SimAid;
-pub use crate::aids::{BaroSpec, BodySpec, CnsSpec, SrsSpec, StarSpec};
+pub use crate::aids::{BaroSpec, BodySpec, CnsSpec, MagSpec, SrsSpec, StarSpec};
 pub use crate::sensors::{BiasModel, ImuSpec};
 
 /// A whole scenario. Its aid sections are the declared aids' (`[srs]`,

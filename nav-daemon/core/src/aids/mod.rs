@@ -13,6 +13,7 @@ pub mod baro;
 pub mod cns;
 pub mod control;
 pub mod gnss;
+pub mod mag;
 pub mod srs;
 pub mod star;
 
