@@ -616,6 +616,14 @@ pub struct MagSpec {
     /// The calibration W = S⁻¹ (rows); identity without soft iron.
     #[serde(default = "mag_defaults::identity")]
     pub soft_iron: [[f64; 3]; 3],
+    /// The local field's departure from the model (crustal anomaly, the
+    /// model's own error): when true, each flight's field is turned about
+    /// the local up by an angle drawn once from N(0, σ_D²), σ_D the
+    /// model's declination uncertainty at the start (raised to the
+    /// navigator's heading floor) — the error the navigator's heading σ
+    /// accounts for. False: the field is the model's.
+    #[serde(default)]
+    pub local_anomaly: bool,
 }
 
 mod mag_defaults {
@@ -641,7 +649,8 @@ impl MagSpec {
 
 impl SimAid for MagSample {
     type Spec = MagSpec;
-    type State = ();
+    /// The flight's anomaly angle (rad), drawn at its first sample.
+    type State = Option<f64>;
     /// Stream 8: a scenario with `[mag]` has every other sample exactly as
     /// the same scenario without.
     const OWN_STREAM: Option<u64> = Some(8);
@@ -657,10 +666,12 @@ impl SimAid for MagSample {
             .validate("scenario", "mag")
             .map_err(|e| (e.key.trim_start_matches("mag.").to_owned(), e.message))
     }
-    fn start(_: &MagSpec) {}
+    fn start(_: &MagSpec) -> Option<f64> {
+        None
+    }
     fn sample(
         g: &MagSpec,
-        _: &mut (),
+        anomaly: &mut Option<f64>,
         rng: &mut ChaCha20Rng,
         t_ns: u64,
         seq: u64,
@@ -672,11 +683,26 @@ impl SimAid for MagSample {
         let geo = earth::ecef_to_geodetic(&truth.r_e);
         // Outside the model (a date the scenario did not set) the sensor
         // still reads a field; NaN makes it refused as invalid.
-        let b_e = mag::date_of(t_ns, &settings)
-            .and_then(|d| mag::model_field(&geo, d))
-            .map_or(Vector3::repeat(f64::NAN), |f| {
-                frames::c_e_g(geo.lat_rad, geo.lon_rad).transpose() * f.b_enu_nt
+        let model = mag::date_of(t_ns, &settings).and_then(|d| mag::model_field(&geo, d));
+        if anomaly.is_none() {
+            *anomaly = Some(match &model {
+                Ok(f) if g.local_anomaly && noisy => {
+                    let sigma_d = f
+                        .sigma_declination_rad
+                        .max(settings.sigma_heading_floor_deg.to_radians());
+                    sigma_d * sensors::normal(rng)
+                }
+                _ => 0.0,
             });
+        }
+        let d = anomaly.unwrap_or(0.0);
+        // The horizontal field turned clockwise by d: the declination grows by d.
+        let (sd, cd) = d.sin_cos();
+        let b_e = model.map_or(Vector3::repeat(f64::NAN), |f| {
+            let b = f.b_enu_nt;
+            let turned = Vector3::new(b.x * cd + b.y * sd, -b.x * sd + b.y * cd, b.z);
+            frames::c_e_g(geo.lat_rad, geo.lon_rad).transpose() * turned
+        });
         let b = truth.q_b_e.inverse() * b_e;
         let s = settings
             .w()

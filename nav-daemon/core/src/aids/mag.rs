@@ -581,6 +581,10 @@ impl Aid for MagSample {
     /// The attitude (its heading, with the tilt's share through the
     /// inclination).
     const OBSERVED: &'static [usize] = &[idx::PHI];
+    /// Heading only (its tilt term in H is the linearization of the
+    /// horizontal projection, not a measurement of the tilt): paper 003
+    /// fuses it beside the accelerometers' roll and pitch in an outage.
+    const MAKES_TILT_OBSERVABLE: bool = false;
     fn measure(&self, nav: &AnyNav, _: &Context, m: &MagSettings) -> Result<Measured, AidError> {
         measurement(nav, self, m).map(Measured::from)
     }

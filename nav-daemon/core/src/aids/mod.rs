@@ -35,6 +35,13 @@ pub trait Aid: AidPayload {
     /// The first state of each 3-state block of the error state that the
     /// aid observes directly (a reset to the aid resets those blocks).
     const OBSERVED: &'static [usize];
+    /// Whether the aid makes roll and pitch observable, so that the
+    /// accelerometers' level (paper 003 §4.5, [`crate::flight_state`])
+    /// is not needed while it is fresh: by default an aid that observes
+    /// attitude or velocity (a velocity error grows with the tilt through
+    /// gravity). A heading-only aid (the magnetometer) says false.
+    const MAKES_TILT_OBSERVABLE: bool = observes(Self::OBSERVED, crate::error_model::idx::PHI)
+        || observes(Self::OBSERVED, crate::error_model::idx::DV);
     /// The linearized measurement of the nominal state `nav` at the
     /// sample's own time.
     fn measure(
@@ -56,6 +63,18 @@ pub trait Aid: AidPayload {
     ) -> Option<Result<HeadingFix, AidError>> {
         None
     }
+}
+
+/// Whether `blocks` holds the block starting at `first`.
+pub const fn observes(blocks: &[usize], first: usize) -> bool {
+    let mut i = 0;
+    while i < blocks.len() {
+        if blocks[i] == first {
+            return true;
+        }
+        i += 1;
+    }
+    false
 }
 
 /// What a stationary alignment knows when it asks an aid for heading.

@@ -7,7 +7,6 @@
 
 use msgs::AidKind;
 
-use crate::error_model::idx;
 use crate::flight_state::{
     FlightState, FlightStateSettings, LEVEL_GATE, Window, classify, level_measurement,
 };
@@ -136,12 +135,13 @@ impl Navigator {
         }
     }
 
-    /// Whether an aid that makes the tilt observable (it observes attitude
-    /// or velocity) was fused within its timeout.
+    /// Whether an aid that makes the tilt observable
+    /// ([`crate::aids::Aid::MAKES_TILT_OBSERVABLE`]: GNSS, SRS, the star
+    /// tracker, the baseline; not the magnetometer's heading) was fused
+    /// within its timeout.
     fn tilt_aided(&self) -> bool {
         AidKind::ALL.into_iter().any(|k| {
-            let observed = super::gating::observed_blocks(k);
-            (observed.contains(&idx::PHI) || observed.contains(&idx::DV))
+            msgs::match_aid_kind!(k, P => <P as crate::aids::Aid>::MAKES_TILT_OBSERVABLE)
                 && self.aids.controls[k].fresh(self.t_ns)
         })
     }
