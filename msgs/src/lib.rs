@@ -18,6 +18,7 @@
 //! `nav-daemon batch` share.
 
 pub mod aids;
+pub mod baseline;
 pub mod gnss;
 pub mod navlog;
 pub mod payloads;
@@ -27,6 +28,7 @@ pub mod status;
 pub use aids::{
     AID_COUNT, AidDecl, AidKind, AidPayload, AidSample, PerAid, PerStream, STREAM_COUNT, Stream,
 };
+pub use baseline::BaselineSample;
 pub use gnss::GnssFix;
 pub use payloads::*;
 pub use status::{AidStatus, Status, StreamCounters};
