@@ -38,7 +38,11 @@ pub const MAGIC: [u8; 8] = *b"POLARNAV";
 /// 6: the GNSS record (variant 11, appended) and the `_v6` status record
 /// (a fifth aid in `aids` and `streams`); a status record of format 5 or
 /// before is skipped as incompatible, every other record reads.
-pub const FORMAT_VERSION: u16 = 6;
+/// 7: the dual-antenna baseline record (variant 12, appended) and the
+/// `_v7` status record (a sixth aid in `aids` and `streams`); a status
+/// record of format 6 or before is skipped as incompatible, every other
+/// record reads.
+pub const FORMAT_VERSION: u16 = 7;
 /// Frames longer than this are treated as corruption (the largest record is ~1 kB
 /// plus the header's scenario text).
 pub const MAX_FRAME_BYTES: usize = 1 << 20;

@@ -125,7 +125,7 @@ impl AidStatus {
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
 #[cfg_attr(feature = "iceoryx2", derive(ZeroCopySend))]
 #[repr(C)]
-#[cfg_attr(feature = "iceoryx2", type_name("polarnav::Status_v6"))]
+#[cfg_attr(feature = "iceoryx2", type_name("polarnav::Status_v7"))]
 pub struct Status {
     pub t_ns: u64,
     pub seq: u64,

@@ -87,6 +87,18 @@ impl Owned {
                 g.fix_type,
                 g.flags
             ),
+            Owned::Aid(msgs::AidSample::Baseline(b)) => format!(
+                "baseline t_ns={} seq={} lat={:e} lon={:e} ned={:?} len={:e} acc={:?} carr={} flags={}",
+                b.t_ns,
+                b.seq,
+                b.lat_rad,
+                b.lon_rad,
+                b.rel_pos_ned_m,
+                b.length_m,
+                b.acc_ned_m,
+                b.carr_soln,
+                b.flags
+            ),
             Owned::Init(i) => format!(
                 "init t_ns={} seq={} r_e={:?} v_e={:?} q={:?} sigmas=[{:e}, {:e}, {:e}, {:e}, {:e}, {:e}]",
                 i.t_ns,

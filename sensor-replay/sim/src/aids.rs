@@ -4,8 +4,11 @@
 //! declaration's (`msgs::aids`), and [`Streams`] runs every aid of a
 //! scenario, in the declared order, at each IMU epoch.
 
+use msgs::baseline::{baseline_flags, carr_soln};
 use msgs::gnss::{fix_flags, fix_type};
-use msgs::{AidPayload, AidSample, BaroSample, CnsFix, GnssFix, SrsSample, StarSample};
+use msgs::{
+    AidPayload, AidSample, BaroSample, BaselineSample, CnsFix, GnssFix, SrsSample, StarSample,
+};
 use nalgebra::Vector3;
 use polarnav::earth::{self, isa};
 use polarnav::frames;
@@ -587,6 +590,227 @@ impl SimAid for GnssFix {
         match c {
             Corruption::Outlier(magnitude) => self.lat_rad += magnitude / earth::A,
             Corruption::Nan => self.lat_rad = f64::NAN,
+        }
+    }
+}
+
+// ---- dual-antenna baseline ----------------------------------------------
+
+/// `[baseline]`: a moving-base, dual-antenna receiver measuring the vector
+/// between its antennas by carrier phase. With fixed ambiguities its error
+/// is white noise of `sigma_carrier_m` per horizontal axis and
+/// `sigma_vertical_m` vertically (carrier-phase double differences of a
+/// short baseline: a few millimetres, the vertical worse by the geometry),
+/// so its heading σ is σ_carrier / L for a level baseline of length L
+/// (3 mm over 1 m: 0.17°; over 2.5 m: 0.07°). With probability
+/// `float_probability` an epoch has float ambiguities only: the error is
+/// then `sigma_float_m` per axis, and the receiver says so (carrSoln 1).
+/// It reports its own σ as its accuracies, and its fix's latitude and
+/// longitude (the primary antenna's, error-free: the NED axes are those
+/// it reports, whatever its position error, so the error would not show).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BaselineSpec {
+    pub rate_hz: f64,
+    /// The primary (moving-base) and secondary antennas, body axes (m).
+    #[serde(default = "baseline_defaults::primary")]
+    pub primary_antenna_b_m: [f64; 3],
+    #[serde(default = "baseline_defaults::secondary")]
+    pub secondary_antenna_b_m: [f64; 3],
+    /// Fixed solution: 1-σ per horizontal axis and vertical (m).
+    #[serde(default = "baseline_defaults::sigma_carrier")]
+    pub sigma_carrier_m: f64,
+    #[serde(default = "baseline_defaults::sigma_vertical")]
+    pub sigma_vertical_m: f64,
+    /// Probability of an epoch with float ambiguities, and its 1-σ per axis (m).
+    #[serde(default)]
+    pub float_probability: f64,
+    #[serde(default = "baseline_defaults::sigma_float")]
+    pub sigma_float_m: f64,
+    /// Windows without a carrier solution (as GNSS's outages).
+    #[serde(default, rename = "outage")]
+    pub outages: Vec<GnssOutage>,
+}
+
+mod baseline_defaults {
+    pub fn primary() -> [f64; 3] {
+        [0.0, -0.5, 0.0]
+    }
+    pub fn secondary() -> [f64; 3] {
+        [0.0, 0.5, 0.0]
+    }
+    /// A few millimetres: the carrier-phase σ of a short fixed baseline.
+    pub fn sigma_carrier() -> f64 {
+        0.003
+    }
+    pub fn sigma_vertical() -> f64 {
+        0.006
+    }
+    pub fn sigma_float() -> f64 {
+        0.3
+    }
+}
+
+impl BaselineSpec {
+    /// The heading σ of a level baseline (rad): σ_carrier / L.
+    pub fn heading_sigma_rad(&self) -> f64 {
+        let l = (Vector3::from(self.secondary_antenna_b_m)
+            - Vector3::from(self.primary_antenna_b_m))
+        .norm();
+        self.sigma_carrier_m / l
+    }
+}
+
+impl SimAid for BaselineSample {
+    type Spec = BaselineSpec;
+    type State = ();
+    /// Stream 12 (its navlog record's index; the faults have 7): a
+    /// scenario with `[baseline]` has every other sample exactly as the
+    /// same scenario without.
+    const OWN_STREAM: Option<u64> = Some(12);
+    fn rate_hz(spec: &BaselineSpec) -> f64 {
+        spec.rate_hz
+    }
+    fn validate(b: &BaselineSpec) -> Result<(), (String, String)> {
+        positive("rate_hz", b.rate_hz)?;
+        for (key, a) in [
+            ("primary_antenna_b_m", b.primary_antenna_b_m),
+            ("secondary_antenna_b_m", b.secondary_antenna_b_m),
+        ] {
+            for (i, l) in a.iter().enumerate() {
+                if !(l.is_finite() && l.abs() <= 100.0) {
+                    return Err((
+                        format!("{key}[{i}]"),
+                        format!("expected at most 100 m, got {l}"),
+                    ));
+                }
+            }
+        }
+        let l =
+            (Vector3::from(b.secondary_antenna_b_m) - Vector3::from(b.primary_antenna_b_m)).norm();
+        if l < 0.1 {
+            return Err((
+                "secondary_antenna_b_m".into(),
+                format!("the antennas are {l} m apart: at least 0.1 m"),
+            ));
+        }
+        for (k, v) in [
+            ("sigma_carrier_m", b.sigma_carrier_m),
+            ("sigma_vertical_m", b.sigma_vertical_m),
+            ("sigma_float_m", b.sigma_float_m),
+        ] {
+            if !(v.is_finite() && (1e-4..=10.0).contains(&v)) {
+                return Err((k.into(), format!("expected a 1-σ in [1e-4, 10] m, got {v}")));
+            }
+        }
+        if !(b.float_probability.is_finite() && (0.0..=1.0).contains(&b.float_probability)) {
+            return Err((
+                "float_probability".into(),
+                format!(
+                    "expected a probability in [0, 1], got {}",
+                    b.float_probability
+                ),
+            ));
+        }
+        for (i, o) in b.outages.iter().enumerate() {
+            if !(o.start_s.is_finite() && o.start_s >= 0.0) {
+                return Err((format!("outage[{i}].start_s"), "expected a time ≥ 0".into()));
+            }
+            positive(&format!("outage[{i}].duration_s"), o.duration_s)?;
+        }
+        Ok(())
+    }
+    fn start(_: &BaselineSpec) {}
+    fn sample(
+        b: &BaselineSpec,
+        _: &mut (),
+        rng: &mut ChaCha20Rng,
+        t_ns: u64,
+        seq: u64,
+        truth: &TruthSample,
+        noisy: bool,
+    ) -> Self {
+        let t_s = t_ns as f64 * 1e-9;
+        let c_b_e = truth.q_b_e.to_rotation_matrix().into_inner();
+        let a1 = Vector3::from(b.primary_antenna_b_m);
+        let a2 = Vector3::from(b.secondary_antenna_b_m);
+        let fix = earth::ecef_to_geodetic(&(truth.r_e + c_b_e * a1));
+        let mut enu = frames::c_e_g(fix.lat_rad, fix.lon_rad) * (c_b_e * (a2 - a1));
+        // Every epoch draws the same numbers, float or not, so that an
+        // epoch's noise does not depend on the ones before.
+        let u: f64 = rand::Rng::r#gen(rng);
+        let w = [
+            sensors::normal(rng),
+            sensors::normal(rng),
+            sensors::normal(rng),
+        ];
+        let float = u < b.float_probability;
+        let sigma = if float {
+            [b.sigma_float_m; 3]
+        } else {
+            [b.sigma_carrier_m, b.sigma_carrier_m, b.sigma_vertical_m]
+        };
+        if noisy {
+            for k in 0..3 {
+                enu[k] += sigma[k] * w[k];
+            }
+        }
+        let outage = b
+            .outages
+            .iter()
+            .any(|o| t_s >= o.start_s && t_s < o.start_s + o.duration_s);
+        let ned = [enu.y, enu.x, -enu.z];
+        let h = enu.x.hypot(enu.y);
+        let week_ms = 7 * 86_400_000u64;
+        let (carr, flags) = if outage {
+            (carr_soln::NO_CARRIER, 0)
+        } else {
+            (
+                if float {
+                    carr_soln::FLOAT
+                } else {
+                    carr_soln::FIXED
+                },
+                baseline_flags::GNSS_FIX_OK
+                    | baseline_flags::DIFF_CORRECTED
+                    | baseline_flags::REL_POS_VALID
+                    | baseline_flags::IS_MOVING
+                    | baseline_flags::HEADING_VALID,
+            )
+        };
+        BaselineSample {
+            t_ns,
+            seq,
+            lat_rad: fix.lat_rad,
+            lon_rad: fix.lon_rad,
+            rel_pos_ned_m: if outage { [0.0; 3] } else { ned },
+            length_m: if outage { 0.0 } else { enu.norm() },
+            heading_rad: if outage {
+                0.0
+            } else {
+                enu.x.atan2(enu.y).rem_euclid(std::f64::consts::TAU)
+            },
+            acc_heading_rad: if outage {
+                std::f64::consts::PI
+            } else {
+                (sigma[0] / h).min(std::f64::consts::PI)
+            },
+            acc_ned_m: [sigma[1], sigma[0], sigma[2]],
+            itow_ms: ((t_ns / 1_000_000) % week_ms) as u32,
+            carr_soln: carr,
+            flags,
+            _pad: 0,
+        }
+    }
+    /// `magnitude` metres north on the baseline (the length keeps the
+    /// vector's, as a receiver's wrong ambiguity fix does), or a NaN.
+    fn corrupt(&mut self, c: Corruption) {
+        match c {
+            Corruption::Outlier(magnitude) => {
+                self.rel_pos_ned_m[0] += magnitude;
+                self.length_m = Vector3::from(self.rel_pos_ned_m).norm();
+            }
+            Corruption::Nan => self.rel_pos_ned_m[0] = f64::NAN,
         }
     }
 }
