@@ -44,7 +44,10 @@
 //! disagrees with the configured antennas' by more than
 //! `length_gate_sigma` of its accuracy (a wrong fix of the ambiguities, a
 //! moved antenna, or a spoofer's degenerate baseline: see the declaration
-//! in `msgs::aids` on why the aid is autonomous).
+//! in `msgs::aids` on why the aid is autonomous). Non-finite values and
+//! an impossible latitude are checked first, then the carrier solution
+//! (a receiver without one reports zeros: an outage is counted as such,
+//! not as corrupt content), then the ranges, then the length.
 
 use msgs::BaselineSample;
 use msgs::baseline::baseline_flags;
@@ -229,6 +232,15 @@ fn checked(s: &BaselineSample, g: &BaselineSettings) -> Result<Checked, AidError
     if s.lat_rad.abs() > std::f64::consts::FRAC_PI_2 {
         return Err(invalid("baseline.lat_rad", s.lat_rad));
     }
+    // Before the ranges: a receiver without a solution reports zeros
+    // (relPosValid clear), an outage rather than corrupt content.
+    if !s.is_fixed() {
+        return Err(AidError::Refused {
+            cause: cause::NOT_FIXED,
+            what: "baseline.carr_soln (a valid fixed solution needed)",
+            value: f64::from(s.carr_soln),
+        });
+    }
     if !(s.length_m > 0.0 && s.length_m <= MAX_LENGTH_M) {
         return Err(invalid("baseline.length_m", s.length_m));
     }
@@ -252,13 +264,6 @@ fn checked(s: &BaselineSample, g: &BaselineSettings) -> Result<Checked, AidError
         }
         v
     };
-    if !s.is_fixed() {
-        return Err(AidError::Refused {
-            cause: cause::NOT_FIXED,
-            what: "baseline.carr_soln (a valid fixed solution needed)",
-            value: f64::from(s.carr_soln),
-        });
-    }
     let floor = g.sigma_floor_m;
     let sigma_ned = Vector3::from(s.acc_ned_m).map(|a| a.max(floor));
     // σ of the length: the accuracies projected on the baseline's direction.
@@ -714,7 +719,18 @@ mod tests {
             },
             cause::INVALID,
         ));
-        // Float, none, or not valid: no fixed solution.
+        // Float, none, or not valid: no fixed solution, whatever the
+        // (meaningless) vector and length of an epoch without one.
+        cases.push((
+            BaselineSample {
+                carr_soln: carr_soln::NO_CARRIER,
+                flags: 0,
+                rel_pos_ned_m: [0.0; 3],
+                length_m: 0.0,
+                ..good
+            },
+            cause::NOT_FIXED,
+        ));
         cases.push((
             BaselineSample {
                 carr_soln: carr_soln::FLOAT,
