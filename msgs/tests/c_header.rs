@@ -110,13 +110,10 @@ int main(void) {
         ),
         ("BaselineSample.flags", offset_of!(BaselineSample, flags)),
         ("BASELINE_FRESH", solution_flags::BASELINE_FRESH as usize),
-        (
-            "CARR_SOLN_FIXED",
-            usize::from(msgs::baseline::carr_soln::FIXED),
-        ),
+        ("CARR_SOLN_FIXED", usize::from(baseline::carr_soln::FIXED)),
         (
             "BASELINE_NORMALIZED",
-            usize::from(msgs::baseline::baseline_flags::NORMALIZED),
+            usize::from(baseline::baseline_flags::NORMALIZED),
         ),
     ];
     for (name, value) in rust {

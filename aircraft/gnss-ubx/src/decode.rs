@@ -391,7 +391,7 @@ mod tests {
         assert!((b.acc_heading_rad - 1f64.to_radians()).abs() < 1e-15);
         assert!((b.acc_ned_m[0] - 0.0012).abs() < 1e-15);
         assert_eq!(b.acc_ned_m[1], 0.0);
-        assert!((b.acc_ned_m[2] - 429_496.7295).abs() < 1e-9);
+        assert!((b.acc_ned_m[2] - 429_496.729_5).abs() < 1e-9);
         assert_eq!(b.carr_soln, msgs::baseline::carr_soln::FIXED);
         assert_eq!(
             b.flags,

@@ -103,9 +103,23 @@ pub struct Driver {
     seq: u64,
     /// Sequence number of the next published baseline.
     baseline_seq: u64,
-    /// The last NAV-PVT: its `iTOW`, and if it was stamped its time and
-    /// fix (rad), for the NAV-RELPOSNED of its epoch.
-    last_pvt: Option<(u32, Option<(u64, f64, f64)>)>,
+    /// The last NAV-PVT, for the NAV-RELPOSNED of its epoch.
+    last_pvt: Option<LastPvt>,
+}
+
+/// The last NAV-PVT: its `iTOW`, and if it was stamped its time and fix.
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct LastPvt {
+    itow_ms: u32,
+    stamped: Option<Stamped>,
+}
+
+/// A published fix's time (ns) and position (rad).
+#[derive(Debug, Clone, Copy, PartialEq)]
+struct Stamped {
+    t_ns: u64,
+    lat_rad: f64,
+    lon_rad: f64,
 }
 
 impl Driver {
@@ -169,7 +183,11 @@ impl Driver {
                         out.push(fix);
                         *seq += 1;
                         counters.published += 1;
-                        Some((t_ns, fix.lat_rad, fix.lon_rad))
+                        Some(Stamped {
+                            t_ns,
+                            lat_rad: fix.lat_rad,
+                            lon_rad: fix.lon_rad,
+                        })
                     }
                     Err(Unstamped::NoWeek) => {
                         counters.no_week += 1;
@@ -180,7 +198,10 @@ impl Driver {
                         None
                     }
                 };
-                *last_pvt = Some((p.itow_ms, stamped));
+                *last_pvt = Some(LastPvt {
+                    itow_ms: p.itow_ms,
+                    stamped,
+                });
             }
             Decoded::RelPosNed(r) => {
                 counters.relposned += 1;
@@ -188,8 +209,11 @@ impl Driver {
                     counters.relposned_heading += 1;
                 }
                 match *last_pvt {
-                    Some((itow, Some((t_ns, lat, lon)))) if itow == r.itow_ms => {
-                        baselines.push(r.to_baseline(t_ns, *baseline_seq, lat, lon));
+                    Some(LastPvt {
+                        itow_ms,
+                        stamped: Some(f),
+                    }) if itow_ms == r.itow_ms => {
+                        baselines.push(r.to_baseline(f.t_ns, *baseline_seq, f.lat_rad, f.lon_rad));
                         *baseline_seq += 1;
                         counters.relposned_published += 1;
                     }
