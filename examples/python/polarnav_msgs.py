@@ -25,6 +25,7 @@ FLAG_STAR_FRESH = 1 << 9
 FLAG_SECOND_PUBLISHER = 1 << 10
 FLAG_GNSS_FRESH = 1 << 11
 FLAG_GNSS_EXCLUDED = 1 << 12
+FLAG_BASELINE_FRESH = 1 << 13
 FLAG_MAG_FRESH = 1 << 14
 
 # WireFrame
@@ -33,7 +34,7 @@ FRAME_GRID = 1
 
 # The aids, in the order of Status.aids (the Rust declaration's, msgs/src/aids.rs:
 # the layout test holds this tuple to it). Status.streams has the IMU first.
-AIDS = ("srs", "cns", "baro", "star", "gnss", "mag")
+AIDS = ("srs", "cns", "baro", "star", "gnss", "baseline", "mag")
 AID_COUNT = len(AIDS)
 STREAM_COUNT = AID_COUNT + 1
 MAX_COMPONENTS = 6
@@ -222,6 +223,50 @@ class GnssFix(ctypes.Structure):
         return "polarnav::GnssFix_v1"
 
 
+# BaselineSample.carr_soln
+CARR_SOLN_NONE = 0
+CARR_SOLN_FLOAT = 1
+CARR_SOLN_FIXED = 2
+
+# BaselineSample.flags (NAV-RELPOSNED flags without carrSoln, packed)
+BASELINE_GNSS_FIX_OK = 1 << 0
+BASELINE_DIFF_SOLN = 1 << 1
+BASELINE_REL_POS_VALID = 1 << 2
+BASELINE_IS_MOVING = 1 << 3
+BASELINE_REF_POS_MISS = 1 << 4
+BASELINE_REF_OBS_MISS = 1 << 5
+BASELINE_HEADING_VALID = 1 << 6
+BASELINE_NORMALIZED = 1 << 7
+
+
+class BaselineSample(ctypes.Structure):
+    """One baseline of a moving-base receiver (`polarnav/baseline`): UBX-NAV-RELPOSNED's
+    content in SI units, the vector from the primary (moving-base) antenna to the
+    secondary, north-east-down in the axes of (lat_rad, lon_rad), the receiver's fix
+    of the same epoch. carr_soln 2 (fixed) with REL_POS_VALID and GNSS_FIX_OK set is
+    a usable baseline."""
+
+    _fields_ = [
+        ("t_ns", ctypes.c_uint64),
+        ("seq", ctypes.c_uint64),
+        ("lat_rad", ctypes.c_double),
+        ("lon_rad", ctypes.c_double),
+        ("rel_pos_ned_m", V3),
+        ("length_m", ctypes.c_double),
+        ("heading_rad", ctypes.c_double),
+        ("acc_heading_rad", ctypes.c_double),
+        ("acc_ned_m", V3),
+        ("itow_ms", ctypes.c_uint32),
+        ("carr_soln", ctypes.c_uint8),
+        ("flags", ctypes.c_uint8),
+        ("_pad", ctypes.c_uint16),
+    ]
+
+    @staticmethod
+    def type_name() -> str:
+        return "polarnav::BaselineSample_v1"
+
+
 class MagSample(ctypes.Structure):
     """One magnetometer sample (`polarnav/mag`): the raw field in body axes
     (x right, y forward, z up) in nT, hard and soft iron still in it (the
@@ -243,7 +288,7 @@ class MagSample(ctypes.Structure):
 def layout() -> dict:
     """Sizes and field offsets, for the layout test."""
     out = {}
-    for t in (Solution, StreamCounters, AidStatus, Status, StarSample, GnssFix, MagSample):
+    for t in (Solution, StreamCounters, AidStatus, Status, StarSample, GnssFix, BaselineSample, MagSample):
         out[t.__name__] = ctypes.sizeof(t)
         for name, _ in t._fields_:
             out[f"{t.__name__}.{name}"] = getattr(t, name).offset

@@ -23,13 +23,71 @@
 /**
  * Number of aids (the length of `Status::aids`).
  */
-#define POLARNAV_AID_COUNT 6
+#define POLARNAV_AID_COUNT 7
 
 /**
  * Number of input streams with counters: the IMU and the aids (the
  * length of `Status::streams`).
  */
 #define POLARNAV_STREAM_COUNT (POLARNAV_AID_COUNT + 1)
+
+/**
+ * No carrier-phase solution (u-blox: 0; named apart from
+ * `fix_type::NONE`, as the C header has one namespace).
+ */
+#define POLARNAV_CARR_SOLN_NONE 0
+
+/**
+ * Float ambiguities: decimetres, not a heading reference.
+ */
+#define POLARNAV_CARR_SOLN_FLOAT 1
+
+/**
+ * Fixed ambiguities: millimetres.
+ */
+#define POLARNAV_CARR_SOLN_FIXED 2
+
+/**
+ * `gnssFixOK`: the receiver's fix is valid.
+ */
+#define POLARNAV_BASELINE_GNSS_FIX_OK (1 << 0)
+
+/**
+ * `diffSoln`: differential corrections were applied (named apart
+ * from `fix_flags::DIFF_SOLN`, as the C header has one namespace).
+ */
+#define POLARNAV_BASELINE_DIFF_SOLN (1 << 1)
+
+/**
+ * `relPosValid`: the relative position components and accuracies are valid.
+ */
+#define POLARNAV_BASELINE_REL_POS_VALID (1 << 2)
+
+/**
+ * `isMoving`: the receiver runs in moving-base mode.
+ */
+#define POLARNAV_BASELINE_IS_MOVING (1 << 3)
+
+/**
+ * `refPosMiss`: the moving base's position was extrapolated this epoch.
+ */
+#define POLARNAV_BASELINE_REF_POS_MISS (1 << 4)
+
+/**
+ * `refObsMiss`: the moving base's observations were extrapolated this epoch.
+ */
+#define POLARNAV_BASELINE_REF_OBS_MISS (1 << 5)
+
+/**
+ * `relPosHeadingValid`: `heading_rad` and `acc_heading_rad` are valid.
+ */
+#define POLARNAV_BASELINE_HEADING_VALID (1 << 6)
+
+/**
+ * `relPosNormalized`: `rel_pos_ned_m` is a unit vector (the length is
+ * `length_m`).
+ */
+#define POLARNAV_BASELINE_NORMALIZED (1 << 7)
 
 /**
  * No fix.
@@ -132,12 +190,30 @@
 #define POLARNAV_FLAG_GNSS_EXCLUDED (1 << 12)
 
 /**
- * A magnetometer heading was fused within its timeout. (Bit 13 is
- * the dual-antenna baseline's, bits 15–16 the flight state's; the
+ * A dual-antenna GNSS baseline was fused within its timeout.
+ */
+#define POLARNAV_FLAG_BASELINE_FRESH (1 << 13)
+
+/**
+ * A magnetometer heading was fused within its timeout. (The
  * magnetometer disabled near a magnetic pole has no bit of its own:
  * its status counts and names the cause.)
  */
 #define POLARNAV_FLAG_MAG_FRESH (1 << 14)
+
+/**
+ * Bits 15–16: the flight state the IMU shows (paper 003 §4.5): 0 not
+ * yet known, 1 ground, 2 steady, 3 manoeuvre.
+ */
+#define FLIGHT_STATE_SHIFT 15
+
+#define FLIGHT_STATE_MASK (3 << FLIGHT_STATE_SHIFT)
+
+/**
+ * Roll and pitch were fused from the accelerometers (a steady window
+ * while no aid observing tilt was fresh) within the last two windows.
+ */
+#define LEVEL_FUSED (1 << 17)
 
 /**
  * An aid, by its index in every per-aid array (`Status::aids`).
@@ -168,9 +244,13 @@ enum AidKind
    */
   AidKind_Gnss = 4,
   /**
+   * Dual-antenna GNSS baseline (attitude: heading and pitch, or roll).
+   */
+  AidKind_Baseline = 5,
+  /**
    * Magnetometer heading (the World Magnetic Model's declination).
    */
-  AidKind_Mag = 5,
+  AidKind_Mag = 6,
 };
 #ifndef __cplusplus
 #if __STDC_VERSION__ >= 202311L
@@ -398,6 +478,64 @@ typedef struct {
    */
   uint8_t _pad;
 } GnssFix;
+
+/**
+ * One baseline of a moving-base receiver: the vector from the primary
+ * (moving-base) antenna to the secondary (rover) antenna in the
+ * north-east-down axes of (`lat_rad`, `lon_rad`), with the receiver's own
+ * 1-σ accuracy estimates.
+ */
+typedef struct {
+  /**
+   * Time of validity on the sensor time base (the driver maps the
+   * receiver's time of the epoch onto it).
+   */
+  uint64_t t_ns;
+  uint64_t seq;
+  /**
+   * The position whose north-east-down axes the baseline is in (rad):
+   * the receiver's fix of the same epoch.
+   */
+  double lat_rad;
+  double lon_rad;
+  /**
+   * Baseline north, east, down (m): `relPosN/E/D` with their
+   * high-precision parts.
+   */
+  double rel_pos_ned_m[3];
+  /**
+   * Baseline length (m): `relPosLength` with its high-precision part.
+   */
+  double length_m;
+  /**
+   * Heading of the baseline, clockwise from north (rad), and its
+   * accuracy (rad): `relPosHeading`, `accHeading`; valid with
+   * [`baseline_flags::HEADING_VALID`]. Informative: the navigator fuses
+   * the vector, which holds at the pole, where heading does not.
+   */
+  double heading_rad;
+  double acc_heading_rad;
+  /**
+   * Accuracy (1-σ) of the north, east, down components (m): `accN/E/D`.
+   */
+  double acc_ned_m[3];
+  /**
+   * GPS time of week of the epoch (ms), NAV-RELPOSNED `iTOW`.
+   */
+  uint32_t itow_ms;
+  /**
+   * [`carr_soln`].
+   */
+  uint8_t carr_soln;
+  /**
+   * [`baseline_flags`].
+   */
+  uint8_t flags;
+  /**
+   * Always zero.
+   */
+  uint16_t _pad;
+} BaselineSample;
 
 /**
  * One magnetometer sample: the raw (uncalibrated) field in body axes

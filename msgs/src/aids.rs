@@ -38,6 +38,7 @@
 //! not expand macros, puts it in the C header; a check below makes the
 //! compiler hold it and the list to the same aids in the same order.
 
+use crate::baseline::BaselineSample;
 use crate::gnss::GnssFix;
 use crate::mag::MagSample;
 use crate::payloads::{BaroSample, CnsFix, SrsSample, StarSample};
@@ -57,8 +58,10 @@ pub enum AidKind {
     Star = 3,
     /// GNSS position and velocity (not autonomous: tested for integrity).
     Gnss = 4,
+    /// Dual-antenna GNSS baseline (attitude: heading and pitch, or roll).
+    Baseline = 5,
     /// Magnetometer heading (the World Magnetic Model's declination).
-    Mag = 5,
+    Mag = 6,
 }
 
 /// The most innovation components an aid has (the length of
@@ -70,7 +73,7 @@ pub const MAX_COMPONENTS: usize = 6;
 pub const MAX_CAUSES: usize = 4;
 
 /// Number of aids (the length of `Status::aids`).
-pub const AID_COUNT: usize = 6;
+pub const AID_COUNT: usize = 7;
 /// Number of input streams with counters: the IMU and the aids (the
 /// length of `Status::streams`).
 pub const STREAM_COUNT: usize = AID_COUNT + 1;
@@ -168,6 +171,38 @@ macro_rules! for_each_aid {
                 ],
                 autonomous: false,
                 excluded_flag: GNSS_EXCLUDED,
+            }),
+            (Baseline, baseline, BaselineSample, {
+                label: "baseline",
+                title: "dual-antenna GNSS baseline",
+                record: 12,
+                fresh_flag: BASELINE_FRESH,
+                components: &[
+                    Component::new("east | grid x", Unit::M),
+                    Component::new("north | grid y", Unit::M),
+                    Component::new("up", Unit::M),
+                ],
+                gate: 16.266,
+                timeout_s: 3.0,
+                causes: &[
+                    "invalid content",
+                    "carrier not fixed",
+                    "length disagrees",
+                ],
+                // Autonomous, although it is GNSS: a jammer leaves no
+                // fixed carrier solution (refused, "carrier not fixed");
+                // a single-transmitter spoofer or a meaconer sends every
+                // satellite's signal from one direction, so both antennas
+                // see the same phase differences for all of them, the
+                // double differences vanish and the baseline comes out
+                // degenerate (near zero length, or no fix), which the
+                // length check against the surveyed antennas refuses.
+                // Faking a consistent baseline takes one transmitter per
+                // satellite, phase-aligned at the airframe's attitude.
+                // The aid observes attitude only, never position, so it
+                // cannot drag the position as a GNSS spoofer does.
+                autonomous: true,
+                excluded_flag: 0,
             }),
             (Mag, mag, MagSample, {
                 label: "mag",

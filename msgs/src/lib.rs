@@ -18,6 +18,7 @@
 //! `nav-daemon batch` share.
 
 pub mod aids;
+pub mod baseline;
 pub mod gnss;
 pub mod mag;
 pub mod navlog;
@@ -28,6 +29,7 @@ pub mod status;
 pub use aids::{
     AID_COUNT, AidDecl, AidKind, AidPayload, AidSample, PerAid, PerStream, STREAM_COUNT, Stream,
 };
+pub use baseline::BaselineSample;
 pub use gnss::GnssFix;
 pub use mag::MagSample;
 pub use payloads::*;

@@ -38,9 +38,10 @@ pub const MAGIC: [u8; 8] = *b"POLARNAV";
 /// 6: the GNSS record (variant 11, appended) and the `_v6` status record
 /// (a fifth aid in `aids` and `streams`); a status record of format 5 or
 /// before is skipped as incompatible, every other record reads.
-/// 7: the magnetometer record (variant 13, appended) and the `_v7` status
-/// record (a sixth aid in `aids` and `streams`); a status record of format
-/// 6 or before is skipped as incompatible, every other record reads.
+/// 7: the dual-antenna baseline and magnetometer records (variants 12
+/// and 13, appended) and the `_v7` status record (a sixth and a seventh
+/// aid in `aids` and `streams`); a status record of format 6 or before is
+/// skipped as incompatible, every other record reads.
 pub const FORMAT_VERSION: u16 = 7;
 /// Frames longer than this are treated as corruption (the largest record is ~1 kB
 /// plus the header's scenario text).

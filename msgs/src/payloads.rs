@@ -213,6 +213,8 @@ pub mod solution_flags {
     /// GNSS is excluded by its integrity test (it disagreed with the
     /// autonomous solution; the solution is the autonomous one).
     pub const GNSS_EXCLUDED: u32 = 1 << 12;
+    /// A dual-antenna GNSS baseline was fused within its timeout.
+    pub const BASELINE_FRESH: u32 = 1 << 13;
     /// A magnetometer heading was fused within its timeout. (The
     /// magnetometer disabled near a magnetic pole has no bit of its own:
     /// its status counts and names the cause.)

@@ -25,6 +25,11 @@ int main(void) {
     O(ImuSample, d_v_mps) O(SrsLine, body_id) O(SrsSample, lines) O(InitState, sigma_heading_rad)
     O(Solution, q_b_e) O(Solution, flags) O(Solution, frame) O(Status, streams) O(Status, aids) O(Status, frame)
     O(StarSample, boresight_b) O(StarSample, sigma_boresight_arcsec)
+    S(BaselineSample) O(BaselineSample, rel_pos_ned_m) O(BaselineSample, acc_ned_m)
+    O(BaselineSample, itow_ms) O(BaselineSample, flags)
+    printf("BASELINE_FRESH %d\n", POLARNAV_FLAG_BASELINE_FRESH);
+    printf("CARR_SOLN_FIXED %d\n", POLARNAV_CARR_SOLN_FIXED);
+    printf("BASELINE_NORMALIZED %d\n", POLARNAV_BASELINE_NORMALIZED);
     printf("SRS_MAX_LINES %d\n", POLARNAV_SRS_MAX_LINES);
     printf("IMU_LOST %d\n", POLARNAV_FLAG_IMU_LOST);
     printf("STAR_FRESH %d\n", POLARNAV_FLAG_STAR_FRESH);
@@ -90,6 +95,26 @@ int main(void) {
         ("SRS_MAX_LINES", SRS_MAX_LINES),
         ("IMU_LOST", solution_flags::IMU_LOST as usize),
         ("STAR_FRESH", solution_flags::STAR_FRESH as usize),
+        ("BaselineSample", size_of::<BaselineSample>()),
+        (
+            "BaselineSample.rel_pos_ned_m",
+            offset_of!(BaselineSample, rel_pos_ned_m),
+        ),
+        (
+            "BaselineSample.acc_ned_m",
+            offset_of!(BaselineSample, acc_ned_m),
+        ),
+        (
+            "BaselineSample.itow_ms",
+            offset_of!(BaselineSample, itow_ms),
+        ),
+        ("BaselineSample.flags", offset_of!(BaselineSample, flags)),
+        ("BASELINE_FRESH", solution_flags::BASELINE_FRESH as usize),
+        ("CARR_SOLN_FIXED", usize::from(baseline::carr_soln::FIXED)),
+        (
+            "BASELINE_NORMALIZED",
+            usize::from(baseline::baseline_flags::NORMALIZED),
+        ),
     ];
     for (name, value) in rust {
         assert_eq!(

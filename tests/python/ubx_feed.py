@@ -28,6 +28,7 @@ import json
 import math
 import os
 import random
+import struct
 import sys
 import time
 import tty
@@ -158,23 +159,76 @@ def nav_pvt(rng, itow=None, dated=None):
     return raw, UBXReader.parse(raw)  # what pyubx2 itself reads from its frame
 
 
-def relposned(rng):
+def relposned(rng, itow=None):
+    """A NAV-RELPOSNED (version 1) across its fields' ranges. pyubx2 takes scaled
+    values and truncates them to its integers; the expected baseline is made from
+    the integers its frame holds (expected_baseline)."""
     raw = UBXMessage(
         "NAV",
         "NAV-RELPOSNED",
         GET,
         version=1,
-        iTOW=pick(rng, 0, WEEK_MS - 1),
+        iTOW=pick(rng, 0, WEEK_MS - 1) if itow is None else itow,
         relPosN=pick(rng, -(2**31), 2**31 - 1),
         relPosE=pick(rng, -(2**31), 2**31 - 1),
         relPosD=pick(rng, -(2**31), 2**31 - 1),
         relPosLength=pick(rng, 0, 2**31 - 1),
         relPosHeading=pick(rng, 0, 36_000_000) / 1e5,
-        gnssFixOK=1,
-        relPosValid=1,
+        _HPrelPosN=pick(rng, -99, 99) * 0.01,
+        _HPrelPosE=pick(rng, -99, 99) * 0.01,
+        _HPrelPosD=pick(rng, -99, 99) * 0.01,
+        _HPrelPosLength=pick(rng, -99, 99) * 0.01,
+        accN=pick(rng, 0, 2**32 - 2) * 0.1,
+        accE=pick(rng, 0, 2**32 - 2) * 0.1,
+        accD=pick(rng, 0, 2**32 - 2) * 0.1,
+        accHeading=pick(rng, 0, 18_000_000) * 1e-5,
+        gnssFixOK=int(rng.random() < 0.9),
+        diffSoln=rng.randint(0, 1),
+        relPosValid=int(rng.random() < 0.9),
+        carrSoln=rng.randint(0, 2),
+        isMoving=rng.randint(0, 1),
+        refPosMiss=rng.randint(0, 1),
+        refObsMiss=rng.randint(0, 1),
         relPosHeadingValid=rng.randint(0, 1),
+        relPosNormalized=rng.randint(0, 1),
     ).serialize()
     return raw, UBXReader.parse(raw)
+
+
+def expected_baseline(raw, m, t_ns, fix, seq):
+    """BaselineSample of a NAV-RELPOSNED paired with the fix of its epoch: the
+    integers of the frame pyubx2 made (offsets of the interface description),
+    converted as the driver documents; the flags as pyubx2 parsed them."""
+    p = raw[6:-2]
+    ned_cm = struct.unpack_from("<iii", p, 8)
+    length_cm, heading_e5 = struct.unpack_from("<ii", p, 20)
+    hp = struct.unpack_from("<bbbb", p, 32)
+    acc = struct.unpack_from("<III", p, 36)
+    (acc_heading_e5,) = struct.unpack_from("<I", p, 52)
+    flags = (
+        m.gnssFixOK
+        | m.diffSoln << 1
+        | m.relPosValid << 2
+        | m.isMoving << 3
+        | m.refPosMiss << 4
+        | m.refObsMiss << 5
+        | m.relPosHeadingValid << 6
+        | m.relPosNormalized << 7
+    )
+    return {
+        "t_ns": t_ns,
+        "seq": seq,
+        "lat_rad": fix["lat_rad"],
+        "lon_rad": fix["lon_rad"],
+        "rel_pos_ned_m": [ned_cm[k] / 1e2 + hp[k] / 1e4 for k in range(3)],
+        "length_m": length_cm / 1e2 + hp[3] / 1e4,
+        "heading_rad": math.radians(heading_e5 / 1e5),
+        "acc_heading_rad": math.radians(acc_heading_e5 / 1e5),
+        "acc_ned_m": [a / 1e4 for a in acc],
+        "itow_ms": m.iTOW,
+        "carr_soln": m.carrSoln,
+        "flags": flags,
+    }
 
 
 def unused(rng):
@@ -197,9 +251,15 @@ class Stream:
         self.fixes = []
         self.counters = dict(
             published=0, nav_pvt=0, no_week=0, before_epoch=0, invalid_llh=0, relposned=0,
-            relposned_heading=0, unused=0, invalid=0, frames=0, bad_checksum=0, truncated=0,
-            oversize=0, garbage_bytes=0, lost=0, reconnects=0,
+            relposned_heading=0, relposned_published=0, relposned_unpaired=0, unused=0,
+            invalid=0, frames=0, bad_checksum=0, truncated=0, oversize=0, garbage_bytes=0,
+            lost=0, reconnects=0,
         )
+        self.baselines = []
+        # The last NAV-PVT's iTOW and, if it was stamped, its time and fix: a
+        # NAV-RELPOSNED of the same iTOW after a stamped one is published with
+        # them (the driver's rule).
+        self.last_pvt = None
         self.rule = TimeRule()
 
     def good_pvt(self, raw, m):
@@ -207,13 +267,28 @@ class Stream:
         c["frames"] += 1
         c["nav_pvt"] += 1
         t = self.rule.t_ns(m)
+        self.last_pvt = (m.iTOW, None)
         if t is None:
             c["no_week"] += 1
         else:
             c["published"] += 1
             c["invalid_llh"] += m.invalidLlh
             self.fixes.append(expected_fix(m, t, len(self.fixes)))
+            self.last_pvt = (m.iTOW, (t, self.fixes[-1]))
         self.chunks.append((raw, True))
+
+    def good_relposned(self, raw, m):
+        c = self.counters
+        c["frames"] += 1
+        c["relposned"] += 1
+        c["relposned_heading"] += m.relPosHeadingValid
+        if self.last_pvt is not None and self.last_pvt[0] == m.iTOW and self.last_pvt[1]:
+            t, fix = self.last_pvt[1]
+            c["relposned_published"] += 1
+            self.baselines.append(expected_baseline(raw, m, t, fix, len(self.baselines)))
+        else:
+            c["relposned_unpaired"] += 1
+        self.chunks.append((raw, False))
 
     def good_other(self, raw, kind):
         self.counters["frames"] += 1
@@ -230,6 +305,18 @@ def build(mode, count, rng):
             raw, m = nav_pvt(rng, itow=itow, dated=True)
             s.good_pvt(raw, m)
         return s
+    if mode == "baseline":
+        # A moving-base receiver at 10 Hz: each epoch's NAV-PVT, then its
+        # NAV-RELPOSNED; one in ten of another epoch (unpaired).
+        itow0 = 324_018_000
+        for k in range(count):
+            itow = (itow0 + 100 * k) % WEEK_MS
+            raw, m = nav_pvt(rng, itow=itow, dated=True)
+            s.good_pvt(raw, m)
+            other = rng.random() < 0.1
+            raw, m = relposned(rng, itow=(itow + 50) % WEEK_MS if other else itow)
+            s.good_relposned(raw, m)
+        return s
     if mode == "values":
         # Two undated fixes first: no week yet, counted, not published.
         for _ in range(2):
@@ -239,8 +326,7 @@ def build(mode, count, rng):
             r = rng.random()
             if r < 0.1:
                 raw, m = relposned(rng)
-                s.good_other(raw, "relposned")
-                s.counters["relposned_heading"] += m.relPosHeadingValid
+                s.good_relposned(raw, m)
             elif r < 0.2:
                 s.good_other(unused(rng), "unused")
             else:
@@ -359,7 +445,13 @@ def main():
         s.counters["reconnects"] = 1
     with open(a.expected, "w") as f:
         json.dump(
-            {"fixes": s.fixes, "counters": s.counters, "bytes": sum(len(b) for b, _ in s.chunks)}, f
+            {
+                "fixes": s.fixes,
+                "baselines": s.baselines,
+                "counters": s.counters,
+                "bytes": sum(len(b) for b, _ in s.chunks),
+            },
+            f,
         )
     p = Pty(a.link)
     say("ready")

@@ -1058,6 +1058,10 @@ fn python_ctypes_mirror_has_the_rust_layout() {
         offsets!(GnssFix: t_ns, seq, lat_rad, lon_rad, height_m, vel_ned_mps, h_acc_m, v_acc_m,
         s_acc_mps, pdop, itow_ms, fix_type, num_sv, flags, _pad),
     );
+    rust.extend(
+        offsets!(BaselineSample: t_ns, seq, lat_rad, lon_rad, rel_pos_ned_m, length_m,
+        heading_rad, acc_heading_rad, acc_ned_m, itow_ms, carr_soln, flags, _pad),
+    );
     rust.extend(offsets!(MagSample: t_ns, seq, field_b_nt, sigma_nt));
     // The mirror's aid names, in the declaration's order.
     rust.extend(AidKind::ALL.map(|k| (format!("aid.{}", k.name()), k as usize)));

@@ -16,13 +16,16 @@ fn batch_mcap_has_one_solution_per_csv_row_with_equal_values_and_every_schema() 
     let dir = std::env::temp_dir().join(format!("polarnav-mcap-{}", std::process::id()));
     std::fs::create_dir_all(&dir).expect("dir");
     // paper-sim switches g -> G at 212 s; 260 s of it at 200 Hz, with a
-    // star tracker and a GNSS receiver so that every stream has its channel.
+    // star tracker, a GNSS receiver and a dual-antenna baseline (the
+    // simulator's and the navigator's default antennas) so that every
+    // stream has its channel.
     let text = std::fs::read_to_string(repo("config/scenarios/paper-sim.toml"))
         .expect("scenario")
         .replace("duration_s = 600.0", "duration_s = 260.0")
         .replace(
             "[init_error]",
-            "[star]\nrate_hz = 1.0\nsigma_arcsec = 5.0\n\n[gnss]\nrate_hz = 5.0\n\n[init_error]",
+            "[star]\nrate_hz = 1.0\nsigma_arcsec = 5.0\n\n[gnss]\nrate_hz = 5.0\n\n\
+             [baseline]\nrate_hz = 5.0\n\n[init_error]",
         );
     let log = dir.join("paper.navlog");
     simulate_file(&text, "paper-sim (260 s)", &log);

@@ -42,12 +42,20 @@ const ADDED_SINCE_THE_PIN: &[(&str, &str)] = &[
     ),
     ("csv column mag_fresh", MAG),
     ("mcap metadata polarnav.settings aids.mag", MAG),
+    ("mcap metadata polarnav.settings aids.baseline", BASELINE),
+    ("csv column baseline_fresh", BASELINE),
 ];
 
-/// The magnetometer, the sixth aid (issue 30): its settings (`[aids.mag]`,
+/// The magnetometer, the seventh aid (issue 30): its settings (`[aids.mag]`,
 /// `mag_gate`, `mag_timeout_s`), its freshness column, and its name among
 /// the aids fused by default.
-const MAG: &str = "the magnetometer, the sixth aid, and its settings (issue 30)";
+const MAG: &str = "the magnetometer, the seventh aid, and its settings (issue 30)";
+
+/// The dual-antenna baseline, the sixth aid (issue 30): its settings
+/// table, its name among the aids fused by default, its freshness column
+/// in the CSV's aid group and field of `polarnav.Solution`, the grown
+/// `Status` (`_v7`) and navlog format 7.
+const BASELINE: &str = "the dual-antenna baseline, the sixth aid, and its settings (issue 30)";
 
 /// The solution CSV's aid group (issue 29): a freshness column for each
 /// aid that had none (star, GNSS) and GNSS's exclusion, after the bias σ.
@@ -70,12 +78,12 @@ const FLIGHT_STATE_BITS: u32 =
 /// pinned by finer items: the navlog's frames after its header and the
 /// header's fields, each MCAP channel's messages.
 const CHANGED_SINCE_THE_PIN: &[(&str, &str)] = &[
-    ("csv header", AID_COLUMNS),
+    ("csv header", AID_COLUMNS_GROWN),
     ("navlog file", FORMAT_5),
     ("navlog record 00 (1 frames)", FORMAT_5),
     ("navlog header format_version", FORMAT_5),
     ("mcap metadata polarnav navlog_format_version", FORMAT_5),
-    ("mcap metadata polarnav.settings aids.fuse", GNSS_AND_MAG),
+    ("mcap metadata polarnav.settings aids.fuse", FUSE),
     ("mcap schema polarnav.AidUpdate", SCHEMA),
     ("mcap schema polarnav.BaroSample", SCHEMA),
     ("mcap schema polarnav.CnsFix", SCHEMA),
@@ -91,17 +99,22 @@ const CHANGED_SINCE_THE_PIN: &[(&str, &str)] = &[
 ];
 
 /// The navlog's format version 4 → 7 (the `_v5`, `_v6` then `_v7` status
-/// record, the GNSS and magnetometer records): the header's one field and
-/// what contains it.
-const FORMAT_5: &str = "navlog format 7: the _v7 status record, the GNSS (issue 29) and magnetometer (issue 30) records";
-/// The default list of aids fused grew by GNSS (issue 29) and the
-/// magnetometer (issue 30).
-const GNSS_AND_MAG: &str =
-    "GNSS (issue 29) and the magnetometer (issue 30) among the aids fused by default";
+/// record, the GNSS, baseline and magnetometer records): the header's one
+/// field and what contains it.
+const FORMAT_5: &str = "navlog format 7: the _v7 status record, the GNSS (issue 29), baseline and magnetometer (issue 30) records";
+/// The aids fused by default: every declared one, GNSS (issue 29) then
+/// the baseline and the magnetometer (issue 30).
+const FUSE: &str =
+    "the aids fused by default grew: gnss (issue 29), baseline and mag (issue 30)";
+/// The CSV header: the aid group of issue 29, then `baseline_fresh` and
+/// `mag_fresh`.
+const AID_COLUMNS_GROWN: &str =
+    "the CSV's aid group (issue 29), grown by baseline_fresh and mag_fresh (issue 30)";
 /// `polarnav.proto` grew: Status.aids (every aid by name),
 /// StreamCounters.rejected_integrity, AidStatus' integrity and refusal
 /// fields (issue 29). Every channel's messages stay pinned.
-const SCHEMA: &str = "polarnav.proto grew with the aids' status (issue 29)";
+const SCHEMA: &str = "polarnav.proto grew with the aids' status (issue 29), then the \
+                      baseline's message and Solution.baseline_fresh (issue 30)";
 
 /// The fields of `polarnav.Status` and `polarnav.Solution` added since the pin, cleared before a
 /// `/status` or `/solution` message is hashed: every byte the message had at the pin
@@ -116,6 +129,7 @@ fn canonical(topic: &str, data: &[u8]) -> Vec<u8> {
         s.gnss_excluded = false;
         s.flags &= !FLIGHT_STATE_BITS;
         s.mag_fresh = false;
+        s.baseline_fresh = false;
         return prost::Message::encode_to_vec(&s);
     }
     if topic != "/status" {

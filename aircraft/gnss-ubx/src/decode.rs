@@ -18,11 +18,23 @@
 //! except that gnssFixOK is cleared when `flags3` says `invalidLlh` (the
 //! receiver marks the position itself invalid), and counted.
 //!
-//! NAV-RELPOSNED (the baseline of a moving-base, dual-antenna receiver) is
-//! decoded and counted but not published: no aid takes a baseline yet
-//! (issue 30 adds one).
+//! NAV-RELPOSNED (version 1, the baseline of a moving-base, dual-antenna
+//! receiver) → `BaselineSample` (issue 30), paired by the driver with the
+//! NAV-PVT of the same `iTOW` (which stamps it and gives the latitude and
+//! longitude whose NED axes the baseline is in):
+//!
+//! | NAV-RELPOSNED | unit | BaselineSample |
+//! |---|---|---|
+//! | `relPosN/E/D` + `relPosHPN/E/D` | cm + 0.1 mm | `rel_pos_ned_m` |
+//! | `relPosLength` + `relPosHPLength` | cm + 0.1 mm | `length_m` |
+//! | `relPosHeading`, `accHeading` | 1e-5 ° | `heading_rad`, `acc_heading_rad` |
+//! | `accN/E/D` | 0.1 mm | `acc_ned_m` |
+//! | `flags` bits 0–2, 5–9 | bits | `flags` bits 0–7 ([`msgs::baseline::baseline_flags`]) |
+//! | `flags` bits 3–4 (`carrSoln`) | | `carr_soln` |
+//! | `iTOW` | ms | `itow_ms` |
 
-use msgs::GnssFix;
+use msgs::baseline::baseline_flags;
+use msgs::{BaselineSample, GnssFix};
 use ublox::proto27::PacketRef;
 use ublox::{UbxProtocol, proto27::Proto27};
 
@@ -83,10 +95,56 @@ pub struct RelPosNed {
     pub rel_pos_hp_01mm: [i8; 3],
     /// Baseline length (cm).
     pub length_cm: i32,
+    /// Its 0.1 mm part.
+    pub length_hp_01mm: i8,
     /// Heading of the baseline (1e-5 °).
     pub heading_e5: i32,
+    /// `accN`, `accE`, `accD` (0.1 mm).
+    pub acc_ned_01mm: [u32; 3],
+    /// `accHeading` (1e-5 °).
+    pub acc_heading_e5: u32,
     /// `flags` (bit 8 `relPosHeadingValid`).
     pub flags: u32,
+}
+
+impl RelPosNed {
+    /// The payload, stamped `t_ns` and numbered `seq`, in the NED axes of
+    /// (`lat_rad`, `lon_rad`) (the paired NAV-PVT's fix).
+    pub fn to_baseline(&self, t_ns: u64, seq: u64, lat_rad: f64, lon_rad: f64) -> BaselineSample {
+        let m = |cm: i32, hp: i8| f64::from(cm) / 1e2 + f64::from(hp) / 1e4;
+        let bit = |k: u32| self.flags & (1 << k) != 0;
+        // u-blox bits 0, 1, 2, 5, 6, 7, 8, 9 → ours 0..7 (carrSoln apart).
+        let mut flags = 0u8;
+        for (ublox, ours) in [
+            (0, baseline_flags::GNSS_FIX_OK),
+            (1, baseline_flags::DIFF_CORRECTED),
+            (2, baseline_flags::REL_POS_VALID),
+            (5, baseline_flags::IS_MOVING),
+            (6, baseline_flags::REF_POS_MISS),
+            (7, baseline_flags::REF_OBS_MISS),
+            (8, baseline_flags::HEADING_VALID),
+            (9, baseline_flags::NORMALIZED),
+        ] {
+            if bit(ublox) {
+                flags |= ours;
+            }
+        }
+        BaselineSample {
+            t_ns,
+            seq,
+            lat_rad,
+            lon_rad,
+            rel_pos_ned_m: [0, 1, 2].map(|k| m(self.rel_pos_cm[k], self.rel_pos_hp_01mm[k])),
+            length_m: m(self.length_cm, self.length_hp_01mm),
+            heading_rad: (f64::from(self.heading_e5) / 1e5).to_radians(),
+            acc_heading_rad: (f64::from(self.acc_heading_e5) / 1e5).to_radians(),
+            acc_ned_m: self.acc_ned_01mm.map(|a| f64::from(a) / 1e4),
+            itow_ms: self.itow_ms,
+            carr_soln: ((self.flags >> 3) & 0b11) as u8,
+            flags,
+            _pad: 0,
+        }
+    }
 }
 
 /// `relPosHeadingValid` of NAV-RELPOSNED `flags`.
@@ -150,7 +208,10 @@ pub fn decode(frame: &Frame<'_>) -> Decoded {
                 r.rel_pos_hp_d_mm_raw(),
             ],
             length_cm: r.rel_pos_length_cm_raw(),
+            length_hp_01mm: r.rel_pos_hp_length_mm_raw(),
             heading_e5: r.rel_pos_heading_degrees_raw(),
+            acc_ned_01mm: [r.acc_n_mm_raw(), r.acc_e_mm_raw(), r.acc_d_mm_raw()],
+            acc_heading_e5: r.acc_heading_degrees_raw(),
             flags: r.flags_raw(),
         }),
         Ok(_) | Err(_) => Decoded::Invalid,
@@ -274,6 +335,86 @@ mod tests {
         );
         let invalid = Pvt { flags3: 1, ..p }.to_fix(5, 6);
         assert_eq!(invalid.flags, 0b1000_0010, "invalidLlh clears gnssFixOK");
+    }
+
+    /// A NAV-RELPOSNED version-1 payload (64 bytes) laid out by hand from
+    /// the interface description's offsets, independently of the decoder.
+    fn relposned_payload(r: &RelPosNed) -> Vec<u8> {
+        let mut b = vec![0u8; 64];
+        let mut put = |off: usize, bytes: &[u8]| b[off..off + bytes.len()].copy_from_slice(bytes);
+        put(0, &[1, 0]);
+        put(4, &r.itow_ms.to_le_bytes());
+        for k in 0..3 {
+            put(8 + 4 * k, &r.rel_pos_cm[k].to_le_bytes());
+            put(32 + k, &r.rel_pos_hp_01mm[k].to_le_bytes());
+            put(36 + 4 * k, &r.acc_ned_01mm[k].to_le_bytes());
+        }
+        put(20, &r.length_cm.to_le_bytes());
+        put(24, &r.heading_e5.to_le_bytes());
+        put(35, &r.length_hp_01mm.to_le_bytes());
+        put(48, &(7u32).to_le_bytes()); // accLength: not used
+        put(52, &r.acc_heading_e5.to_le_bytes());
+        put(56, &(9u32).to_le_bytes()); // reserved
+        put(60, &r.flags.to_le_bytes());
+        b
+    }
+
+    #[test]
+    #[allow(clippy::float_cmp)] // exact decimal conversions, checked to the last bit where exact
+    fn relposned_fields_come_out_at_their_offsets_and_in_si_units() {
+        let r = RelPosNed {
+            itow_ms: 123_456_789,
+            rel_pos_cm: [150, -2, i32::MIN],
+            rel_pos_hp_01mm: [-99, 99, 0],
+            length_cm: 150,
+            length_hp_01mm: 37,
+            heading_e5: 35_999_999,
+            acc_ned_01mm: [12, 0, u32::MAX],
+            acc_heading_e5: 100_000,
+            // gnssFixOK, relPosValid, carrSoln 2, isMoving, relPosHeadingValid.
+            flags: 0b1_0011_0101,
+        };
+        let payload = relposned_payload(&r);
+        let d = decode(&Frame {
+            class: 1,
+            id: 0x3C,
+            payload: &payload,
+        });
+        assert_eq!(d, Decoded::RelPosNed(r));
+        let b = r.to_baseline(5, 6, 0.1, -0.2);
+        assert_eq!((b.t_ns, b.seq, b.lat_rad, b.lon_rad), (5, 6, 0.1, -0.2));
+        assert!((b.rel_pos_ned_m[0] - 1.4901).abs() < 1e-12);
+        assert!((b.rel_pos_ned_m[1] - (-0.0101)).abs() < 1e-12);
+        assert_eq!(b.rel_pos_ned_m[2], -21_474_836.48);
+        assert!((b.length_m - 1.5037).abs() < 1e-12);
+        assert!((b.heading_rad - 359.999_99f64.to_radians()).abs() < 1e-12);
+        assert!((b.acc_heading_rad - 1f64.to_radians()).abs() < 1e-15);
+        assert!((b.acc_ned_m[0] - 0.0012).abs() < 1e-15);
+        assert_eq!(b.acc_ned_m[1], 0.0);
+        assert!((b.acc_ned_m[2] - 429_496.729_5).abs() < 1e-9);
+        assert_eq!(b.carr_soln, msgs::baseline::carr_soln::FIXED);
+        assert_eq!(
+            b.flags,
+            baseline_flags::GNSS_FIX_OK
+                | baseline_flags::REL_POS_VALID
+                | baseline_flags::IS_MOVING
+                | baseline_flags::HEADING_VALID
+        );
+        assert!(b.is_fixed());
+        // Every other flag lands on its own bit.
+        let all = RelPosNed {
+            flags: 0b11_1110_0111,
+            ..r
+        }
+        .to_baseline(0, 0, 0.0, 0.0);
+        assert_eq!((all.flags, all.carr_soln), (0xFF, 0));
+        let float = RelPosNed {
+            flags: 0b0_0000_1101,
+            ..r
+        }
+        .to_baseline(0, 0, 0.0, 0.0);
+        assert_eq!(float.carr_soln, msgs::baseline::carr_soln::FLOAT);
+        assert!(!float.is_fixed());
     }
 
     #[test]

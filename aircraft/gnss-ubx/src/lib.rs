@@ -1,7 +1,9 @@
 //! `gnss-ubx`: the driver of a u-blox GNSS receiver. It reads the UBX
 //! stream from a serial device (or a file), decodes NAV-PVT and
 //! NAV-RELPOSNED, stamps each fix on the sensor time base and publishes
-//! NAV-PVT as [`msgs::GnssFix`] on `<prefix>/gnss`.
+//! NAV-PVT as [`msgs::GnssFix`] on `<prefix>/gnss` and a moving-base
+//! receiver's NAV-RELPOSNED, paired with its epoch's NAV-PVT, as
+//! [`msgs::BaselineSample`] on `<prefix>/baseline`.
 //!
 //! - [`framing`]: frames found in the byte stream, every other byte
 //!   counted by cause;

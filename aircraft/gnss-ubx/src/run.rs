@@ -1,5 +1,5 @@
 //! The live loop: read the device (or file), feed the [`Driver`], publish
-//! on `<prefix>/gnss`, reopen a lost device, report.
+//! on `<prefix>/gnss` and `<prefix>/baseline`, reopen a lost device, report.
 //!
 //! Reads wait at most [`READ_TIMEOUT`], so a stop request, the watchdog,
 //! the reports and the silence check are served within that however the
@@ -12,8 +12,8 @@ use std::path::PathBuf;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
-use msgs::GnssFix;
 use msgs::service::Topic;
+use msgs::{BaselineSample, GnssFix};
 use polarnav_ipc::{Delivery, TopicPublisher, TransportConfig, TransportError};
 use serialport::SerialPort;
 
@@ -172,12 +172,24 @@ pub fn run(
         Topic::Aid(msgs::AidKind::Gnss),
         delivery,
     )?;
+    // NAV-RELPOSNED of a moving-base receiver, paired with its epoch's
+    // NAV-PVT (issue 30); a receiver without a second antenna sends none.
+    let baseline_publisher = TopicPublisher::<BaselineSample>::with_delivery(
+        &node,
+        transport,
+        Topic::Aid(msgs::AidKind::Baseline),
+        delivery,
+    )?;
     let service = Topic::Aid(msgs::AidKind::Gnss).service_name(&transport.prefix);
+    let baseline_service = Topic::Aid(msgs::AidKind::Baseline).service_name(&transport.prefix);
     let what = match source {
         Source::Device => format!("{device} at {} baud", settings.baud),
         Source::File(p) => format!("file {}", p.display()),
     };
-    tracing::info!("gnss-ubx: reading {what}, publishing NAV-PVT on {service}");
+    tracing::info!(
+        "gnss-ubx: reading {what}, publishing NAV-PVT on {service} and NAV-RELPOSNED on \
+         {baseline_service}"
+    );
     let mut notify = Notify::new();
     notify.send(&[
         sd_notify::NotifyState::Ready,
@@ -186,6 +198,7 @@ pub fn run(
 
     let mut driver = Driver::new(settings.time.clone());
     let mut fixes = Vec::with_capacity(64);
+    let mut baselines = Vec::with_capacity(64);
     let mut buf = vec![0u8; 4096];
     let silent_after = Duration::from_secs_f64(SILENT_PERIODS / settings.rate_hz);
     let report_every = Duration::from_secs_f64(settings.report_s);
@@ -256,7 +269,7 @@ pub fn run(
                 }
             },
             Some(Ok(n)) => {
-                driver.feed(&buf[..n], &mut fixes);
+                driver.feed(&buf[..n], &mut fixes, &mut baselines);
                 if !fixes.is_empty() {
                     last_pvt = Instant::now();
                     if silent {
@@ -267,7 +280,10 @@ pub fn run(
                 for f in &fixes {
                     publisher.publish(f)?;
                 }
-                driver.set_lost(publisher.lost());
+                for b in &baselines {
+                    baseline_publisher.publish(b)?;
+                }
+                driver.set_lost(publisher.lost() + baseline_publisher.lost());
             }
             Some(Err(e))
                 if matches!(
@@ -316,7 +332,7 @@ pub fn run(
     if let Input::Device(Some(_)) = input {
         driver.finish();
     }
-    driver.set_lost(publisher.lost());
+    driver.set_lost(publisher.lost() + baseline_publisher.lost());
     let counters = driver.counters();
     notify.send(&[sd_notify::NotifyState::Stopping]);
     tracing::info!("gnss-ubx: exit: {counters}");

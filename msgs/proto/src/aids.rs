@@ -146,6 +146,38 @@ impl AidMessage for msgs::GnssFix {
     }
 }
 
+// ---- dual-antenna baseline ---------------------------------------------
+
+impl ProtoName for pb::BaselineSample {
+    const NAME: &'static str = "polarnav.BaselineSample";
+}
+
+impl AidMessage for msgs::BaselineSample {
+    type Proto = pb::BaselineSample;
+    fn to_proto(&self) -> pb::BaselineSample {
+        let [rel_pos_n_m, rel_pos_e_m, rel_pos_d_m] = self.rel_pos_ned_m;
+        let [acc_n_m, acc_e_m, acc_d_m] = self.acc_ned_m;
+        pb::BaselineSample {
+            t_ns: self.t_ns,
+            seq: self.seq,
+            lat_rad: self.lat_rad,
+            lon_rad: self.lon_rad,
+            rel_pos_n_m,
+            rel_pos_e_m,
+            rel_pos_d_m,
+            length_m: self.length_m,
+            heading_rad: self.heading_rad,
+            acc_heading_rad: self.acc_heading_rad,
+            acc_n_m,
+            acc_e_m,
+            acc_d_m,
+            itow_ms: self.itow_ms,
+            carr_soln: u32::from(self.carr_soln),
+            flags: u32::from(self.flags),
+        }
+    }
+}
+
 // ---- magnetometer -------------------------------------------------------
 
 impl ProtoName for pb::MagSample {

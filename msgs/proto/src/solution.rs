@@ -90,6 +90,7 @@ impl pb::Solution {
             star_fresh: bit(solution_flags::STAR_FRESH),
             gnss_fresh: bit(solution_flags::GNSS_FRESH),
             gnss_excluded: bit(solution_flags::GNSS_EXCLUDED),
+            baseline_fresh: bit(solution_flags::BASELINE_FRESH),
             mag_fresh: bit(solution_flags::MAG_FRESH),
         }
     }

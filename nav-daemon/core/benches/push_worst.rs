@@ -87,6 +87,19 @@ impl Owned {
                 g.fix_type,
                 g.flags
             ),
+            Owned::Aid(msgs::AidSample::Baseline(b)) => format!(
+                "baseline t_ns={} seq={} lat={:e} lon={:e} ned={:?} len={:e} acc={:?} carr={} flags={}",
+                b.t_ns,
+                b.seq,
+                b.lat_rad,
+                b.lon_rad,
+                b.rel_pos_ned_m,
+                b.length_m,
+                b.acc_ned_m,
+                b.carr_soln,
+                b.flags
+
+            ),
             Owned::Aid(msgs::AidSample::Mag(m)) => format!(
                 "mag t_ns={} seq={} field_nt={:?} sigma_nt={:?}",
                 m.t_ns, m.seq, m.field_b_nt, m.sigma_nt

@@ -813,11 +813,18 @@ mod tests {
     fn the_aid_group_names_each_aid_that_has_no_column_and_reads_its_flag_bit() {
         // Written out here, independently of the derivation: the aids after
         // the first three have no freshness column among the required ones,
-        // and GNSS alone is not autonomous.
+        // the freshness columns come before the exclusion ones, and GNSS
+        // alone is not autonomous.
         let names: Vec<&str> = aid_columns().iter().map(|(n, _)| n.as_str()).collect();
         assert_eq!(
             names,
-            ["star_fresh", "gnss_fresh", "mag_fresh", "gnss_excluded"]
+            [
+                "star_fresh",
+                "gnss_fresh",
+                "baseline_fresh",
+                "mag_fresh",
+                "gnss_excluded"
+            ]
         );
         let bits: Vec<u32> = aid_columns().iter().map(|&(_, b)| b).collect();
         assert_eq!(
@@ -825,21 +832,26 @@ mod tests {
             [
                 solution_flags::STAR_FRESH,
                 solution_flags::GNSS_FRESH,
+                solution_flags::BASELINE_FRESH,
                 solution_flags::MAG_FRESH,
                 solution_flags::GNSS_EXCLUDED
             ]
         );
         let head: Vec<&str> = header().split(',').collect();
         for (flags, want) in [
-            (0, ["0", "0", "0"]),
+            (0, ["0", "0", "0", "0"]),
             (
                 solution_flags::STAR_FRESH | solution_flags::SRS_FRESH,
-                ["1", "0", "0"],
+                ["1", "0", "0", "0"],
             ),
-            (solution_flags::GNSS_FRESH, ["0", "1", "0"]),
+            (solution_flags::GNSS_FRESH, ["0", "1", "0", "0"]),
             (
                 solution_flags::GNSS_EXCLUDED | solution_flags::STAR_FRESH,
-                ["1", "0", "1"],
+                ["1", "0", "0", "1"],
+            ),
+            (
+                solution_flags::BASELINE_FRESH | solution_flags::GNSS_FRESH,
+                ["0", "1", "1", "0"],
             ),
         ] {
             let s = Solution { flags, ..sample() };
@@ -847,9 +859,15 @@ mod tests {
             let text = csv_of(&s);
             let row: Vec<&str> = text.lines().nth(1).expect("row").split(',').collect();
             assert_eq!(row.len(), head.len());
-            for (name, w) in ["star_fresh", "gnss_fresh", "mag_fresh", "gnss_excluded"]
-                .iter()
-                .zip(want)
+            for (name, w) in [
+                "star_fresh",
+                "gnss_fresh",
+                "baseline_fresh",
+                "mag_fresh",
+                "gnss_excluded",
+            ]
+            .iter()
+            .zip(want)
             {
                 let k = head.iter().position(|h| h == name).expect("column");
                 assert_eq!(row[k], w, "{name} of flags {flags:#x}");

@@ -4,8 +4,12 @@
 //! declaration's (`msgs::aids`), and [`Streams`] runs every aid of a
 //! scenario, in the declared order, at each IMU epoch.
 
+use msgs::baseline::{baseline_flags, carr_soln};
 use msgs::gnss::{fix_flags, fix_type};
-use msgs::{AidPayload, AidSample, BaroSample, CnsFix, GnssFix, MagSample, SrsSample, StarSample};
+use msgs::{
+    AidPayload, AidSample, BaroSample, BaselineSample, CnsFix, GnssFix, MagSample, SrsSample,
+    StarSample,
+};
 use nalgebra::Vector3;
 use polarnav::earth::{self, isa};
 use polarnav::frames;
@@ -591,6 +595,227 @@ impl SimAid for GnssFix {
     }
 }
 
+// ---- dual-antenna baseline ----------------------------------------------
+
+/// `[baseline]`: a moving-base, dual-antenna receiver measuring the vector
+/// between its antennas by carrier phase. With fixed ambiguities its error
+/// is white noise of `sigma_carrier_m` per horizontal axis and
+/// `sigma_vertical_m` vertically (carrier-phase double differences of a
+/// short baseline: a few millimetres, the vertical worse by the geometry),
+/// so its heading σ is σ_carrier / L for a level baseline of length L
+/// (3 mm over 1 m: 0.17°; over 2.5 m: 0.07°). With probability
+/// `float_probability` an epoch has float ambiguities only: the error is
+/// then `sigma_float_m` per axis, and the receiver says so (carrSoln 1).
+/// It reports its own σ as its accuracies, and its fix's latitude and
+/// longitude (the primary antenna's, error-free: the NED axes are those
+/// it reports, whatever its position error, so the error would not show).
+#[derive(Debug, Clone, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BaselineSpec {
+    pub rate_hz: f64,
+    /// The primary (moving-base) and secondary antennas, body axes (m).
+    #[serde(default = "baseline_defaults::primary")]
+    pub primary_antenna_b_m: [f64; 3],
+    #[serde(default = "baseline_defaults::secondary")]
+    pub secondary_antenna_b_m: [f64; 3],
+    /// Fixed solution: 1-σ per horizontal axis and vertical (m).
+    #[serde(default = "baseline_defaults::sigma_carrier")]
+    pub sigma_carrier_m: f64,
+    #[serde(default = "baseline_defaults::sigma_vertical")]
+    pub sigma_vertical_m: f64,
+    /// Probability of an epoch with float ambiguities, and its 1-σ per axis (m).
+    #[serde(default)]
+    pub float_probability: f64,
+    #[serde(default = "baseline_defaults::sigma_float")]
+    pub sigma_float_m: f64,
+    /// Windows without a carrier solution (as GNSS's outages).
+    #[serde(default, rename = "outage")]
+    pub outages: Vec<GnssOutage>,
+}
+
+mod baseline_defaults {
+    pub fn primary() -> [f64; 3] {
+        [0.0, -0.5, 0.0]
+    }
+    pub fn secondary() -> [f64; 3] {
+        [0.0, 0.5, 0.0]
+    }
+    /// A few millimetres: the carrier-phase σ of a short fixed baseline.
+    pub fn sigma_carrier() -> f64 {
+        0.003
+    }
+    pub fn sigma_vertical() -> f64 {
+        0.006
+    }
+    pub fn sigma_float() -> f64 {
+        0.3
+    }
+}
+
+impl BaselineSpec {
+    /// The heading σ of a level baseline (rad): σ_carrier / L.
+    pub fn heading_sigma_rad(&self) -> f64 {
+        let l = (Vector3::from(self.secondary_antenna_b_m)
+            - Vector3::from(self.primary_antenna_b_m))
+        .norm();
+        self.sigma_carrier_m / l
+    }
+}
+
+impl SimAid for BaselineSample {
+    type Spec = BaselineSpec;
+    type State = ();
+    /// Stream 12 (its navlog record's index; the faults have 7): a
+    /// scenario with `[baseline]` has every other sample exactly as the
+    /// same scenario without.
+    const OWN_STREAM: Option<u64> = Some(12);
+    fn rate_hz(spec: &BaselineSpec) -> f64 {
+        spec.rate_hz
+    }
+    fn validate(b: &BaselineSpec) -> Result<(), (String, String)> {
+        positive("rate_hz", b.rate_hz)?;
+        for (key, a) in [
+            ("primary_antenna_b_m", b.primary_antenna_b_m),
+            ("secondary_antenna_b_m", b.secondary_antenna_b_m),
+        ] {
+            for (i, l) in a.iter().enumerate() {
+                if !(l.is_finite() && l.abs() <= 100.0) {
+                    return Err((
+                        format!("{key}[{i}]"),
+                        format!("expected at most 100 m, got {l}"),
+                    ));
+                }
+            }
+        }
+        let l =
+            (Vector3::from(b.secondary_antenna_b_m) - Vector3::from(b.primary_antenna_b_m)).norm();
+        if l < 0.1 {
+            return Err((
+                "secondary_antenna_b_m".into(),
+                format!("the antennas are {l} m apart: at least 0.1 m"),
+            ));
+        }
+        for (k, v) in [
+            ("sigma_carrier_m", b.sigma_carrier_m),
+            ("sigma_vertical_m", b.sigma_vertical_m),
+            ("sigma_float_m", b.sigma_float_m),
+        ] {
+            if !(v.is_finite() && (1e-4..=10.0).contains(&v)) {
+                return Err((k.into(), format!("expected a 1-σ in [1e-4, 10] m, got {v}")));
+            }
+        }
+        if !(b.float_probability.is_finite() && (0.0..=1.0).contains(&b.float_probability)) {
+            return Err((
+                "float_probability".into(),
+                format!(
+                    "expected a probability in [0, 1], got {}",
+                    b.float_probability
+                ),
+            ));
+        }
+        for (i, o) in b.outages.iter().enumerate() {
+            if !(o.start_s.is_finite() && o.start_s >= 0.0) {
+                return Err((format!("outage[{i}].start_s"), "expected a time ≥ 0".into()));
+            }
+            positive(&format!("outage[{i}].duration_s"), o.duration_s)?;
+        }
+        Ok(())
+    }
+    fn start(_: &BaselineSpec) {}
+    fn sample(
+        b: &BaselineSpec,
+        _: &mut (),
+        rng: &mut ChaCha20Rng,
+        t_ns: u64,
+        seq: u64,
+        truth: &TruthSample,
+        noisy: bool,
+    ) -> Self {
+        let t_s = t_ns as f64 * 1e-9;
+        let c_b_e = truth.q_b_e.to_rotation_matrix().into_inner();
+        let a1 = Vector3::from(b.primary_antenna_b_m);
+        let a2 = Vector3::from(b.secondary_antenna_b_m);
+        let fix = earth::ecef_to_geodetic(&(truth.r_e + c_b_e * a1));
+        let mut enu = frames::c_e_g(fix.lat_rad, fix.lon_rad) * (c_b_e * (a2 - a1));
+        // Every epoch draws the same numbers, float or not, so that an
+        // epoch's noise does not depend on the ones before.
+        let u: f64 = rand::Rng::r#gen(rng);
+        let w = [
+            sensors::normal(rng),
+            sensors::normal(rng),
+            sensors::normal(rng),
+        ];
+        let float = u < b.float_probability;
+        let sigma = if float {
+            [b.sigma_float_m; 3]
+        } else {
+            [b.sigma_carrier_m, b.sigma_carrier_m, b.sigma_vertical_m]
+        };
+        if noisy {
+            for k in 0..3 {
+                enu[k] += sigma[k] * w[k];
+            }
+        }
+        let outage = b
+            .outages
+            .iter()
+            .any(|o| t_s >= o.start_s && t_s < o.start_s + o.duration_s);
+        let ned = [enu.y, enu.x, -enu.z];
+        let h = enu.x.hypot(enu.y);
+        let week_ms = 7 * 86_400_000u64;
+        let (carr, flags) = if outage {
+            (carr_soln::NO_CARRIER, 0)
+        } else {
+            (
+                if float {
+                    carr_soln::FLOAT
+                } else {
+                    carr_soln::FIXED
+                },
+                baseline_flags::GNSS_FIX_OK
+                    | baseline_flags::DIFF_CORRECTED
+                    | baseline_flags::REL_POS_VALID
+                    | baseline_flags::IS_MOVING
+                    | baseline_flags::HEADING_VALID,
+            )
+        };
+        BaselineSample {
+            t_ns,
+            seq,
+            lat_rad: fix.lat_rad,
+            lon_rad: fix.lon_rad,
+            rel_pos_ned_m: if outage { [0.0; 3] } else { ned },
+            length_m: if outage { 0.0 } else { enu.norm() },
+            heading_rad: if outage {
+                0.0
+            } else {
+                enu.x.atan2(enu.y).rem_euclid(std::f64::consts::TAU)
+            },
+            acc_heading_rad: if outage {
+                std::f64::consts::PI
+            } else {
+                (sigma[0] / h).min(std::f64::consts::PI)
+            },
+            acc_ned_m: [sigma[1], sigma[0], sigma[2]],
+            itow_ms: ((t_ns / 1_000_000) % week_ms) as u32,
+            carr_soln: carr,
+            flags,
+            _pad: 0,
+        }
+    }
+    /// `magnitude` metres north on the baseline (the length keeps the
+    /// vector's, as a receiver's wrong ambiguity fix does), or a NaN.
+    fn corrupt(&mut self, c: Corruption) {
+        match c {
+            Corruption::Outlier(magnitude) => {
+                self.rel_pos_ned_m[0] += magnitude;
+                self.length_m = Vector3::from(self.rel_pos_ned_m).norm();
+            }
+            Corruption::Nan => self.rel_pos_ned_m[0] = f64::NAN,
+        }
+    }
+}
+
 // ---- magnetometer ---------------------------------------------------------
 
 /// `[mag]`: a three-axis magnetometer. Its truth is the World Magnetic
@@ -735,4 +960,194 @@ impl SimAid for MagSample {
 /// A gross error applied to a sample, whatever the aid.
 pub fn corrupt(sample: &mut AidSample, c: Corruption) {
     msgs::match_aid!(sample, x => SimAid::corrupt(x, c));
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use msgs::AidPayload;
+    use polarnav::aids::baseline::{self as model, BaselineSettings, cause};
+    use polarnav::aids::{Aid, AidError, Levelled};
+    use polarnav::earth::Geodetic;
+    use polarnav::mech::{AnyNav, FrameKind};
+    use rand::SeedableRng;
+
+    fn spec(float_probability: f64) -> BaselineSpec {
+        BaselineSpec {
+            rate_hz: 5.0,
+            primary_antenna_b_m: [0.1, -1.2, 0.3],
+            secondary_antenna_b_m: [0.1, 0.8, 0.3],
+            sigma_carrier_m: 0.003,
+            sigma_vertical_m: 0.006,
+            float_probability,
+            sigma_float_m: 0.3,
+            outages: vec![GnssOutage {
+                start_s: 100.0,
+                duration_s: 10.0,
+            }],
+        }
+    }
+
+    /// The core's settings with the simulator's antennas.
+    fn settings_of(b: &BaselineSpec) -> BaselineSettings {
+        BaselineSettings {
+            primary_antenna_b_m: b.primary_antenna_b_m,
+            secondary_antenna_b_m: b.secondary_antenna_b_m,
+            ..Default::default()
+        }
+    }
+
+    fn truth_at(lat: f64, lon: f64, heading: f64) -> TruthSample {
+        let geo = Geodetic::from_deg(lat, lon, 1_500.0);
+        let c_e_g = frames::c_e_g(geo.lat_rad, geo.lon_rad);
+        TruthSample {
+            r_e: earth::geodetic_to_ecef(&geo),
+            v_e: c_e_g.transpose() * Vector3::new(30.0, 40.0, 0.0),
+            q_b_e: frames::quat_from_dcm(
+                &(c_e_g.transpose() * frames::c_b_n_from_euler(heading, 0.03, -0.02)),
+            ),
+            omega_ib_b: Vector3::zeros(),
+        }
+    }
+
+    /// The simulator's error-free baseline is what the core's model
+    /// predicts (z = 0, in g and in G over the exact pole), and the
+    /// heading the core aligns to from it is the truth's.
+    #[test]
+    fn the_core_model_finds_no_innovation_in_an_error_free_simulated_baseline() {
+        let b = spec(0.0);
+        let g = settings_of(&b);
+        let mut rng = ChaCha20Rng::seed_from_u64(1);
+        for (kind, lat, lon) in [
+            (FrameKind::Geographic, 47.0, 8.0),
+            (FrameKind::Grid, 90.0, 0.0),
+            (FrameKind::Grid, -90.0, 0.0),
+        ] {
+            let t = truth_at(lat, lon, 0.7);
+            let s = BaselineSample::sample(&b, &mut (), &mut rng, 1_000_000_000, 0, &t, false);
+            let nav = AnyNav::from_frame_free(kind, &t.r_e, &t.v_e, &t.q_b_e);
+            let m = model::measurement(&nav, &s, &g).expect("a fixed baseline");
+            assert!(m.z.amax() < 1e-9, "{kind:?} {lat}: z {}", m.z);
+            let geo = Geodetic::from_deg(lat, lon, 1_500.0);
+            let c_b_g =
+                frames::c_e_g(geo.lat_rad, geo.lon_rad) * t.q_b_e.to_rotation_matrix().into_inner();
+            let (_, pitch, roll) = frames::euler_from_c_b_n(&c_b_g);
+            let level = Levelled {
+                c_b_l: frames::c_b_n_from_euler(0.0, pitch, roll),
+                sigma_tilt_rad: 0.0,
+                geo,
+                t_ns: 1,
+            };
+            let fix = s
+                .align_heading(&level, &g)
+                .expect("heading aid")
+                .expect("heading");
+            assert!((fix.heading_rad - 0.7).abs() < 1e-9, "{}", fix.heading_rad);
+        }
+    }
+
+    /// Heading σ from the baseline length: over 4000 epochs the spread of
+    /// the baseline's azimuth is σ_carrier / L (3 mm over 2 m: 1.5 mrad)
+    /// within 5 %, the receiver reports it as its heading accuracy, and the
+    /// float epochs come at their probability and are refused by the core.
+    #[test]
+    fn heading_sigma_is_the_carrier_sigma_over_the_baseline_length() {
+        let b = BaselineSpec {
+            outages: vec![],
+            ..spec(0.2)
+        };
+        let g = settings_of(&b);
+        let t = truth_at(60.0, 20.0, 2.0);
+        let want = b.heading_sigma_rad();
+        assert!((want - 0.0015).abs() < 1e-12);
+        let exact = BaselineSample::sample(
+            &b,
+            &mut (),
+            &mut ChaCha20Rng::seed_from_u64(0),
+            0,
+            0,
+            &t,
+            false,
+        );
+        let az0 = exact.rel_pos_ned_m[1].atan2(exact.rel_pos_ned_m[0]);
+        let nav = AnyNav::from_frame_free(FrameKind::Geographic, &t.r_e, &t.v_e, &t.q_b_e);
+        let mut rng = ChaCha20Rng::seed_from_u64(30);
+        let (mut n_fixed, mut n_float, mut sum2) = (0usize, 0usize, 0.0);
+        for k in 0..4000u64 {
+            let s = BaselineSample::sample(&b, &mut (), &mut rng, k * 200_000_000, k, &t, true);
+            assert_eq!(s.seq(), k);
+            if s.carr_soln == carr_soln::FIXED {
+                n_fixed += 1;
+                let e = s.rel_pos_ned_m[1].atan2(s.rel_pos_ned_m[0]) - az0;
+                sum2 += e * e;
+                assert!((s.acc_heading_rad / want - 1.0).abs() < 0.01);
+                assert!(model::measurement(&nav, &s, &g).is_ok());
+            } else {
+                n_float += 1;
+                assert_eq!(s.carr_soln, carr_soln::FLOAT);
+                assert!(matches!(
+                    model::measurement(&nav, &s, &g),
+                    Err(AidError::Refused {
+                        cause: cause::NOT_FIXED,
+                        ..
+                    })
+                ));
+            }
+        }
+        let rms = (sum2 / n_fixed as f64).sqrt();
+        let p = n_float as f64 / 4000.0;
+        eprintln!(
+            "simulated baseline: heading RMS {rms:e} rad for σ_carrier/L {want:e}; float fraction {p}"
+        );
+        assert!((rms / want - 1.0).abs() < 0.05, "{rms} vs {want}");
+        // 0.2 ± 3σ of a binomial fraction over 4000 (σ 0.0063).
+        assert!((p - 0.2).abs() < 0.019, "{p}");
+    }
+
+    /// An outage is no carrier solution, which the core refuses.
+    #[test]
+    fn an_outage_has_no_carrier_solution() {
+        let b = spec(0.0);
+        let t = truth_at(10.0, 0.0, 1.0);
+        let nav = AnyNav::from_frame_free(FrameKind::Geographic, &t.r_e, &t.v_e, &t.q_b_e);
+        let mut rng = ChaCha20Rng::seed_from_u64(2);
+        let s = BaselineSample::sample(&b, &mut (), &mut rng, 105_000_000_000, 0, &t, true);
+        assert_eq!(s.carr_soln, carr_soln::NO_CARRIER);
+        assert_eq!(s.flags & baseline_flags::REL_POS_VALID, 0);
+        let e = model::measurement(&nav, &s, &settings_of(&b)).expect_err("outage");
+        assert_eq!(e.cause(), cause::NOT_FIXED, "{e}");
+        assert!(BaselineSample::validate(&b).is_ok());
+        for (bad, key) in [
+            (
+                BaselineSpec {
+                    float_probability: 1.5,
+                    ..spec(0.0)
+                },
+                "float_probability",
+            ),
+            (
+                BaselineSpec {
+                    sigma_carrier_m: 0.0,
+                    ..spec(0.0)
+                },
+                "sigma_carrier_m",
+            ),
+            (
+                BaselineSpec {
+                    secondary_antenna_b_m: [0.1, -1.15, 0.3],
+                    ..spec(0.0)
+                },
+                "secondary_antenna_b_m",
+            ),
+            (
+                BaselineSpec {
+                    primary_antenna_b_m: [f64::NAN, 0.0, 0.0],
+                    ..spec(0.0)
+                },
+                "primary_antenna_b_m[0]",
+            ),
+        ] {
+            assert_eq!(BaselineSample::validate(&bad).expect_err(key).0, key);
+        }
+    }
 }

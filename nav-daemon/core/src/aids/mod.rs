@@ -10,6 +10,7 @@
 //! δx = computed − true as everywhere in the filter.
 
 pub mod baro;
+pub mod baseline;
 pub mod cns;
 pub mod control;
 pub mod gnss;
