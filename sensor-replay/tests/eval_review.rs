@@ -198,18 +198,30 @@ fn eval_on_a_log_without_truth_and_a_csv_solution_exits_0_and_says_what_is_missi
     std::fs::remove_dir_all(&dir).ok();
 }
 
-/// The first minute of `transpolar-gnss` with a dual-antenna baseline
-/// added (every aid of the declaration, GNSS with its 6 innovation
-/// components) without truth, batch-processed to MCAP: the review draws
-/// one figure per aid, each component in a panel of its own.
+/// The first minute of `transpolar-gnss` with a dual-antenna baseline and
+/// a magnetometer added (every aid of the declaration, GNSS with its 6
+/// innovation components) without truth, batch-processed to MCAP: the
+/// review draws one figure per aid, each component in a panel of its own.
+/// It starts at 60° N, not 85°: there the horizontal field is below the
+/// magnetometer's bound and it would refuse every sample.
 #[test]
 fn eval_of_a_flight_with_every_aid_draws_each_aids_figure_gnss_with_its_six_components() {
     let dir = tmp("every-aid");
     let text = std::fs::read_to_string(repo("config/scenarios/transpolar-gnss.toml"))
         .expect("scenario")
         .replace("duration_s = 4480.0", "duration_s = 60.0")
-        .replace("[init_error]", "[baseline]\nrate_hz = 5.0\n\n[init_error]");
-    assert!(text.contains("duration_s = 60.0") && text.contains("[baseline]"));
+        .replace("lat_deg = 85.0", "lat_deg = 60.0")
+        .replace(
+            "[init_error]",
+            "[baseline]\nrate_hz = 5.0\n\n[mag]\nrate_hz = 5.0\nepoch_utc = \"2026-06-01T00:00:00Z\"\n\n\
+             [navigator.aids.mag]\nepoch_utc = \"2026-06-01T00:00:00Z\"\n\n[init_error]",
+        );
+    assert!(
+        text.contains("duration_s = 60.0")
+            && text.contains("lat_deg = 60.0")
+            && text.contains("[baseline]")
+            && text.contains("[mag]")
+    );
     let s = Scenario::parse(&text, "transpolar-gnss (short)").expect("scenario");
     let full = dir.join("gnss-truth.navlog");
     simulate(

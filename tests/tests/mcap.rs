@@ -17,15 +17,18 @@ fn batch_mcap_has_one_solution_per_csv_row_with_equal_values_and_every_schema() 
     std::fs::create_dir_all(&dir).expect("dir");
     // paper-sim switches g -> G at 212 s; 260 s of it at 200 Hz, with a
     // star tracker, a GNSS receiver and a dual-antenna baseline (the
-    // simulator's and the navigator's default antennas) so that every
-    // stream has its channel.
+    // simulator's and the navigator's default antennas; a magnetometer,
+    // its bound on the horizontal field at its lowest, 2000 nT, as 87.5° N
+    // is near the magnetic pole) so that every stream has its channel.
     let text = std::fs::read_to_string(repo("config/scenarios/paper-sim.toml"))
         .expect("scenario")
         .replace("duration_s = 600.0", "duration_s = 260.0")
         .replace(
             "[init_error]",
             "[star]\nrate_hz = 1.0\nsigma_arcsec = 5.0\n\n[gnss]\nrate_hz = 5.0\n\n\
-             [baseline]\nrate_hz = 5.0\n\n[init_error]",
+             [baseline]\nrate_hz = 5.0\n\n[mag]\nrate_hz = 1.0\nepoch_utc = \"2026-06-01T00:00:00Z\"\n\n\
+             [navigator.aids.mag]\nepoch_utc = \"2026-06-01T00:00:00Z\"\nmin_horizontal_nt = 2000.0\n\n\
+             [init_error]",
         );
     let log = dir.join("paper.navlog");
     simulate_file(&text, "paper-sim (260 s)", &log);

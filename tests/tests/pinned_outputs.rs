@@ -104,8 +104,7 @@ const CHANGED_SINCE_THE_PIN: &[(&str, &str)] = &[
 const FORMAT_5: &str = "navlog format 7: the _v7 status record, the GNSS (issue 29), baseline and magnetometer (issue 30) records";
 /// The aids fused by default: every declared one, GNSS (issue 29) then
 /// the baseline and the magnetometer (issue 30).
-const FUSE: &str =
-    "the aids fused by default grew: gnss (issue 29), baseline and mag (issue 30)";
+const FUSE: &str = "the aids fused by default grew: gnss (issue 29), baseline and mag (issue 30)";
 /// The CSV header: the aid group of issue 29, then `baseline_fresh` and
 /// `mag_fresh`.
 const AID_COLUMNS_GROWN: &str =

@@ -98,7 +98,6 @@ impl Owned {
                 b.acc_ned_m,
                 b.carr_soln,
                 b.flags
-
             ),
             Owned::Aid(msgs::AidSample::Mag(m)) => format!(
                 "mag t_ns={} seq={} field_nt={:?} sigma_nt={:?}",

@@ -855,7 +855,7 @@ mod tests {
             ),
         ] {
             let s = Solution { flags, ..sample() };
-            let want = [want[0], want[1], "0", want[2]];
+            let want = [want[0], want[1], want[2], "0", want[3]];
             let text = csv_of(&s);
             let row: Vec<&str> = text.lines().nth(1).expect("row").split(',').collect();
             assert_eq!(row.len(), head.len());
