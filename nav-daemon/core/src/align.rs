@@ -595,8 +595,9 @@ mod tests {
             );
             assert!((a.c_b_g - frames::c_b_n_from_euler(h, p, r)).amax() < 1e-9);
             assert_eq!(a.method, AlignMethod::Aid(msgs::AidKind::Srs));
-            assert_eq!(a.sigma_heading_rad, 0.01);
-            assert_eq!(aligned.sigma_heading_rad, 0.01);
+            // The aid's σ, passed through unchanged.
+            assert!(a.sigma_heading_rad.to_bits() == 0.01f64.to_bits());
+            assert!(aligned.sigma_heading_rad.to_bits() == 0.01f64.to_bits());
             // The tilt's σ is the accelerometer budget: 2 mg / g.
             assert!(
                 (a.sigma_tilt_rad

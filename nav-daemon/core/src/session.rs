@@ -1345,6 +1345,15 @@ pub fn navigate(records: &[msgs::navlog::Record], settings: SessionSettings) -> 
     (sink, session.status())
 }
 
+/// An aid sample's heading for an alignment, with its own settings.
+fn heading_of<A: OwnOf>(
+    x: &A,
+    l: &Levelled,
+    own: &OwnAidSettings,
+) -> Option<Result<HeadingFix, AidError>> {
+    x.align_heading(l, A::own(own))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -1385,13 +1394,4 @@ mod tests {
             assert!(s.resume.is_none(), "{what} kept");
         }
     }
-}
-
-/// An aid sample's heading for an alignment, with its own settings.
-fn heading_of<A: OwnOf>(
-    x: &A,
-    l: &Levelled,
-    own: &OwnAidSettings,
-) -> Option<Result<HeadingFix, AidError>> {
-    x.align_heading(l, A::own(own))
 }
