@@ -883,9 +883,9 @@ mod tests {
     #[test]
     fn summary_counts_read_back() {
         let p = Pacing {
-            published: 1_234_567 + 89 + 1011 + 12_131 + 7,
+            published: 1_234_567 + 89 + 1011 + 12_131 + 7 + 3 + 5 + 2,
             per_stream: PerStream(std::array::from_fn(|k| {
-                [1_234_567, 89, 1011, 12_131, 7, 3][k]
+                [1_234_567, 89, 1011, 12_131, 7, 3, 5, 2, 11, 13][k]
             })),
             p50_us: 3.25,
             p99_us: 41.0,

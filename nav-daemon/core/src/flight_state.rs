@@ -119,6 +119,14 @@ pub struct FlightStateSettings {
     /// Fuse roll and pitch from the accelerometers in steady windows
     /// while the aids that observe tilt are missing.
     pub compensate: bool,
+    /// ... for a gyro whose bias σ (`filter.gyro_bias_dph`) is at least
+    /// this (°/h). Default 5°/h: such a gyro tilts its level by the
+    /// accelerometers' 0.34° within about four minutes, a MEMS gyro (tens
+    /// of °/h) within one; a navigation- or tactical-grade gyro (0.01–1°/h)
+    /// holds its Schuler-bounded level better than the accelerometers give
+    /// it in flight, and its flights — pure inertial ones too — are not
+    /// touched. 0: every gyro.
+    pub min_gyro_bias_dph: f64,
 }
 
 impl Default for FlightStateSettings {
@@ -129,6 +137,7 @@ impl Default for FlightStateSettings {
             steady_rate_dps: 0.5,
             ground_speed_mps: 5.0,
             compensate: true,
+            min_gyro_bias_dph: 5.0,
         }
     }
 }
@@ -182,6 +191,18 @@ impl FlightStateSettings {
             origin,
             "filter.flight_state.ground_speed_mps",
             self.ground_speed_mps,
+        )?;
+        Bound {
+            lo: 0.0,
+            hi: 1e4,
+            unit: "°/h",
+            below: "a bias σ is not negative",
+            above: "no gyro drifts 3° a second",
+        }
+        .check(
+            origin,
+            "filter.flight_state.min_gyro_bias_dph",
+            self.min_gyro_bias_dph,
         )?;
         Ok(())
     }
@@ -570,6 +591,8 @@ mod tests {
             ("steady_rate_dps", |s| s.steady_rate_dps = 0.0),
             ("ground_speed_mps", |s| s.ground_speed_mps = -1.0),
             ("ground_speed_mps", |s| s.ground_speed_mps = f64::INFINITY),
+            ("min_gyro_bias_dph", |s| s.min_gyro_bias_dph = -1.0),
+            ("min_gyro_bias_dph", |s| s.min_gyro_bias_dph = f64::NAN),
         ] {
             let mut s = FlightStateSettings::default();
             set(&mut s);

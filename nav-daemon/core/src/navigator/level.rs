@@ -25,6 +25,9 @@ const PRECISE: f64 = 0.01;
 #[derive(Debug, Clone, PartialEq)]
 pub(super) struct Level {
     pub(super) settings: FlightStateSettings,
+    /// Whether levels are fused: `compensate`, for a gyro of bias σ at
+    /// least `min_gyro_bias_dph`.
+    pub(super) compensate: bool,
     /// Accelerometer velocity random walk (m/s/√s).
     pub(super) vrw: f64,
     pub(super) window: Window,
@@ -55,9 +58,10 @@ pub struct LevelCounters {
 }
 
 impl Level {
-    pub(super) fn new(settings: &FlightStateSettings, vrw: f64) -> Self {
+    pub(super) fn new(settings: &FlightStateSettings, vrw: f64, gyro_bias_dph: f64) -> Self {
         Self {
             settings: settings.clone(),
+            compensate: settings.compensate && gyro_bias_dph >= settings.min_gyro_bias_dph,
             vrw,
             window: Window::default(),
             state: FlightState::Unknown,
@@ -97,7 +101,7 @@ impl Navigator {
             FlightState::Steady => c.steady += 1,
             _ => c.manoeuvre += 1,
         }
-        if !(state.is_steady() && self.level.settings.compensate) {
+        if !(state.is_steady() && self.level.compensate) {
             return;
         }
         if self.tilt_aided() {

@@ -283,7 +283,7 @@ impl Navigator {
             resumed: false,
             reset: ResetRecord::default(),
             history: History::new(nav),
-            level: level::Level::new(&f.flight_state, f.process_noise().vrw),
+            level: level::Level::new(&f.flight_state, f.process_noise().vrw, f.gyro_bias_dph),
         }
     }
 
