@@ -409,6 +409,31 @@ mod tests {
         }
     }
 
+    /// `n` exact 10 ms increments of a body at rest at `lat_rad`, height
+    /// `h_m`, with attitude `c_b_g` (body → ENU).
+    fn exact_at_rest(
+        lat_rad: f64,
+        h_m: f64,
+        c_b_g: &Matrix3<f64>,
+        n: usize,
+    ) -> AlignmentAccumulator {
+        let w_g = Vector3::new(
+            0.0,
+            earth::OMEGA_IE * lat_rad.cos(),
+            earth::OMEGA_IE * lat_rad.sin(),
+        );
+        let f_g = Vector3::new(0.0, 0.0, earth::normal_gravity(lat_rad, h_m));
+        let mut acc = AlignmentAccumulator::default();
+        for _ in 0..n {
+            acc.add(
+                &(c_b_g.transpose() * w_g * 0.01),
+                &(c_b_g.transpose() * f_g * 0.01),
+                0.01,
+            );
+        }
+        acc
+    }
+
     #[test]
     fn exact_rates_give_the_exact_attitude() {
         for &(lat, h, p, r) in &[
@@ -418,20 +443,7 @@ mod tests {
         ] {
             let lat = lat.to_radians();
             let c_b_g = frames::c_b_n_from_euler(h, p, r);
-            let w_g = Vector3::new(
-                0.0,
-                earth::OMEGA_IE * lat.cos(),
-                earth::OMEGA_IE * lat.sin(),
-            );
-            let f_g = Vector3::new(0.0, 0.0, earth::normal_gravity(lat, 100.0));
-            let mut acc = AlignmentAccumulator::default();
-            for _ in 0..1000 {
-                acc.add(
-                    &(c_b_g.transpose() * w_g * 0.01),
-                    &(c_b_g.transpose() * f_g * 0.01),
-                    0.01,
-                );
-            }
+            let acc = exact_at_rest(lat, 100.0, &c_b_g, 1000);
             let a = acc.solve(lat, 100.0, &budget()).expect("align");
             assert!((a.c_b_g - c_b_g).amax() < 1e-12);
             assert!(
@@ -508,21 +520,7 @@ mod tests {
     /// alignment must still refuse to gyrocompass, by its budget).
     fn at_rest(lat: f64, h: f64, p: f64, r: f64) -> (msgs::InitState, AlignmentAccumulator) {
         let lat = lat.to_radians();
-        let c_b_g = frames::c_b_n_from_euler(h, p, r);
-        let w_g = Vector3::new(
-            0.0,
-            earth::OMEGA_IE * lat.cos(),
-            earth::OMEGA_IE * lat.sin(),
-        );
-        let f_g = Vector3::new(0.0, 0.0, earth::normal_gravity(lat, 10.0));
-        let mut acc = AlignmentAccumulator::default();
-        for _ in 0..6000 {
-            acc.add(
-                &(c_b_g.transpose() * w_g * 0.01),
-                &(c_b_g.transpose() * f_g * 0.01),
-                0.01,
-            );
-        }
+        let acc = exact_at_rest(lat, 10.0, &frames::c_b_n_from_euler(h, p, r), 6000);
         let geo = earth::Geodetic::new(lat, 0.3, 10.0);
         let init = msgs::InitState {
             r_e_m: earth::geodetic_to_ecef(&geo).into(),
