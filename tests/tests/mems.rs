@@ -127,7 +127,6 @@ fn the_accelerometers_hold_roll_and_pitch_through_an_outage_and_never_in_a_manoe
             }
             prev = (b.levels_fused, t);
         }
-        let _ = FlightState::from_flags(b.flags);
     }
     assert_eq!(in_turn_outage, 0, "levels fused in the turn of 680–740 s");
     // After the turn, the second outage's cruise is steady again.
@@ -315,4 +314,39 @@ fn the_dual_antenna_baseline_makes_heading_observable_in_straight_flight() {
             "{from}–{to} s: {rmse} vs {rmse_b} without"
         );
     }
+}
+
+/// A magnetometer sample stamped far in the future (1e18 ns) during the
+/// alignment neither aligns nor displaces the good samples: the heading is
+/// bit for bit that of the flight without it.
+#[test]
+fn a_future_stamped_heading_sample_does_not_align() {
+    let text = scenario();
+    let cfg = config(&text, true);
+    let only_mag = NavigatorConfig {
+        aids: cfg.aids.with(AidKind::Baseline, false),
+        ..cfg.clone()
+    };
+    let records = simulate_records(&text, 2);
+    let mut bad = records.clone();
+    let k = bad
+        .iter()
+        .position(|r| matches!(r, Record::Aid(a) if a.kind() == AidKind::Mag))
+        .expect("a magnetometer sample");
+    let mut future = bad[k].clone();
+    if let Record::Aid(a) = &mut future {
+        *a.t_ns_mut() = 1_000_000_000_000_000_000;
+        if let msgs::AidSample::Mag(m) = &mut **a {
+            m.field_b_nt = [30_000.0, 0.0, 0.0];
+        }
+    }
+    bad.insert(k + 200, future);
+    let (good, _) = align(&records, &only_mag, 50.0);
+    let (with_bad, _) = align(&bad, &only_mag, 50.0);
+    let (g, b) = (
+        good.aligned.expect("aligned"),
+        with_bad.aligned.expect("aligned despite the future sample"),
+    );
+    assert_eq!(b.method, AlignMethod::Aid(AidKind::Mag));
+    assert_eq!(g.heading_rad.to_bits(), b.heading_rad.to_bits());
 }

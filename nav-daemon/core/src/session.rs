@@ -776,6 +776,7 @@ impl Session {
             // The running navigator (if any) stops; its counters carry over
             // to the navigator the alignment starts.
             self.aligning = Some((init, AlignmentAccumulator::default()));
+            self.align_samples = PerAid::default();
             sink.event(&Event::AlignmentStarted {
                 t_ns: init.t_ns,
                 duration_s: align_s,
@@ -875,6 +876,7 @@ impl Session {
             let init = ci.to_init(s.t_ns.saturating_sub(dt_ns));
             if let Some(align_s) = self.settings.align_s {
                 self.aligning = Some((init, AlignmentAccumulator::default()));
+                self.align_samples = PerAid::default();
                 sink.event(&Event::AlignmentStarted {
                     t_ns: init.t_ns,
                     duration_s: align_s,
@@ -1137,10 +1139,11 @@ impl Session {
         let heading = |l: &Levelled| {
             best_heading(AidKind::ALL.into_iter().filter_map(|k| {
                 let x = samples[k].as_ref()?;
-                // An aid switched off, or a sample older than its timeout,
-                // does not align.
+                // An aid switched off, a sample stamped after the
+                // alignment's end (a future stamp, 1e18 ns) or older than
+                // its timeout does not align.
                 let age_s = s.t_ns.saturating_sub(x.t_ns()) as f64 * 1e-9;
-                if !nav.aids.has(k) || age_s > nav.aid_settings.timeout_s[k] {
+                if !nav.aids.has(k) || x.t_ns() > s.t_ns || age_s > nav.aid_settings.timeout_s[k] {
                     return None;
                 }
                 msgs::match_aid!(x, p => heading_of(p, l, &nav.aid_settings.own)).map(|r| (k, r))
@@ -1172,9 +1175,17 @@ impl Session {
     // ---- aids --------------------------------------------------------
 
     fn push_aid(&mut self, a: AidSample, sink: &mut impl Sink) {
-        if self.aligning.is_some() {
-            // Not fused (nothing navigates yet): kept for a heading.
-            self.align_samples[a.kind()] = Some(a);
+        if let Some((init, _)) = &self.aligning {
+            // Not fused (nothing navigates yet): kept for a heading, the
+            // newest by stamp within the alignment's span (a sample
+            // stamped beyond it, 1e18 ns, cannot displace a good one).
+            let end_ns = init
+                .t_ns
+                .saturating_add((self.settings.align_s.unwrap_or(0.0) * 1e9) as u64);
+            let newer = self.align_samples[a.kind()].is_none_or(|old| a.t_ns() >= old.t_ns());
+            if a.t_ns() <= end_ns && newer {
+                self.align_samples[a.kind()] = Some(a);
+            }
         }
         let Some(n) = self.nav.as_ref().filter(|_| self.aligning.is_none()) else {
             self.count_outside(stream_of(&a), |c| c.not_used += 1);
