@@ -275,10 +275,32 @@ impl Sink for RunSink {
 /// truth epoch that an IMU sample reached (after the aids stamped at it).
 /// Panics if any IMU sample is refused (the logs of these tests are clean).
 pub fn run(records: &[Record], cfg: &NavigatorConfig, init: Option<InitState>) -> Run {
-    let mut session = Session::new(SessionSettings {
-        navigator: cfg.clone(),
-        ..Default::default()
-    });
+    run_session(
+        records,
+        SessionSettings {
+            navigator: cfg.clone(),
+            ..Default::default()
+        },
+        init,
+    )
+}
+
+/// [`run`] with a stationary alignment over the first `align_s` of IMU
+/// data after the log's init record (`batch --align`).
+pub fn run_aligned(records: &[Record], cfg: &NavigatorConfig, align_s: f64) -> Run {
+    run_session(
+        records,
+        SessionSettings {
+            navigator: cfg.clone(),
+            align_s: Some(align_s),
+            ..Default::default()
+        },
+        None,
+    )
+}
+
+fn run_session(records: &[Record], settings: SessionSettings, init: Option<InitState>) -> Run {
+    let mut session = Session::new(settings);
     let mut sink = RunSink::default();
     if let Some(i) = &init {
         session.push(Input::Init(i), &mut sink);

@@ -60,7 +60,9 @@ use msgs::{
 };
 
 use crate::aids::{AidError, HeadingFix, Levelled, OwnAidSettings, OwnOf};
-use crate::align::{AlignError, Alignment, AlignmentAccumulator, aligned_init, best_heading};
+use crate::align::{
+    AlignError, AlignMethod, Alignment, AlignmentAccumulator, aligned_init, best_heading,
+};
 use crate::checkpoint::{Checkpoint, CheckpointError};
 use crate::integrity::{IntegritySettings, Monitor, Test, Verdict};
 use crate::navigator::{
@@ -1156,6 +1158,11 @@ impl Session {
                 self.alignment = Some(a);
                 sink.event(&Event::Aligned(a));
                 self.start_or_reinit(aligned, InitSource::Message, sink);
+                if a.method == AlignMethod::Aid(AidKind::Mag) {
+                    for n in self.nav.iter_mut().chain(self.reference.iter_mut()) {
+                        n.aligned_by_magnetometer();
+                    }
+                }
             }
             Err(e) => sink.event(&Event::AlignmentFailed(e)),
         }

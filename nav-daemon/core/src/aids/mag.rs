@@ -491,6 +491,16 @@ pub fn measurement(
     s: &MagSample,
     m: &MagSettings,
 ) -> Result<Measurement<1>, AidError> {
+    measurement_and_declination_var(nav, s, m).map(|(x, _)| x)
+}
+
+/// [`measurement`] and the share of its R that is the model's declination
+/// error (rad²): one error for the whole flight near one place, not noise.
+fn measurement_and_declination_var(
+    nav: &AnyNav,
+    s: &MagSample,
+    m: &MagSettings,
+) -> Result<(Measurement<1>, f64), AidError> {
     let (b_b, r_b) = calibrated(s, m)?;
     let date = date_of(s.t_ns, m)?;
     let geo = nav.geodetic();
@@ -520,11 +530,14 @@ pub fn measurement(
     if !(z.is_finite() && var.is_finite() && var > 0.0 && h.iter().all(|x| x.is_finite())) {
         return Err(AidError::NonFinite("mag measurement"));
     }
-    Ok(Measurement {
-        z: SVector::<f64, 1>::new(z),
-        h,
-        r: SMatrix::<f64, 1, 1>::new(var),
-    })
+    Ok((
+        Measurement {
+            z: SVector::<f64, 1>::new(z),
+            h,
+            r: SMatrix::<f64, 1, 1>::new(var),
+        },
+        sigma_d * sigma_d,
+    ))
 }
 
 /// The heading of a levelled, stationary body from a sample (paper 003
@@ -586,7 +599,10 @@ impl Aid for MagSample {
     /// fuses it beside the accelerometers' roll and pitch in an outage.
     const MAKES_TILT_OBSERVABLE: bool = false;
     fn measure(&self, nav: &AnyNav, _: &Context, m: &MagSettings) -> Result<Measured, AidError> {
-        measurement(nav, self, m).map(Measured::from)
+        measurement_and_declination_var(nav, self, m).map(|(x, persistent_var)| Measured {
+            persistent_var,
+            ..Measured::from(x)
+        })
     }
     fn align_heading(
         &self,

@@ -130,6 +130,14 @@ pub struct Measured {
     pub m: AnyMeasurement,
     /// SRS: the body excluded by fault detection, if one was.
     pub excluded_body: Option<u32>,
+    /// The part of R that is one error common to every sample of the aid
+    /// rather than noise, entering each component (the magnetometer's:
+    /// the model's declination error, the local field's departure from
+    /// the WMM); 0 for white measurements. The navigator carries its
+    /// covariance with the states as a consider parameter
+    /// ([`crate::filter::update_considering`]), so that repeated samples
+    /// cannot average it away. One aid declares one (the magnetometer).
+    pub persistent_var: f64,
 }
 
 impl From<Measurement<1>> for Measured {
@@ -137,6 +145,7 @@ impl From<Measurement<1>> for Measured {
         Self {
             m: AnyMeasurement::D1(m),
             excluded_body: None,
+            persistent_var: 0.0,
         }
     }
 }
@@ -145,6 +154,7 @@ impl From<Measurement<2>> for Measured {
         Self {
             m: AnyMeasurement::D2(m),
             excluded_body: None,
+            persistent_var: 0.0,
         }
     }
 }
@@ -153,6 +163,7 @@ impl From<Measurement<3>> for Measured {
         Self {
             m: AnyMeasurement::D3(m),
             excluded_body: None,
+            persistent_var: 0.0,
         }
     }
 }
@@ -161,6 +172,7 @@ impl From<Measurement<6>> for Measured {
         Self {
             m: AnyMeasurement::D6(m),
             excluded_body: None,
+            persistent_var: 0.0,
         }
     }
 }

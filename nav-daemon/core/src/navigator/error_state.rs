@@ -5,7 +5,7 @@
 //! positive definiteness.
 
 use msgs::InitState;
-use nalgebra::{Matrix3, Vector3};
+use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 
 use crate::aids::Measurement;
 use crate::earth;
@@ -42,6 +42,18 @@ pub(super) struct ErrorState {
     /// propagation: the ends of a propagation's interval on the tape.
     pub(super) clock_ns: f64,
     last_propagation_ns: f64,
+    /// cov(δx, b) of the magnetometer's persistent error b (the model's
+    /// declination error: one error for a flight, not noise), carried as
+    /// a consider parameter ([`filter::update_considering`]): propagated
+    /// and converted with P, updated by every aid's update, zero until
+    /// the magnetometer is first fused, after a repair and in a
+    /// checkpoint's resume (which forgets it). While it is zero every
+    /// other aid's update is [`filter::update`] itself.
+    pub(super) consider: SVector<f64, 15>,
+    /// The attitude was aligned from the magnetometer's heading: its error
+    /// is the magnetometer's persistent error, and the first sample fused
+    /// says so in `consider` before it is fused.
+    pub(super) consider_from_alignment: bool,
 }
 
 impl ErrorState {
@@ -68,6 +80,8 @@ impl ErrorState {
             tape: None,
             clock_ns: 0.0,
             last_propagation_ns: 0.0,
+            consider: SVector::zeros(),
+            consider_from_alignment: false,
         }
     }
 
@@ -81,7 +95,7 @@ impl ErrorState {
     }
 
     /// Records a correction fed back.
-    pub(super) fn tape_update(&mut self, dx: &nalgebra::SVector<f64, 15>) {
+    pub(super) fn tape_update(&mut self, dx: &SVector<f64, 15>) {
         if let Some(t) = &mut self.tape {
             super::tape::write::update(t, dx);
         }
@@ -140,6 +154,9 @@ impl ErrorState {
         }
         self.last_propagation_ns = self.clock_ns;
         filter::propagate(&mut self.p, &f, &self.noise, self.acc_dt);
+        if self.consider != SVector::<f64, 15>::zeros() {
+            self.consider = filter::transition(&f, self.acc_dt) * self.consider;
+        }
         // The bias estimates are the mean of Gauss–Markov processes: they
         // decay as e^(−Δt/τ) between updates, so that the error δb = b̂ − b
         // follows δḃ = −δb/τ − w as F states (constant when τ = ∞).
@@ -185,6 +202,7 @@ impl ErrorState {
         };
         let nav_g = nominal.nav().converted(FrameKind::Geographic);
         self.p = p0_in(nominal.kind(), &nav_g, &wide, &self.bias_sigma);
+        self.consider = SVector::zeros();
         self.tape_break();
         self.repairs += 1;
     }
@@ -197,6 +215,7 @@ impl ErrorState {
         let phi = phi_to(to, before);
         self.p = phi * self.p * phi.transpose();
         filter::symmetrize(&mut self.p);
+        self.consider = phi * self.consider;
     }
 
     /// The covariance of an unknown manoeuvre over a coasted gap of `t` s:
@@ -227,19 +246,65 @@ impl ErrorState {
 
     /// Gate and Joseph update. An update that would leave P or the
     /// correction non-finite or P not positive definite is undone (`None`).
+    ///
+    /// `persistent_var` is the share of R that is the magnetometer's
+    /// persistent error (0 for every other aid): such a sample is fused
+    /// with the consider parameter, and so is every sample while the
+    /// parameter is not zero ([`filter::update_considering`]).
     pub(super) fn update<const M: usize>(
         &mut self,
         m: &Measurement<M>,
         gate: f64,
+        persistent_var: f64,
     ) -> Option<UpdateOutcome<M>> {
-        let before = self.p;
-        let out = filter::update(&mut self.p, &m.z, &m.h, &m.r, gate)
-            .filter(|o| o.dx.iter().all(|x| x.is_finite()) && o.test_ratio.is_finite())
-            .filter(|_| covariance_usable(&self.p));
+        let (before, consider_before) = (self.p, self.consider);
+        let out = if persistent_var > 0.0 || self.consider != SVector::<f64, 15>::zeros() {
+            let u = SVector::<f64, M>::repeat(if persistent_var > 0.0 { 1.0 } else { 0.0 });
+            if persistent_var > 0.0 && std::mem::take(&mut self.consider_from_alignment) {
+                self.seed_consider_from_alignment(&m.h, &u, persistent_var);
+            }
+            filter::update_considering(
+                &mut self.p,
+                &mut self.consider,
+                &m.z,
+                &m.h,
+                &m.r,
+                &u,
+                persistent_var,
+                gate,
+            )
+        } else {
+            filter::update(&mut self.p, &m.z, &m.h, &m.r, gate)
+        }
+        .filter(|o| o.dx.iter().all(|x| x.is_finite()) && o.test_ratio.is_finite())
+        .filter(|_| covariance_usable(&self.p) && self.consider.iter().all(|x| x.is_finite()));
         if out.is_none() {
             self.p = before;
+            self.consider = consider_before;
         }
         out
+    }
+
+    /// After an alignment from the magnetometer's heading, the attitude's
+    /// error along what the magnetometer measures is its persistent error
+    /// b with the sign that cancels it (the aligned attitude and the
+    /// magnetometer agree: H δx ≈ −b): c = −P Hᵀ u a / max(H P Hᵀ, a),
+    /// the regression of δx on H δx times cov(H δx, b) = −a (bounded so
+    /// that [[P, c], [cᵀ, a]] stays positive semi-definite).
+    fn seed_consider_from_alignment<const M: usize>(
+        &mut self,
+        h: &SMatrix<f64, M, 15>,
+        u: &SVector<f64, M>,
+        a: f64,
+    ) {
+        if M != 1 {
+            return;
+        }
+        let pht = self.p * h.transpose();
+        let var = (h * pht)[(0, 0)];
+        if var.is_finite() && var > 0.0 {
+            self.consider = -pht.column(0) * (u[0] * a / var.max(a));
+        }
     }
 }
 

@@ -119,9 +119,10 @@ impl Navigator {
         which: AidKind,
         t_ns: u64,
         m: &Measurement<M>,
+        persistent_var: f64,
     ) -> AidOutcome {
         let gate = self.aids.controls[which].gate;
-        let Some(out) = self.err.update(m, gate) else {
+        let Some(out) = self.err.update(m, gate, persistent_var) else {
             self.aids.controls[which].rejected_invalid();
             return AidOutcome {
                 gated: false,
@@ -144,7 +145,7 @@ impl Navigator {
             self.feed_back(t_ns, &out.dx);
         } else {
             self.aids.streaks[k].rejected(t_ns, &m.z, &m.r, out.nis, &out.innovation_var);
-            self.maybe_reset(which, t_ns, m);
+            self.maybe_reset(which, t_ns, m, persistent_var);
         }
         AidOutcome {
             gated: true,
@@ -169,7 +170,13 @@ impl Navigator {
 
     /// After a rejection: if the aid's streak has lasted `reset_after_s` and
     /// the aid is healthy by [`super::recovery`]'s tests, reset to it.
-    fn maybe_reset<const M: usize>(&mut self, which: AidKind, t_ns: u64, m: &Measurement<M>) {
+    fn maybe_reset<const M: usize>(
+        &mut self,
+        which: AidKind,
+        t_ns: u64,
+        m: &Measurement<M>,
+        persistent_var: f64,
+    ) {
         let after = self.aids.reset_after_ns;
         let streak = &self.aids.streaks[which];
         if after == 0 || streak.duration_ns(t_ns) < after {
@@ -182,7 +189,7 @@ impl Navigator {
         if !verdict.healthy() {
             return;
         }
-        self.reset_to_aid(which, t_ns, m, &verdict);
+        self.reset_to_aid(which, t_ns, m, &verdict, persistent_var);
     }
 
     /// Resets the states the aid observes to its measurement `m` with its σ:
@@ -205,6 +212,7 @@ impl Navigator {
         t_ns: u64,
         m: &Measurement<M>,
         verdict: &StreakVerdict,
+        persistent_var: f64,
     ) {
         // σ at most 10⁴ times what P said: beyond, the state is unknown anyway.
         const KAPPA_MAX: f64 = 1e8;
@@ -225,6 +233,13 @@ impl Navigator {
             for j in 0..15 {
                 p[(i, j)] *= d[i] * d[j];
             }
+        }
+        // The states' errors scaled by D: so is their covariance with the
+        // magnetometer's persistent error (raising a diagonal below keeps
+        // the augmented covariance positive semi-definite).
+        let consider_before = self.err.consider;
+        for i in 0..15 {
+            self.err.consider[i] *= d[i];
         }
         // Raising a diagonal element adds a positive semi-definite matrix:
         // P stays positive definite, and the bias states' correlations with
@@ -248,8 +263,9 @@ impl Navigator {
         p += g.transpose() * lambda * g;
         filter::symmetrize(&mut p);
         self.err.p = p;
-        let Some(out) = self.err.update(m, f64::INFINITY) else {
+        let Some(out) = self.err.update(m, f64::INFINITY, persistent_var) else {
             self.err.p = before;
+            self.err.consider = consider_before;
             return;
         };
         self.feed_back(t_ns, &out.dx);
@@ -332,7 +348,11 @@ impl Navigator {
         };
         let measured: Result<Measured, AidError> =
             x.measure(&at, &ctx, A::own(&self.aids.settings.own));
-        let Measured { m, excluded_body } = match measured {
+        let Measured {
+            m,
+            excluded_body,
+            persistent_var,
+        } = match measured {
             Ok(m) => m,
             Err(e) => {
                 self.aids.controls[which].refused(e.cause());
@@ -351,10 +371,10 @@ impl Navigator {
             });
         }
         let mut out = match &m {
-            AnyMeasurement::D1(m) => self.fuse(which, t_ns, m),
-            AnyMeasurement::D2(m) => self.fuse(which, t_ns, m),
-            AnyMeasurement::D3(m) => self.fuse(which, t_ns, m),
-            AnyMeasurement::D6(m) => self.fuse(which, t_ns, m),
+            AnyMeasurement::D1(m) => self.fuse(which, t_ns, m, persistent_var),
+            AnyMeasurement::D2(m) => self.fuse(which, t_ns, m, persistent_var),
+            AnyMeasurement::D3(m) => self.fuse(which, t_ns, m, persistent_var),
+            AnyMeasurement::D6(m) => self.fuse(which, t_ns, m, persistent_var),
         };
         out.excluded_body = excluded_body;
         if excluded_body.is_some() {

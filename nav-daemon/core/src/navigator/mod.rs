@@ -306,6 +306,14 @@ impl Navigator {
         self.record_reset(&old);
     }
 
+    /// Says that the attitude was aligned from the magnetometer's heading
+    /// (paper 003 §4.4): its heading error is then the magnetometer's
+    /// persistent error (the model's declination error), which the first
+    /// magnetometer sample fused in flight must not count a second time.
+    pub fn aligned_by_magnetometer(&mut self) {
+        self.err.consider_from_alignment = true;
+    }
+
     /// What a navigator that replaces this one (a new init, or the
     /// integrity test's reference adopted) carries on: sequence numbers,
     /// switch count, the IMU's and every aid's counters, gaps and coasting,
