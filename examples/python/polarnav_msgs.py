@@ -27,6 +27,16 @@ FLAG_GNSS_FRESH = 1 << 11
 FLAG_GNSS_EXCLUDED = 1 << 12
 FLAG_BASELINE_FRESH = 1 << 13
 FLAG_MAG_FRESH = 1 << 14
+# Paper 003 §4.5: the flight state (0 unknown, 1 ground, 2 steady, 3
+# manoeuvre) and a level fused from the accelerometers.
+FLAG_FLIGHT_STATE_SHIFT = 15
+FLAG_FLIGHT_STATE_MASK = 0b11 << FLAG_FLIGHT_STATE_SHIFT
+FLAG_LEVEL_FUSED = 1 << 17
+
+# InitState.method and Status.init_method: how the attitude was found.
+INIT_GIVEN = 0
+INIT_GYROCOMPASS = 1
+INIT_AID_HEADING = 2
 
 # WireFrame
 FRAME_GEOGRAPHIC = 0
@@ -157,7 +167,12 @@ class Status(ctypes.Structure):
         ("flags", ctypes.c_uint32),
         ("frame", ctypes.c_uint8),
         ("resumed", ctypes.c_uint8),
-        ("_pad", ctypes.c_uint8 * 6),
+        # How the attitude of the navigator's init was found: 0 given
+        # (INIT_GIVEN), 1 gyrocompassing, 2 an aid's heading (AIDS index in
+        # init_heading_aid).
+        ("init_method", ctypes.c_uint8),
+        ("init_heading_aid", ctypes.c_uint8),
+        ("_pad", ctypes.c_uint8 * 4),
     ]
 
     @property

@@ -42,7 +42,13 @@ pub const MAGIC: [u8; 8] = *b"POLARNAV";
 /// and 13, appended) and the `_v7` status record (a sixth and a seventh
 /// aid in `aids` and `streams`); a status record of format 6 or before is
 /// skipped as incompatible, every other record reads.
-pub const FORMAT_VERSION: u16 = 7;
+/// 8: the `_v2` init record (how its attitude was found: `method`,
+/// `heading_aid`). An init record of format 7 or before is read through
+/// its old `_v1` layout as given from outside (method 0); a format-7
+/// reader reads a format-8 init record as `_v1` (postcard ignores the
+/// trailing bytes). The status record's layout is unchanged (its new
+/// `init_method` bytes were padding).
+pub const FORMAT_VERSION: u16 = 8;
 /// Frames longer than this are treated as corruption (the largest record is ~1 kB
 /// plus the header's scenario text).
 pub const MAX_FRAME_BYTES: usize = 1 << 20;
@@ -597,9 +603,11 @@ fn decode_frame(frame: &[u8], decoded: &mut Vec<u8>) -> Result<Record, SkipReaso
     }
     match postcard::from_bytes::<Record>(body) {
         Ok(r) => Ok(r),
-        // A solution record of format 2 or 3 (the `_v2` layout).
+        // A solution record of format 2 or 3 (the `_v2` layout), or an
+        // init record of format 7 or before (the `_v1` layout).
         Err(_) => match postcard::from_bytes::<legacy::RecordV3>(body) {
             Ok(legacy::RecordV3::Solution(s)) => Ok(Record::Solution(Box::new((*s).into()))),
+            Ok(legacy::RecordV3::Init(i)) => Ok(Record::Init(i.into())),
             _ => Err(SkipReason::Decode),
         },
     }
@@ -614,6 +622,10 @@ fn unchecked_is_init(decoded: &[u8]) -> bool {
             postcard::from_bytes::<Record>(&decoded[..decoded.len() - 4]),
             Ok(Record::Init(_))
         )
+        || matches!(
+            postcard::from_bytes::<legacy::RecordV3>(&decoded[..decoded.len() - 4]),
+            Ok(legacy::RecordV3::Init(_))
+        )
 }
 
 /// The records of earlier formats whose layout changed, as they were
@@ -626,12 +638,13 @@ mod legacy {
     };
 
     /// [`super::Record`] of formats 2 and 3 up to its solution variant (the
-    /// variant index is the encoding's first byte: the variants before the
-    /// solution are listed only to keep its index, 7).
+    /// variant index is the encoding's first byte: the variants other than
+    /// the init and the solution are listed only to keep their indices, 1
+    /// and 7; the init record kept its `_v1` layout up to format 7).
     #[derive(Debug, Serialize, Deserialize)]
     pub(super) enum RecordV3 {
         Header(Box<super::Header>),
-        Init(InitState),
+        Init(InitStateV1),
         Imu(ImuSample),
         Srs(Box<SrsSample>),
         Cns(CnsFix),
@@ -672,6 +685,45 @@ mod legacy {
         pub reset_count: u32,
         pub frame: u8,
         pub _pad: [u8; 3],
+    }
+
+    /// `polarnav::InitState_v1`: [`InitState`] without how its attitude
+    /// was found.
+    #[derive(Debug, Clone, Copy, Default, Serialize, Deserialize)]
+    pub(super) struct InitStateV1 {
+        pub t_ns: u64,
+        pub seq: u64,
+        pub r_e_m: [f64; 3],
+        pub v_e_mps: [f64; 3],
+        pub q_b_e: [f64; 4],
+        pub sigma_pos_h_m: f64,
+        pub sigma_pos_v_m: f64,
+        pub sigma_vel_h_mps: f64,
+        pub sigma_vel_v_mps: f64,
+        pub sigma_tilt_rad: f64,
+        pub sigma_heading_rad: f64,
+    }
+
+    impl From<InitStateV1> for InitState {
+        /// Every field kept; given from outside (no sender of `_v1` aligned).
+        fn from(i: InitStateV1) -> Self {
+            InitState {
+                t_ns: i.t_ns,
+                seq: i.seq,
+                r_e_m: i.r_e_m,
+                v_e_mps: i.v_e_mps,
+                q_b_e: i.q_b_e,
+                sigma_pos_h_m: i.sigma_pos_h_m,
+                sigma_pos_v_m: i.sigma_pos_v_m,
+                sigma_vel_h_mps: i.sigma_vel_h_mps,
+                sigma_vel_v_mps: i.sigma_vel_v_mps,
+                sigma_tilt_rad: i.sigma_tilt_rad,
+                sigma_heading_rad: i.sigma_heading_rad,
+                method: crate::init_method::GIVEN,
+                heading_aid: 0,
+                _pad: [0; 6],
+            }
+        }
     }
 
     impl From<SolutionV2> for Solution {
@@ -1062,6 +1114,57 @@ mod tests {
             Record::Solution(Box::new(new)),
         ]));
         assert_eq!(back[1], Record::Solution(Box::new(new)));
+    }
+
+    /// A format-7 init record (the `_v1` layout, encoded here with the old
+    /// record enum) reads as an init given from outside with every old
+    /// field; a format-8 one keeps its method; and the old layout's bytes
+    /// of a format-8 record are what a format-7 reader takes (postcard
+    /// stops at the fields it knows).
+    #[test]
+    #[allow(clippy::float_cmp)] // the values are copied, not computed
+    fn a_format_7_init_record_reads_as_given_from_outside() {
+        let old = legacy::InitStateV1 {
+            t_ns: 99,
+            seq: 3,
+            r_e_m: [6.4e6, 1.0, 2.0],
+            q_b_e: [0.5, 0.5, 0.5, 0.5],
+            sigma_heading_rad: 0.01,
+            ..Default::default()
+        };
+        let body = postcard::to_allocvec(&legacy::RecordV3::Init(old)).expect("encode");
+        let mut bytes = encode(&sample_records()[..1]);
+        bytes.extend(frame_of(&body));
+        let (back, report) = read_all(&bytes);
+        assert!(report.is_clean(), "{report}");
+        let Record::Init(i) = &back[1] else {
+            panic!("expected an init, got {:?}", back[1])
+        };
+        assert_eq!(
+            (i.t_ns, i.seq, i.r_e_m, i.q_b_e),
+            (99, 3, old.r_e_m, old.q_b_e)
+        );
+        assert_eq!(i.sigma_heading_rad, 0.01);
+        assert_eq!(i.init_method(), Some(InitMethod::Given));
+        let aligned = InitState {
+            method: init_method::AID_HEADING,
+            heading_aid: AidKind::Mag as u8,
+            ..*i
+        };
+        let (back, _) = read_all(&encode(&[
+            sample_records()[0].clone(),
+            Record::Init(aligned),
+        ]));
+        assert_eq!(back[1], Record::Init(aligned));
+        assert_eq!(
+            aligned.init_method(),
+            Some(InitMethod::AidHeading(AidKind::Mag))
+        );
+        let new_body = postcard::to_allocvec(&Record::Init(aligned)).expect("encode");
+        let (as_old, rest) =
+            postcard::take_from_bytes::<legacy::RecordV3>(&new_body).expect("a format-7 reader");
+        assert!(matches!(as_old, legacy::RecordV3::Init(o) if o.t_ns == 99 && o.seq == 3));
+        assert_eq!(rest.len(), 2 + 6, "method, heading_aid and the padding");
     }
 
     #[test]

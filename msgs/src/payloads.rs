@@ -126,11 +126,13 @@ pub struct StarSample {
 }
 
 /// Initial state handed to the navigator (transfer alignment from a host, or
-/// the truth plus a scenario's initial errors). Frame-free: valid at the pole.
+/// the truth plus a scenario's initial errors), or the one the navigator's
+/// own stationary alignment made of it ([`InitState::method`] says which).
+/// Frame-free: valid at the pole.
 #[derive(Debug, Clone, Copy, PartialEq, Default, Serialize, Deserialize)]
 #[cfg_attr(feature = "iceoryx2", derive(ZeroCopySend))]
 #[repr(C)]
-#[cfg_attr(feature = "iceoryx2", type_name("polarnav::InitState_v1"))]
+#[cfg_attr(feature = "iceoryx2", type_name("polarnav::InitState_v2"))]
 pub struct InitState {
     /// Time of validity.
     pub t_ns: u64,
@@ -150,6 +152,82 @@ pub struct InitState {
     /// 1-σ of attitude: tilt (per level axis) and heading (rad).
     pub sigma_tilt_rad: f64,
     pub sigma_heading_rad: f64,
+    /// How the attitude was found ([`init_method`]): 0 given from outside
+    /// (a host's transfer alignment, the configuration's `[init]`, a
+    /// simulation's truth with its errors; and every init record of a
+    /// navlog before format 8), 1 the navigator's levelling and
+    /// gyrocompassing, 2 its levelling and an aid's heading
+    /// ([`InitState::heading_aid`]). See [`InitMethod`].
+    pub method: u8,
+    /// With method 2, the [`AidKind`](crate::AidKind) whose heading
+    /// aligned (4 star tracker, 5 dual-antenna baseline, 6 magnetometer);
+    /// 0 otherwise.
+    pub heading_aid: u8,
+    /// Always zero.
+    pub _pad: [u8; 6],
+}
+
+/// Values of [`InitState::method`].
+pub mod init_method {
+    /// Given from outside the navigator.
+    pub const GIVEN: u8 = 0;
+    /// The navigator's stationary alignment: levelling and gyrocompassing.
+    pub const GYROCOMPASS: u8 = 1;
+    /// The navigator's stationary alignment: levelling and an aid's
+    /// heading (a MEMS IMU, paper 003 §4.4).
+    pub const AID_HEADING: u8 = 2;
+}
+
+/// How an initial state's attitude was found: [`InitState::method`] and
+/// [`InitState::heading_aid`] as one value.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum InitMethod {
+    Given,
+    Gyrocompass,
+    AidHeading(crate::AidKind),
+}
+
+impl InitMethod {
+    /// The method of the bytes `method` and `heading_aid` (of an
+    /// [`InitState`] or a [`Status`](crate::Status)); `None` for values no
+    /// sender writes.
+    pub fn from_wire(method: u8, heading_aid: u8) -> Option<Self> {
+        match (method, heading_aid) {
+            (init_method::GIVEN, 0) => Some(Self::Given),
+            (init_method::GYROCOMPASS, 0) => Some(Self::Gyrocompass),
+            (init_method::AID_HEADING, k) => crate::AidKind::ALL
+                .get(usize::from(k))
+                .copied()
+                .map(Self::AidHeading),
+            _ => None,
+        }
+    }
+
+    /// The bytes `(method, heading_aid)`.
+    pub fn to_wire(self) -> (u8, u8) {
+        match self {
+            Self::Given => (init_method::GIVEN, 0),
+            Self::Gyrocompass => (init_method::GYROCOMPASS, 0),
+            Self::AidHeading(k) => (init_method::AID_HEADING, k as u8),
+        }
+    }
+}
+
+impl core::fmt::Display for InitMethod {
+    fn fmt(&self, f: &mut core::fmt::Formatter<'_>) -> core::fmt::Result {
+        match self {
+            Self::Given => f.write_str("given"),
+            Self::Gyrocompass => f.write_str("levelling and gyrocompassing"),
+            Self::AidHeading(k) => write!(f, "levelling and the {} heading", k.decl().label),
+        }
+    }
+}
+
+impl InitState {
+    /// How its attitude was found (`None`: bytes no sender writes).
+    pub fn init_method(&self) -> Option<InitMethod> {
+        InitMethod::from_wire(self.method, self.heading_aid)
+    }
 }
 
 /// Navigation frame tag used on the wire.
@@ -333,7 +411,10 @@ mod tests {
         assert_eq!(size_of::<CnsFix>(), 5 * 8);
         assert_eq!(size_of::<BaroSample>(), 5 * 8);
         assert_eq!(size_of::<StarSample>(), 16 + 32 + 24 + 16);
-        assert_eq!(size_of::<InitState>(), 16 + 24 + 24 + 32 + 6 * 8);
+        assert_eq!(
+            size_of::<InitState>(),
+            16 + 24 + 24 + 32 + 6 * 8 + 1 + 1 + 6
+        );
         assert_eq!(
             size_of::<Solution>(),
             16 + 24

@@ -164,11 +164,25 @@ pub struct Status {
     pub frame: u8,
     /// 1 if this run resumed from a checkpoint, 0 after a cold start.
     pub resumed: u8,
+    /// How the attitude of the init the navigator runs from was found: the
+    /// init's [`InitState::method`](crate::InitState::method) and
+    /// [`InitState::heading_aid`](crate::InitState::heading_aid) (0 and 0:
+    /// given from outside, also before the first init and after a
+    /// resume; a sender before these fields sent padding, always zero).
+    /// See [`Status::init_method`].
+    pub init_method: u8,
+    pub init_heading_aid: u8,
     /// Always zero.
-    pub _pad: [u8; 6],
+    pub _pad: [u8; 4],
 }
 
 impl Status {
+    /// How the attitude of the init the navigator runs from was found
+    /// (`None`: bytes no sender writes).
+    pub fn init_method(&self) -> Option<crate::InitMethod> {
+        crate::InitMethod::from_wire(self.init_method, self.init_heading_aid)
+    }
+
     /// The counters of `stream`.
     pub fn counters(&self, stream: Stream) -> &StreamCounters {
         &self.streams[stream.index()]

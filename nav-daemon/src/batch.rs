@@ -281,6 +281,13 @@ impl<W: Write> Sink for CsvSink<'_, W> {
                 }
             }
             Event::AlignmentFailed(err) => self.align_error = Some(*err),
+            Event::Aligned { init, .. } => {
+                log_event(log, e);
+                // The init record the alignment made, beside the one given.
+                if let Output::Mcap(m) = &mut self.out {
+                    m.channels().record(&Record::Init(*init));
+                }
+            }
             Event::AidUpdate {
                 stream,
                 t_ns,

@@ -39,7 +39,7 @@ pub fn log_event(log: &str, e: &Event) {
                 "{log}: stationary alignment started"
             )
         }
-        Event::Aligned(a) => tracing::info!(
+        Event::Aligned { alignment: a, .. } => tracing::info!(
             heading_deg = a.heading_rad.to_degrees(),
             pitch_deg = a.pitch_rad.to_degrees(),
             roll_deg = a.roll_rad.to_degrees(),

@@ -71,7 +71,7 @@ pub fn render(sol: Option<&Solution>, st: Option<&Status>, solutions_per_s: f64)
         None => s.push_str("status: none yet\n"),
         Some(x) => {
             s.push_str(&format!(
-                "status seq {}: cycles {}  overruns {} (CPU {})  cycle mean {:.1} µs max {:.1} µs  reinits {}  IMU gaps {} ({:.2} s coasted)  checkpoints {}{}\n",
+                "status seq {}: cycles {}  overruns {} (CPU {})  cycle mean {:.1} µs max {:.1} µs  reinits {}  IMU gaps {} ({:.2} s coasted)  checkpoints {}{}  attitude: {}\n",
                 x.seq,
                 x.cycles,
                 x.overruns,
@@ -82,7 +82,11 @@ pub fn render(sol: Option<&Solution>, st: Option<&Status>, solutions_per_s: f64)
                 x.imu_gap_count,
                 x.coasted_ns as f64 * 1e-9,
                 x.checkpoints_written,
-                if x.resumed == 1 { " (resumed)" } else { "" }
+                if x.resumed == 1 { " (resumed)" } else { "" },
+                x.init_method().map_or_else(
+                    || format!("unknown method {}", x.init_method),
+                    |m| format!("{m}")
+                )
             ));
             let rows = std::iter::once(("imu", x.imu(), None))
                 .chain(x.each_aid().map(|(k, c, a)| (k.name(), c, Some(a))));

@@ -599,6 +599,7 @@ pub fn init_from_solution(s: &Solution) -> InitState {
         sigma_vel_v_mps: clamp(vz, max[3]),
         sigma_tilt_rad: clamp(ax.max(ay), max[4]),
         sigma_heading_rad: clamp(az, max[5]),
+        ..Default::default()
     }
 }
 

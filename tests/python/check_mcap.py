@@ -98,6 +98,7 @@ def main():
                 rows = list(csv.DictReader(c))
         k = 0
         fixes = 0
+        inits = []
         compared = set()
         for schema, channel, message in reader.iter_messages(log_time_order=False):
             counts[channel.topic] = counts.get(channel.topic, 0) + 1
@@ -126,6 +127,9 @@ def main():
                         fail(f"{path}: /solution message {k + 1} ({m.t_ns} ns), CSV row {k + 2} column {col}: {text} != {got!r}")
                     compared.add(col)
                 k += 1
+            elif channel.topic == "/init":
+                inits.append({"t_ns": m.t_ns, "method": m.method, "heading_aid": m.heading_aid,
+                              "method_name": m.method_name})
             elif channel.topic.endswith("/fix"):
                 if not (-90.0 <= m.latitude <= 90.0) or len(m.position_covariance) != 9:
                     fail(f"{path}: {channel.topic}: bad LocationFix {m}")
@@ -136,7 +140,7 @@ def main():
             missing = [c for c in (rows[0].keys() if rows else []) if c not in compared]
             if missing:
                 fail(f"{path}: CSV columns without a /solution field of the same name: {missing}")
-    print(json.dumps({"counts": counts, "solutions_checked": k, "fixes_decoded": fixes}))
+    print(json.dumps({"counts": counts, "solutions_checked": k, "fixes_decoded": fixes, "inits": inits}))
 
 
 if __name__ == "__main__":

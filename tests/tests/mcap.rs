@@ -104,6 +104,96 @@ fn batch_mcap_has_one_solution_per_csv_row_with_equal_values_and_every_schema() 
     let _ = std::fs::remove_dir_all(&dir);
 }
 
+/// The init record says which method aligned (issue 30): `batch --align`
+/// on the MEMS aircraft (standing for its first 60 s) writes, beside the
+/// init it was given (method 0, "given"), the init its alignment made,
+/// stamped at the alignment's end: levelling and the magnetometer's
+/// heading, read back by the reference reader; the status says the same.
+/// With a navigation-grade IMU on the ground the same alignment
+/// gyrocompasses and says so.
+#[test]
+fn batch_mcap_init_records_say_how_the_alignment_found_the_heading() {
+    let dir = std::env::temp_dir().join(format!("polarnav-mcap-init-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("dir");
+    let mems =
+        std::fs::read_to_string(repo("config/scenarios/mems-aircraft.toml")).expect("scenario");
+    // The same flight with a navigation-grade IMU (the navigation preset's
+    // noise, no bias wander), whose gyros sense the Earth's rate.
+    let navigation = mems
+        .replace("preset = \"mems\"", "preset = \"navigation\"")
+        .replace("gm_gyro_sigma_dph = 50.0", "gm_gyro_sigma_dph = 0.0")
+        .replace("arw_dpsh = 0.3", "arw_dpsh = 0.002")
+        .replace("vrw_ug_psqhz = 300.0", "vrw_ug_psqhz = 5.0")
+        .replace("gm_accel_sigma_ug = 2000.0", "gm_accel_sigma_ug = 0.0");
+    assert_ne!(mems, navigation);
+    let cases = [
+        (
+            "mems",
+            mems,
+            msgs::InitMethod::AidHeading(msgs::AidKind::Mag),
+        ),
+        ("navigation", navigation, msgs::InitMethod::Gyrocompass),
+    ];
+    for (name, text, method) in &cases {
+        let log = dir.join(format!("{name}.navlog"));
+        simulate_file(text, name, &log);
+        let mcap = dir.join(format!("{name}.mcap"));
+        let aids = if *name == "mems" {
+            polarnav::settings::AidSet::NONE
+                .with(msgs::AidKind::Mag, true)
+                .with(msgs::AidKind::Baro, true)
+        } else {
+            polarnav::settings::AidSet::NONE.with(msgs::AidKind::Baro, true)
+        };
+        let report = batch::run_to::<_, std::io::Sink>(
+            BufReader::new(std::fs::File::open(&log).expect("open")),
+            "init.navlog",
+            Output::Mcap(Box::new(
+                McapFile::create(&mcap, AidSource::Updates).expect("mcap"),
+            )),
+            &ConfigFile::defaults(),
+            &BatchOptions {
+                cli: polarnav_config::CliOverrides {
+                    align_s: Some(50.0),
+                    fuse: Some(aids),
+                    ..Default::default()
+                },
+                ..Default::default()
+            },
+        )
+        .expect("batch mcap");
+        let a = report.alignment.expect("aligned");
+        let summary = check_mcap(&mcap, None, &["/init"]);
+        let inits = summary["inits"].as_array().expect("inits");
+        println!("{name}: /init messages {inits:?}");
+        assert_eq!(inits.len(), 2, "{name}: {inits:?}");
+        assert_eq!(inits[0]["method"].as_u64(), Some(0), "{name}");
+        assert_eq!(inits[0]["method_name"].as_str(), Some("given"), "{name}");
+        let (m, k) = method.to_wire();
+        assert_eq!(inits[1]["method"].as_u64(), Some(u64::from(m)), "{name}");
+        assert_eq!(
+            inits[1]["heading_aid"].as_u64(),
+            Some(u64::from(k)),
+            "{name}"
+        );
+        assert_eq!(
+            inits[1]["method_name"].as_str(),
+            Some(method.to_string().as_str()),
+            "{name}"
+        );
+        let t1 = inits[1]["t_ns"].as_u64().expect("t_ns");
+        assert!(
+            (t1 as f64 * 1e-9 - inits[0]["t_ns"].as_u64().expect("t_ns") as f64 * 1e-9 - a.time_s)
+                .abs()
+                < 0.02,
+            "{name}: aligned init at {t1} ns after {} s",
+            a.time_s
+        );
+        assert_eq!(report.status.init_method(), Some(*method), "{name}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 /// A file that is not MCAP is refused by the reader: the checker can fail.
 #[test]
 fn the_reference_reader_check_refuses_a_damaged_file() {

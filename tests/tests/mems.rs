@@ -148,6 +148,7 @@ fn the_accelerometers_hold_roll_and_pitch_through_an_outage_and_never_in_a_manoe
 #[derive(Default)]
 struct AlignSink {
     aligned: Option<polarnav::align::Alignment>,
+    init: Option<msgs::InitState>,
     failed: Option<String>,
 }
 
@@ -155,7 +156,10 @@ impl polarnav::session::Sink for AlignSink {
     fn solution(&mut self, _s: &msgs::Solution) {}
     fn event(&mut self, e: &polarnav::session::Event) {
         match e {
-            polarnav::session::Event::Aligned(a) => self.aligned = Some(*a),
+            polarnav::session::Event::Aligned { alignment, init } => {
+                self.aligned = Some(*alignment);
+                self.init = Some(*init);
+            }
             polarnav::session::Event::AlignmentFailed(err) => self.failed = Some(err.to_string()),
             _ => {}
         }
@@ -237,6 +241,17 @@ fn a_mems_imu_aligns_its_heading_from_the_magnetometer_or_the_baseline_consisten
                 .aligned
                 .unwrap_or_else(|| panic!("seed {seed}: {:?}", out.failed));
             assert_eq!(a.method, AlignMethod::Aid(aid), "seed {seed}");
+            // The init record it made says so.
+            let init = out.init.expect("the aligned init record");
+            assert_eq!(
+                init.init_method(),
+                Some(msgs::InitMethod::AidHeading(aid)),
+                "seed {seed}"
+            );
+            assert_eq!(
+                init.sigma_heading_rad.to_bits(),
+                a.sigma_heading_rad.to_bits()
+            );
             let e = earth::wrap_pi(a.heading_rad - truth);
             let k = (e / a.sigma_heading_rad).powi(2);
             worst = worst.max(k.sqrt());
@@ -412,7 +427,10 @@ fn magnetometer_heading_nees(aligned: bool) {
                 n += 1;
             }
             // Truth at 10 Hz: every epoch of the window.
-            assert!(n as f64 >= 9.9 * (to - from), "seed {seed}: {n} epochs in {from}–{to} s");
+            assert!(
+                n as f64 >= 9.9 * (to - from),
+                "seed {seed}: {n} epochs in {from}–{to} s"
+            );
             let nf = n as f64;
             [nees / nf, se / nf, ss / nf]
         })
@@ -441,6 +459,9 @@ fn magnetometer_heading_nees(aligned: bool) {
             rmse * DEG,
             sigma * DEG
         );
-        assert!((0.56..=1.57).contains(&mean), "{from}–{to} s: mean NEES {mean}");
+        assert!(
+            (0.56..=1.57).contains(&mean),
+            "{from}–{to} s: mean NEES {mean}"
+        );
     }
 }

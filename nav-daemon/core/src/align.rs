@@ -135,12 +135,19 @@ pub enum AlignMethod {
     Aid(msgs::AidKind),
 }
 
+impl AlignMethod {
+    /// What the init record it makes says ([`msgs::InitState::method`]).
+    pub fn init_method(self) -> msgs::InitMethod {
+        match self {
+            AlignMethod::Gyrocompass => msgs::InitMethod::Gyrocompass,
+            AlignMethod::Aid(k) => msgs::InitMethod::AidHeading(k),
+        }
+    }
+}
+
 impl std::fmt::Display for AlignMethod {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match self {
-            AlignMethod::Gyrocompass => f.write_str("levelling and gyrocompassing"),
-            AlignMethod::Aid(k) => write!(f, "levelling and the {} heading", k.decl().label),
-        }
+        self.init_method().fmt(f)
     }
 }
 
@@ -366,12 +373,15 @@ pub fn aligned_init(
     };
     let c_b_e = crate::frames::c_e_g(geo.lat_rad, geo.lon_rad).transpose() * a.c_b_g;
     let q = crate::frames::quat_from_dcm(&c_b_e).into_inner();
+    let (method, heading_aid) = a.method.init_method().to_wire();
     let aligned = msgs::InitState {
         t_ns,
         v_e_mps: [0.0; 3],
         q_b_e: [q.w, q.i, q.j, q.k],
         sigma_tilt_rad: a.sigma_tilt_rad,
         sigma_heading_rad: a.sigma_heading_rad,
+        method,
+        heading_aid,
         ..*init
     };
     Ok((aligned, a))

@@ -546,7 +546,12 @@ mod tests {
             let scale = pa.amax();
             let near = |x: f64, y: f64| (x - y).abs() <= 1e-10 * scale;
             for i in 0..15 {
-                assert!(near(c[i], post[(i, 15)]), "c[{i}]: {} vs {}", c[i], post[(i, 15)]);
+                assert!(
+                    near(c[i], post[(i, 15)]),
+                    "c[{i}]: {} vs {}",
+                    c[i],
+                    post[(i, 15)]
+                );
                 for j in 0..15 {
                     assert!(near(p[(i, j)], post[(i, j)]), "P[{i},{j}]");
                 }
@@ -581,8 +586,17 @@ mod tests {
             let r = SMatrix::<f64, 2, 2>::identity() * 0.3;
             let (mut p1, mut p2, mut c) = (p0, p0, SVector::<f64, 15>::zeros());
             let a = update(&mut p1, &z, &h, &r, f64::INFINITY).expect("update");
-            let b = update_considering(&mut p2, &mut c, &z, &h, &r, &SVector::zeros(), 0.0, f64::INFINITY)
-                .expect("update");
+            let b = update_considering(
+                &mut p2,
+                &mut c,
+                &z,
+                &h,
+                &r,
+                &SVector::zeros(),
+                0.0,
+                f64::INFINITY,
+            )
+            .expect("update");
             assert!((p1 - p2).amax() <= 1e-12 * p0.amax());
             assert!((a.dx - b.dx).amax() <= 1e-12 * a.dx.amax().max(1.0));
             assert!((a.nis - b.nis).abs() <= 1e-12 * a.nis.max(1.0));
@@ -591,8 +605,8 @@ mod tests {
     }
 
     /// Monte Carlo of what the consider parameter is for: a state random
-    /// walking (variance q per step) measured every step with an error b
-    /// + w, b drawn once per run (σ_b 1) and w white (σ_w 0.5). Over 2000
+    /// walking (variance q per step) measured every step with an error
+    /// b + w, b drawn once per run (σ_b 1) and w white (σ_w 0.5). Over 2000
     /// runs of 200 steps: fused as white noise (R = σ_b² + σ_w²) the
     /// stated variance is a fraction of the actual squared error; with the
     /// consider parameter the actual mean squared error is the stated
@@ -630,11 +644,14 @@ mod tests {
                 po[0][0] += q;
                 let z = e + b + sw * n();
                 let y = SVector::<f64, 1>::new(z - xc);
-                let o = update_considering(&mut pc, &mut cc, &y, &h, &r, &u, sb * sb, f64::INFINITY)
-                    .expect("update");
+                let o =
+                    update_considering(&mut pc, &mut cc, &y, &h, &r, &u, sb * sb, f64::INFINITY)
+                        .expect("update");
                 xc += o.dx[0];
                 let y = SVector::<f64, 1>::new(z - xw);
-                xw += update(&mut pw, &y, &h, &r, f64::INFINITY).expect("update").dx[0];
+                xw += update(&mut pw, &y, &h, &r, f64::INFINITY)
+                    .expect("update")
+                    .dx[0];
                 // The exact filter of (e, b): z = e + b + w.
                 let s = po[0][0] + 2.0 * po[0][1] + po[1][1] + sw * sw;
                 let hp = [po[0][0] + po[1][0], po[0][1] + po[1][1]];
@@ -647,7 +664,12 @@ mod tests {
                         po[i][j] -= hp[i] * hp[j] / s;
                     }
                 }
-                assert!(pc[(0, 0)] >= po[0][0] * (1.0 - 1e-9), "{} below the optimal {}", pc[(0, 0)], po[0][0]);
+                assert!(
+                    pc[(0, 0)] >= po[0][0] * (1.0 - 1e-9),
+                    "{} below the optimal {}",
+                    pc[(0, 0)],
+                    po[0][0]
+                );
             }
             mse_c += (xc - e).powi(2);
             mse_w += (xw - e).powi(2);

@@ -56,7 +56,8 @@
 //! driver's [`Sink`], which logs them as it sees fit.
 
 use msgs::{
-    AidKind, AidSample, AidStatus, ImuSample, InitState, PerAid, Solution, Status, StreamCounters,
+    AidKind, AidSample, AidStatus, ImuSample, InitMethod, InitState, PerAid, Solution, Status,
+    StreamCounters,
 };
 
 use crate::aids::{AidError, HeadingFix, Levelled, OwnAidSettings, OwnOf};
@@ -204,7 +205,12 @@ pub enum Event {
         duration_s: f64,
     },
     /// The alignment was solved.
-    Aligned(Alignment),
+    Aligned {
+        alignment: Alignment,
+        /// The init record it made, navigation's start (its `method` says
+        /// how the attitude was found).
+        init: InitState,
+    },
     /// The alignment could not be solved; the session waits for a new init.
     AlignmentFailed(AlignError),
     /// A new init replaced the running state.
@@ -453,6 +459,9 @@ pub struct Session {
     resyncs: u64,
     repairs_seen: u64,
     alignment: Option<Alignment>,
+    /// How the attitude of the init the navigator runs from was found
+    /// (the status says; given after a checkpoint's resume).
+    init_method: InitMethod,
     first_t_ns: Option<u64>,
     last_imu_t_ns: u64,
 }
@@ -483,6 +492,7 @@ impl Session {
             resyncs: 0,
             repairs_seen: 0,
             alignment: None,
+            init_method: InitMethod::Given,
             first_t_ns: None,
             last_imu_t_ns: 0,
         }
@@ -673,6 +683,7 @@ impl Session {
         }
         s.flags |= self.excluded_flags();
         s.resumed = u8::from(self.resumed);
+        (s.init_method, s.init_heading_aid) = self.init_method.to_wire();
         s.reinit_count = self.reinits;
         if self.imu_lost {
             use msgs::solution_flags as f;
@@ -789,6 +800,7 @@ impl Session {
     }
 
     fn start_or_reinit(&mut self, init: InitState, source: InitSource, sink: &mut impl Sink) {
+        self.init_method = init.init_method().unwrap_or(InitMethod::Given);
         let cfg = &self.settings.navigator;
         match self.nav.as_mut() {
             Some(n) => {
@@ -1156,7 +1168,10 @@ impl Session {
         match result {
             Ok((aligned, a)) => {
                 self.alignment = Some(a);
-                sink.event(&Event::Aligned(a));
+                sink.event(&Event::Aligned {
+                    alignment: a,
+                    init: aligned,
+                });
                 self.start_or_reinit(aligned, InitSource::Message, sink);
                 if a.method == AlignMethod::Aid(AidKind::Mag) {
                     for n in self.nav.iter_mut().chain(self.reference.iter_mut()) {
@@ -1410,6 +1425,65 @@ mod tests {
             let mut s = Session::new(SessionSettings::default());
             assert!(s.offer_checkpoint(bad).is_err(), "{what} accepted");
             assert!(s.resume.is_none(), "{what} kept");
+        }
+    }
+
+    /// An init's method bytes are checked like the rest of it: bytes no
+    /// sender writes refuse it with the field named; every known method
+    /// is taken and the status says it (an init from outside may say it
+    /// was aligned; the navigator reports what it was handed).
+    #[test]
+    fn an_init_with_an_unknown_method_is_refused_naming_the_field() {
+        #[derive(Default)]
+        struct Rejections(Vec<String>);
+        impl Sink for Rejections {
+            fn solution(&mut self, _: &Solution) {}
+            fn event(&mut self, e: &Event) {
+                if let Event::InitRejected { reason, .. } = e {
+                    self.0.push(reason.to_string());
+                }
+            }
+        }
+        let cases = [
+            (3u8, 0u8, Some("init.method = 3")),
+            (255, 0, Some("init.method = 255")),
+            (1, 4, Some("init.method = 1")),
+            (2, msgs::AID_COUNT as u8, Some("init.heading_aid = 7")),
+            (2, 255, Some("init.heading_aid = 255")),
+            (0, 0, None),
+            (1, 0, None),
+            (2, AidKind::Mag as u8, None),
+        ];
+        for (method, heading_aid, refused) in cases {
+            let mut s = Session::new(SessionSettings::default());
+            let mut sink = Rejections::default();
+            let i = InitState {
+                method,
+                heading_aid,
+                ..init()
+            };
+            s.push(Input::Init(&i), &mut sink);
+            s.push(
+                Input::Imu(&ImuSample {
+                    t_ns: i.t_ns + 10_000_000,
+                    dt_s: 0.01,
+                    ..Default::default()
+                }),
+                &mut sink,
+            );
+            match refused {
+                Some(want) => {
+                    assert_eq!(sink.0.len(), 1, "{method}/{heading_aid}: {:?}", sink.0);
+                    assert!(sink.0[0].starts_with(want), "{}", sink.0[0]);
+                    assert!(s.navigator().is_none());
+                }
+                None => {
+                    assert!(sink.0.is_empty(), "{method}/{heading_aid}: {:?}", sink.0);
+                    assert!(s.navigator().is_some());
+                    let st = s.status();
+                    assert_eq!((st.init_method, st.init_heading_aid), (method, heading_aid));
+                }
+            }
         }
     }
 }

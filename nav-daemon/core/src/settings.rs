@@ -253,6 +253,7 @@ impl InitSettings {
             sigma_vel_v_mps: self.sigma_vel_mps,
             sigma_tilt_rad: self.sigma_tilt_arcmin * arcmin,
             sigma_heading_rad: self.sigma_heading_arcmin * arcmin,
+            ..Default::default()
         }
     }
 }

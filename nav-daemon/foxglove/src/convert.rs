@@ -110,6 +110,11 @@ pub fn init(x: &msgs::InitState) -> pb::InitState {
         sigma_vel_v_mps: x.sigma_vel_v_mps,
         sigma_tilt_rad: x.sigma_tilt_rad,
         sigma_heading_rad: x.sigma_heading_rad,
+        method: u32::from(x.method),
+        heading_aid: u32::from(x.heading_aid),
+        method_name: x
+            .init_method()
+            .map_or_else(|| format!("unknown ({})", x.method), |m| m.to_string()),
     }
 }
 

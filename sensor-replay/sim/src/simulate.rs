@@ -132,6 +132,7 @@ pub fn init_record(
         sigma_vel_v_mps: sig.vel_v_mps,
         sigma_tilt_rad: sig.tilt_rad,
         sigma_heading_rad: sig.heading_rad,
+        ..Default::default()
     }
 }
 

@@ -666,7 +666,7 @@ mod tests {
             let b = Mat15::from_fn(|_, _| next());
             let shift = if case % 2 == 0 { 0.5 } else { -3.0 };
             let a = b * b.transpose() / 15.0 + Mat15::identity() * shift;
-            let d = Mat15::from_diagonal(&nalgebra::SVector::<f64, 15>::from_fn(|i, _| {
+            let d = Mat15::from_diagonal(&SVector::<f64, 15>::from_fn(|i, _| {
                 10f64.powf(-10.0 + 10.0 * (i as f64 / 7.0 + next()).rem_euclid(2.0))
             }));
             let p = d * a * d;

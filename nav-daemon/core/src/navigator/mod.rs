@@ -94,6 +94,13 @@ pub enum InputRejection {
         value: f64,
         limit: f64,
     },
+    /// A code that no sender writes.
+    #[error("{field} = {value} is not one of {known}")]
+    Unknown {
+        field: &'static str,
+        value: u8,
+        known: &'static str,
+    },
     /// An aid older than the allowed latency.
     #[error("aid at {t_ns} ns is {age_s:.3} s behind the IMU (limit {limit_s} s)")]
     TooLate { t_ns: u64, age_s: f64, limit_s: f64 },
@@ -241,6 +248,19 @@ pub fn check_init(init: &InitState) -> Result<(), InputRejection> {
         if *x > max {
             return implausible(name, *x, max);
         }
+    }
+    if init.init_method().is_none() {
+        let (field, value) = if init.method == msgs::init_method::AID_HEADING {
+            ("init.heading_aid", init.heading_aid)
+        } else {
+            ("init.method", init.method)
+        };
+        return Err(InputRejection::Unknown {
+            field,
+            value,
+            known: "method 0 given, 1 gyrocompass, 2 an aid's heading (with heading_aid an aid \
+                    kind, else 0)",
+        });
     }
     Ok(())
 }

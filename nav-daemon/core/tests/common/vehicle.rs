@@ -61,6 +61,7 @@ impl Truth {
             sigma_vel_v_mps: 0.1,
             sigma_tilt_rad: 3e-4,
             sigma_heading_rad: 1e-3,
+            ..Default::default()
         }
     }
 
