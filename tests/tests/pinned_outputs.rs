@@ -131,6 +131,18 @@ fn canonical(topic: &str, data: &[u8]) -> Vec<u8> {
         s.baseline_fresh = false;
         return prost::Message::encode_to_vec(&s);
     }
+    if topic == "/init" {
+        // How the attitude was found (issue 30): the shipped flights' inits
+        // are given, and the proto's new fields say so; the rest as pinned.
+        let mut i: polarnav_proto::InitState =
+            prost::Message::decode(data).expect("a polarnav.InitState");
+        assert_eq!(
+            (i.method, i.heading_aid, i.method_name.as_str()),
+            (0, 0, "given")
+        );
+        i.method_name.clear();
+        return prost::Message::encode_to_vec(&i);
+    }
     if topic != "/status" {
         return data.to_vec();
     }
@@ -178,6 +190,7 @@ fn finish(d: Sha256) -> String {
 /// the header's fields, and per record variant its frames.
 fn navlog_items(bytes: &[u8], items: &mut BTreeMap<String, String>) {
     items.insert("navlog file".into(), h(bytes));
+    let bytes = &init_records_as_v1(bytes);
     let first_end = bytes.iter().position(|b| *b == 0).expect("a header frame") + 1;
     items.insert("navlog after the header".into(), h(&bytes[first_end..]));
     let raw = cobs::decode_vec(&bytes[..first_end - 1]).expect("the header frame");
@@ -291,6 +304,37 @@ impl Write for CsvItems {
     fn flush(&mut self) -> std::io::Result<()> {
         Ok(())
     }
+}
+
+/// The navlog with each init record (variant 1) written in its `_v1`
+/// layout, as before format 8 (issue 30): its postcard body without the
+/// trailing `method`, `heading_aid` and padding bytes (one byte each),
+/// which must say "given" (all zero), a new CRC and COBS frame. Every
+/// other frame as it is: the pins hold everything else to the byte.
+fn init_records_as_v1(bytes: &[u8]) -> Vec<u8> {
+    const V2_TAIL: usize = 1 + 1 + 6;
+    let mut out = Vec::with_capacity(bytes.len());
+    for frame in bytes.split_inclusive(|b| *b == 0) {
+        let body = frame.strip_suffix(&[0]).unwrap_or(frame);
+        let raw = cobs::decode_vec(body).unwrap_or_default();
+        let is_init = raw.len() > 4
+            && matches!(
+                postcard::from_bytes::<msgs::navlog::Record>(&raw[..raw.len() - 4]),
+                Ok(msgs::navlog::Record::Init(_))
+            );
+        if !is_init {
+            out.extend_from_slice(frame);
+            continue;
+        }
+        let record = &raw[..raw.len() - 4];
+        let (v1, tail) = record.split_at(record.len() - V2_TAIL);
+        assert_eq!(tail, &[0u8; V2_TAIL], "a shipped flight's init is given");
+        let mut raw = v1.to_vec();
+        raw.extend_from_slice(&crc32fast::hash(v1).to_le_bytes());
+        out.extend(cobs::encode_vec(&raw));
+        out.push(0);
+    }
+    out
 }
 
 /// The MCAP file's items (read with the `mcap` crate).
