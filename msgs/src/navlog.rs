@@ -617,13 +617,17 @@ fn decode_frame(frame: &[u8], decoded: &mut Vec<u8>) -> Result<Record, SkipReaso
 /// its checksum, as an init record (the last 4 bytes are the CRC). Only a
 /// hint for messages: its values are not to be trusted.
 fn unchecked_is_init(decoded: &[u8]) -> bool {
-    decoded.len() >= 5
-        && matches!(
-            postcard::from_bytes::<Record>(&decoded[..decoded.len() - 4]),
-            Ok(Record::Init(_))
-        )
+    let Some(body) = decoded
+        .len()
+        .checked_sub(4)
+        .filter(|n| *n >= 1)
+        .map(|n| &decoded[..n])
+    else {
+        return false;
+    };
+    matches!(postcard::from_bytes::<Record>(body), Ok(Record::Init(_)))
         || matches!(
-            postcard::from_bytes::<legacy::RecordV3>(&decoded[..decoded.len() - 4]),
+            postcard::from_bytes::<legacy::RecordV3>(body),
             Ok(legacy::RecordV3::Init(_))
         )
 }

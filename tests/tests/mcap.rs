@@ -109,8 +109,8 @@ fn batch_mcap_has_one_solution_per_csv_row_with_equal_values_and_every_schema() 
 /// init it was given (method 0, "given"), the init its alignment made,
 /// stamped at the alignment's end: levelling and the magnetometer's
 /// heading, read back by the reference reader; the status says the same.
-/// With a navigation-grade IMU on the ground the same alignment
-/// gyrocompasses and says so.
+/// With a navigation-grade IMU on the ground the same alignment, offered
+/// the same magnetometer, gyrocompasses and says so.
 #[test]
 fn batch_mcap_init_records_say_how_the_alignment_found_the_heading() {
     let dir = std::env::temp_dir().join(format!("polarnav-mcap-init-{}", std::process::id()));
@@ -138,13 +138,11 @@ fn batch_mcap_init_records_say_how_the_alignment_found_the_heading() {
         let log = dir.join(format!("{name}.navlog"));
         simulate_file(text, name, &log);
         let mcap = dir.join(format!("{name}.mcap"));
-        let aids = if *name == "mems" {
-            polarnav::settings::AidSet::NONE
-                .with(msgs::AidKind::Mag, true)
-                .with(msgs::AidKind::Baro, true)
-        } else {
-            polarnav::settings::AidSet::NONE.with(msgs::AidKind::Baro, true)
-        };
+        // The same aids in both: the magnetometer's heading is there to
+        // be taken, and only the MEMS gyro takes it.
+        let aids = polarnav::settings::AidSet::NONE
+            .with(msgs::AidKind::Mag, true)
+            .with(msgs::AidKind::Baro, true);
         let report = batch::run_to::<_, std::io::Sink>(
             BufReader::new(std::fs::File::open(&log).expect("open")),
             "init.navlog",

@@ -61,9 +61,7 @@ use msgs::{
 };
 
 use crate::aids::{AidError, HeadingFix, Levelled, OwnAidSettings, OwnOf};
-use crate::align::{
-    AlignError, AlignMethod, Alignment, AlignmentAccumulator, aligned_init, best_heading,
-};
+use crate::align::{AlignError, Alignment, AlignmentAccumulator, aligned_init, best_heading};
 use crate::checkpoint::{Checkpoint, CheckpointError};
 use crate::integrity::{IntegritySettings, Monitor, Test, Verdict};
 use crate::navigator::{
@@ -1172,12 +1170,10 @@ impl Session {
                     alignment: a,
                     init: aligned,
                 });
+                // Its `method` tells the navigator how the heading was found
+                // (a magnetometer's heading error is that aid's persistent
+                // error: `navigator::error_state`).
                 self.start_or_reinit(aligned, InitSource::Message, sink);
-                if a.method == AlignMethod::Aid(AidKind::Mag) {
-                    for n in self.nav.iter_mut().chain(self.reference.iter_mut()) {
-                        n.aligned_by_magnetometer();
-                    }
-                }
             }
             Err(e) => sink.event(&Event::AlignmentFailed(e)),
         }
@@ -1447,7 +1443,8 @@ mod tests {
         let cases = [
             (3u8, 0u8, Some("init.method = 3")),
             (255, 0, Some("init.method = 255")),
-            (1, 4, Some("init.method = 1")),
+            (1, 4, Some("init.heading_aid = 4")),
+            (0, 1, Some("init.heading_aid = 1")),
             (2, msgs::AID_COUNT as u8, Some("init.heading_aid = 7")),
             (2, 255, Some("init.heading_aid = 255")),
             (0, 0, None),

@@ -50,9 +50,20 @@ pub(super) struct ErrorState {
     /// checkpoint's resume (which forgets it). While it is zero every
     /// other aid's update is [`filter::update`] itself.
     pub(super) consider: SVector<f64, 15>,
-    /// The attitude was aligned from the magnetometer's heading: its error
-    /// is the magnetometer's persistent error, and the first sample fused
-    /// says so in `consider` before it is fused.
+    /// The variance of b that `consider` is the covariance with (0 while
+    /// `consider` is zero). The model's σ changes along a flight (it grows
+    /// as the horizontal field weakens). A sample of larger σ adds an error
+    /// independent of the old one to b (c unchanged, the variance raised);
+    /// a sample of smaller σ cannot take error away from b, so it is fused
+    /// with the variance b already has (its R raised by the difference):
+    /// never more confident than the largest σ met. (Rescaling b with the
+    /// σ would tell the filter how the error changes, which it does not
+    /// know, and make heading observable from two samples of different σ.)
+    pub(super) consider_var: f64,
+    /// The init's attitude was aligned from the magnetometer's heading
+    /// (its `method` says so): its heading error is the magnetometer's
+    /// persistent error, which the first magnetometer sample writes into
+    /// `consider` before it is fused.
     pub(super) consider_from_alignment: bool,
 }
 
@@ -81,7 +92,9 @@ impl ErrorState {
             clock_ns: 0.0,
             last_propagation_ns: 0.0,
             consider: SVector::zeros(),
-            consider_from_alignment: false,
+            consider_var: 0.0,
+            consider_from_alignment: init.init_method()
+                == Some(msgs::InitMethod::AidHeading(msgs::AidKind::Mag)),
         }
     }
 
@@ -203,6 +216,8 @@ impl ErrorState {
         let nav_g = nominal.nav().converted(FrameKind::Geographic);
         self.p = p0_in(nominal.kind(), &nav_g, &wide, &self.bias_sigma);
         self.consider = SVector::zeros();
+        self.consider_var = 0.0;
+        self.consider_from_alignment = false;
         self.tape_break();
         self.repairs += 1;
     }
@@ -257,20 +272,31 @@ impl ErrorState {
         gate: f64,
         persistent_var: f64,
     ) -> Option<UpdateOutcome<M>> {
-        let (before, consider_before) = (self.p, self.consider);
+        let before = (
+            self.p,
+            self.consider,
+            self.consider_var,
+            self.consider_from_alignment,
+        );
         let out = if persistent_var > 0.0 || self.consider != SVector::<f64, 15>::zeros() {
             let u = SVector::<f64, M>::repeat(if persistent_var > 0.0 { 1.0 } else { 0.0 });
-            if persistent_var > 0.0 && std::mem::take(&mut self.consider_from_alignment) {
-                self.seed_consider_from_alignment(&m.h, &u, persistent_var);
+            let mut r = m.r;
+            if persistent_var > 0.0 {
+                if std::mem::take(&mut self.consider_from_alignment) {
+                    self.seed_consider_from_alignment(&m.h, &u, persistent_var);
+                }
+                let a = self.consider_var.max(persistent_var);
+                r += u * u.transpose() * (a - persistent_var);
+                self.consider_var = a;
             }
             filter::update_considering(
                 &mut self.p,
                 &mut self.consider,
                 &m.z,
                 &m.h,
-                &m.r,
+                &r,
                 &u,
-                persistent_var,
+                self.consider_var,
                 gate,
             )
         } else {
@@ -279,8 +305,12 @@ impl ErrorState {
         .filter(|o| o.dx.iter().all(|x| x.is_finite()) && o.test_ratio.is_finite())
         .filter(|_| covariance_usable(&self.p) && self.consider.iter().all(|x| x.is_finite()));
         if out.is_none() {
-            self.p = before;
-            self.consider = consider_before;
+            (
+                self.p,
+                self.consider,
+                self.consider_var,
+                self.consider_from_alignment,
+            ) = before;
         }
         out
     }
@@ -304,6 +334,7 @@ impl ErrorState {
         let var = (h * pht)[(0, 0)];
         if var.is_finite() && var > 0.0 {
             self.consider = -pht.column(0) * (u[0] * a / var.max(a));
+            self.consider_var = a;
         }
     }
 }
@@ -690,5 +721,75 @@ mod tests {
         let mut p = Mat15::identity();
         p[(7, 7)] = 0.0;
         assert!(!covariance_usable(&p));
+    }
+
+    /// The magnetometer's persistent variance changes along a flight (the
+    /// model's declination σ grows as the horizontal field weakens, and
+    /// falls again): a hundred scalar heading samples whose a swings
+    /// between 1e-4 and 1e-6 rad² (log-uniform) are all fused, the
+    /// augmented covariance [[P, c], [cᵀ, a]] stays positive definite
+    /// after each (its Cholesky factor exists), and the heading variance
+    /// never falls below the smallest a so far (the one error cannot be
+    /// averaged away). Rescaling c with √(a_new/a_old) instead kept the
+    /// augmented covariance valid but made the heading observable from two
+    /// samples of different a: the variance fell below every a by the
+    /// second sample.
+    #[test]
+    fn a_persistent_variance_that_changes_keeps_the_augmented_covariance_valid() {
+        use rand::{Rng, SeedableRng};
+        let geo = earth::Geodetic {
+            lat_rad: 0.8,
+            lon_rad: 0.3,
+            h_m: 1000.0,
+        };
+        let nav = AnyNav::Geographic(crate::mech::Nav {
+            q_b_n: nalgebra::UnitQuaternion::identity(),
+            v_n: Vector3::new(50.0, 0.0, 0.0),
+            pos: geo,
+        });
+        let init = InitState {
+            sigma_pos_h_m: 5.0,
+            sigma_pos_v_m: 5.0,
+            sigma_vel_h_mps: 0.1,
+            sigma_vel_v_mps: 0.1,
+            sigma_tilt_rad: 1e-3,
+            sigma_heading_rad: 2e-2,
+            ..Default::default()
+        };
+        let f = FilterSettings::default();
+        let mut e = ErrorState::new(&nav, FrameKind::Geographic, &init, &f);
+        let mut h = SMatrix::<f64, 1, 15>::zeros();
+        h[idx::PHI + 2] = 1.0;
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
+        let mut lowest = f64::INFINITY;
+        for k in 0..100 {
+            let a = 10f64.powf(rng.gen_range(-6.0..-4.0));
+            let m = Measurement {
+                z: SVector::<f64, 1>::new(rng.gen_range(-1e-3..1e-3)),
+                h,
+                r: SMatrix::<f64, 1, 1>::new(a + 1e-6),
+            };
+            let out = e.update(&m, f64::INFINITY, a);
+            assert!(
+                out.is_some_and(|o| o.fused),
+                "sample {k} (a = {a:e}) not fused"
+            );
+            let mut aug = SMatrix::<f64, 16, 16>::zeros();
+            aug.fixed_view_mut::<15, 15>(0, 0).copy_from(&e.p);
+            aug.fixed_view_mut::<15, 1>(0, 15).copy_from(&e.consider);
+            aug.fixed_view_mut::<1, 15>(15, 0)
+                .copy_from(&e.consider.transpose());
+            aug[(15, 15)] = e.consider_var;
+            assert!(
+                aug.cholesky().is_some(),
+                "sample {k}: augmented covariance not positive definite"
+            );
+            lowest = lowest.min(a);
+            let var = e.p[(idx::PHI + 2, idx::PHI + 2)];
+            assert!(
+                var >= lowest * (1.0 - 1e-9),
+                "sample {k}: heading variance {var} below every a so far ({lowest})"
+            );
+        }
     }
 }

@@ -250,7 +250,9 @@ pub fn check_init(init: &InitState) -> Result<(), InputRejection> {
         }
     }
     if init.init_method().is_none() {
-        let (field, value) = if init.method == msgs::init_method::AID_HEADING {
+        // A known method with a heading aid it cannot have names the aid byte.
+        let known = init.method <= msgs::init_method::AID_HEADING;
+        let (field, value) = if known {
             ("init.heading_aid", init.heading_aid)
         } else {
             ("init.method", init.method)
@@ -324,14 +326,6 @@ impl Navigator {
         fresh.err.set_clock(fresh.t_ns, true);
         *self = fresh;
         self.record_reset(&old);
-    }
-
-    /// Says that the attitude was aligned from the magnetometer's heading
-    /// (paper 003 §4.4): its heading error is then the magnetometer's
-    /// persistent error (the model's declination error), which the first
-    /// magnetometer sample fused in flight must not count a second time.
-    pub fn aligned_by_magnetometer(&mut self) {
-        self.err.consider_from_alignment = true;
     }
 
     /// What a navigator that replaces this one (a new init, or the
