@@ -440,7 +440,7 @@ integrity = false
     print(f"{'filter':34} {'h RMSE m':>9} {'v RMSE m':>9} {'h max m':>8} {'v max m':>8} {'epochs':>6}")
     for name in ("polarnav", "KF-GINS", "polarnav, default χ² gate", "KF-GINS, scale factors 1000 ppm"):
         eh, ev = results[name]
-        print(f"{name:34} {rms(eh):9.3f} {rms(ev):9.3f} {max(eh):8.3f} {max(abs(x) for x in ev):8.3f} {len(eh):6}")
+        print(f"{name:34} {rms(eh):9.4f} {rms(ev):9.5f} {max(eh):8.3f} {max(abs(x) for x in ev):8.3f} {len(eh):6}")
     p, k = results["polarnav"], results["KF-GINS"]
     ok = rms(p[0]) <= rms(k[0]) and rms(p[1]) <= rms(k[1])
     print("polarnav's horizontal and vertical RMSE at most KF-GINS's (same noise model):", "yes" if ok else "NO")

@@ -173,7 +173,10 @@ impl ErrorState {
         // The bias estimates are the mean of Gauss–Markov processes: they
         // decay as e^(−Δt/τ) between updates, so that the error δb = b̂ − b
         // follows δḃ = −δb/τ − w as F states (constant when τ = ∞).
-        let (dg, da) = self.noise.bias_decay(self.acc_dt);
+        let (dg, da) = self.noise.bias_decay(
+            self.acc_dt,
+            (self.bias_sigma.gyro_rps, self.bias_sigma.accel_mps2),
+        );
         self.gyro_bias *= dg;
         self.accel_bias *= da;
         self.acc_dt = 0.0;
