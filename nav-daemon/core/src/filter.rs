@@ -523,7 +523,11 @@ mod tests {
         let e = (-dt / tau).exp();
         assert_eq!(nz.bias_decay(dt, (0.0, sg)).1.to_bits(), e.to_bits());
         assert_eq!(nz.bias_decay(dt, (0.0, 0.5 * sg)).1.to_bits(), e.to_bits());
-        assert_eq!(nz.bias_decay(dt, (1.0, 1.0)).0, 1.0, "a constant bias");
+        assert_eq!(
+            nz.bias_decay(dt, (1.0, 1.0)).0.to_bits(),
+            1f64.to_bits(),
+            "a constant bias"
+        );
         let mut rng = rand_chacha::ChaCha20Rng::seed_from_u64(29);
         let n = 20_000;
         for sc_over_sg in [0.0, 1.0, 5.0, 50.0] {
