@@ -220,6 +220,24 @@ pub struct UpdateOutcome<const M: usize> {
     pub fused: bool,
 }
 
+/// The outcome of a measurement the gate rejects (or whose NIS is not
+/// finite): nothing fused; `None` when it passes.
+fn gated_out<const M: usize>(
+    z: &SVector<f64, M>,
+    innovation_var: SVector<f64, M>,
+    nis: f64,
+    test_ratio: f64,
+) -> Option<UpdateOutcome<M>> {
+    (!(nis.is_finite() && test_ratio <= 1.0)).then(|| UpdateOutcome {
+        innovation: *z,
+        innovation_var,
+        nis,
+        test_ratio,
+        dx: SVector::zeros(),
+        fused: false,
+    })
+}
+
 /// χ² innovation test and Joseph-form update for an M-dimensional
 /// measurement z = H δx + v, v ~ N(0, R). With `gate` = ∞ nothing is rejected.
 /// Returns None when S is not positive definite (measurement skipped).
@@ -237,15 +255,8 @@ pub fn update<const M: usize>(
     let nis = z.dot(&s_inv_z);
     let test_ratio = nis / gate;
     let innovation_var = s.diagonal();
-    if !(nis.is_finite() && test_ratio <= 1.0) {
-        return Some(UpdateOutcome {
-            innovation: *z,
-            innovation_var,
-            nis,
-            test_ratio,
-            dx: SVector::zeros(),
-            fused: false,
-        });
+    if let Some(rejected) = gated_out(z, innovation_var, nis, test_ratio) {
+        return Some(rejected);
     }
     // K = P Hᵀ S⁻¹ (through the Cholesky factor: S is symmetric).
     let k = chol.solve(&pht.transpose()).transpose();
@@ -301,15 +312,8 @@ pub fn update_considering<const M: usize>(
     let nis = z.dot(&chol.solve(z));
     let test_ratio = nis / gate;
     let innovation_var = s.diagonal();
-    if !(nis.is_finite() && test_ratio <= 1.0) {
-        return Some(UpdateOutcome {
-            innovation: *z,
-            innovation_var,
-            nis,
-            test_ratio,
-            dx: SVector::zeros(),
-            fused: false,
-        });
+    if let Some(rejected) = gated_out(z, innovation_var, nis, test_ratio) {
+        return Some(rejected);
     }
     let g = pht + *c * u.transpose();
     let k = chol.solve(&g.transpose()).transpose();
