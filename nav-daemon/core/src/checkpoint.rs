@@ -2,8 +2,10 @@
 //! biases, so that a restarted daemon resumes instead of starting cold.
 //!
 //! Format (little-endian, fixed length [`ENCODED_LEN`]): magic
-//! `PNCKPT01`, the fields of [`Checkpoint`] in declaration order, CRC-32 of
-//! everything before it. Files are replaced atomically: written to a
+//! `PNCKPT02`, the fields of [`Checkpoint`] in declaration order, CRC-32 of
+//! everything before it. A `PNCKPT01` file (without the magnetometer's
+//! consider parameter, [`ENCODED_LEN_V1`] bytes) still reads, with the
+//! parameter zero. Files are replaced atomically: written to a
 //! temporary file beside the target, fsynced, renamed over it, and the
 //! directory fsynced, so a crash leaves either the old or the new checkpoint.
 //! [`Checkpoint::load`] also refuses an intact file whose content is
@@ -13,11 +15,16 @@ use std::io::Write;
 use std::path::Path;
 
 /// Magic and format version.
-pub const MAGIC: &[u8; 8] = b"PNCKPT01";
+pub const MAGIC: &[u8; 8] = b"PNCKPT02";
+/// Magic of the first format (no consider parameter).
+pub const MAGIC_V1: &[u8; 8] = b"PNCKPT01";
 
-const N_F64: usize = 3 + 3 + 4 + 225 + 3 + 3 + 7 + 4;
+const N_F64_V1: usize = 3 + 3 + 4 + 225 + 3 + 3 + 7 + 4;
+const N_F64: usize = N_F64_V1 + 15 + 1;
 /// Encoded size in bytes.
 pub const ENCODED_LEN: usize = 8 + 8 + 8 + 4 + 4 + 4 + 4 + N_F64 * 8 + 4;
+/// Encoded size of a `PNCKPT01` file.
+pub const ENCODED_LEN_V1: usize = ENCODED_LEN - 16 * 8;
 
 /// The navigator state a checkpoint carries.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -43,6 +50,11 @@ pub struct Checkpoint {
     /// Interval accumulated since the last covariance propagation: time (s)
     /// and body Δv (m/s).
     pub pending_cov: [f64; 4],
+    /// The magnetometer's persistent error b as a consider parameter:
+    /// cov(δx, b) in `frame` and b's variance (rad²); zero when the
+    /// navigator carries none (and in a `PNCKPT01` file).
+    pub consider: [f64; 15],
+    pub consider_var: f64,
 }
 
 /// Why a checkpoint could not be read.
@@ -111,6 +123,8 @@ impl Checkpoint {
             .chain(&self.accel_bias_mps2)
             .chain(&self.prev_inc)
             .chain(&self.pending_cov)
+            .chain(&self.consider)
+            .chain(std::iter::once(&self.consider_var))
         {
             put(&x.to_le_bytes());
         }
@@ -124,23 +138,23 @@ impl Checkpoint {
             path: path.to_owned(),
             detail,
         };
-        if bytes.len() != ENCODED_LEN {
-            return Err(bad(format!(
-                "{} bytes, expected {ENCODED_LEN}",
-                bytes.len()
-            )));
+        let (len, n_f64) = match bytes.get(..8) {
+            Some(m) if m == MAGIC => (ENCODED_LEN, N_F64),
+            Some(m) if m == MAGIC_V1 => (ENCODED_LEN_V1, N_F64_V1),
+            _ => return Err(bad("wrong magic or version".into())),
+        };
+        if bytes.len() != len {
+            return Err(bad(format!("{} bytes, expected {len}", bytes.len())));
         }
-        if &bytes[..8] != MAGIC {
-            return Err(bad("wrong magic or version".into()));
-        }
-        let stored = u32::from_le_bytes(bytes[ENCODED_LEN - 4..].try_into().expect("4 bytes"));
-        if crc32fast::hash(&bytes[..ENCODED_LEN - 4]) != stored {
+        let stored = u32::from_le_bytes(bytes[len - 4..].try_into().expect("4 bytes"));
+        if crc32fast::hash(&bytes[..len - 4]) != stored {
             return Err(bad("checksum mismatch".into()));
         }
         let u64_at = |o: usize| u64::from_le_bytes(bytes[o..o + 8].try_into().expect("8 bytes"));
         let u32_at = |o: usize| u32::from_le_bytes(bytes[o..o + 4].try_into().expect("4 bytes"));
+        // A PNCKPT01 file's missing consider parameter reads as zero.
         let mut f = [0.0; N_F64];
-        for (k, x) in f.iter_mut().enumerate() {
+        for (k, x) in f.iter_mut().take(n_f64).enumerate() {
             *x = f64::from_bits(u64_at(40 + 8 * k));
         }
         if f.iter().any(|x| !x.is_finite()) {
@@ -164,6 +178,8 @@ impl Checkpoint {
             accel_bias_mps2: [0.0; 3],
             prev_inc: [0.0; 7],
             pending_cov: [0.0; 4],
+            consider: [0.0; 15],
+            consider_var: 0.0,
         };
         let mut rest = &f[..];
         for dst in [
@@ -175,6 +191,8 @@ impl Checkpoint {
             &mut c.accel_bias_mps2[..],
             &mut c.prev_inc[..],
             &mut c.pending_cov[..],
+            &mut c.consider[..],
+            std::slice::from_mut(&mut c.consider_var),
         ] {
             let (head, tail) = rest.split_at(dst.len());
             dst.copy_from_slice(head);
@@ -197,7 +215,9 @@ impl Checkpoint {
                 detail,
             })
         };
-        let fields: [(&str, &[f64]); 8] = [
+        let fields: [(&str, &[f64]); 10] = [
+            ("consider", &self.consider),
+            ("consider_var", std::slice::from_ref(&self.consider_var)),
             ("r_e_m", &self.r_e_m),
             ("v_e_mps", &self.v_e_mps),
             ("q_b_e", &self.q_b_e),
@@ -264,7 +284,44 @@ impl Checkpoint {
                 "pending_cov[0] (time) = {t} s outside [0, {MAX_PENDING_COV_S}] s"
             ));
         }
-        self.validate_covariance().or_else(bad)
+        self.validate_covariance()
+            .and_then(|()| self.validate_consider())
+            .or_else(bad)
+    }
+
+    /// The consider parameter: b's variance in [0, [`bounds::MAX_VARIANCE`]];
+    /// with it zero, no covariance; otherwise the augmented covariance
+    /// [[P, c], [cᵀ, a]] positive semi-definite (a ≥ cᵀ P⁻¹ c, to 1e-9 of
+    /// a). Called after P is known positive definite.
+    fn validate_consider(&self) -> Result<(), String> {
+        use bounds::MAX_VARIANCE;
+        let a = self.consider_var;
+        if !(0.0..=MAX_VARIANCE).contains(&a) {
+            return Err(format!(
+                "consider_var = {a} is not a variance in [0, {MAX_VARIANCE:e}]"
+            ));
+        }
+        if a == 0.0 {
+            return match self.consider.iter().enumerate().find(|(_, x)| **x != 0.0) {
+                Some((k, x)) => Err(format!(
+                    "consider[{k}] = {x} with consider_var 0 (a covariance with nothing)"
+                )),
+                None => Ok(()),
+            };
+        }
+        let p = nalgebra::SMatrix::<f64, 15, 15>::from_row_slice(&self.p);
+        let c = nalgebra::SVector::<f64, 15>::from(self.consider);
+        let explained = p
+            .cholesky()
+            .map(|l| c.dot(&l.solve(&c)))
+            .unwrap_or(f64::INFINITY);
+        if explained.is_finite() && explained <= a * (1.0 + 1e-9) {
+            Ok(())
+        } else {
+            Err(format!(
+                "consider is not consistent with p: cᵀ P⁻¹ c = {explained:e} exceeds consider_var = {a:e}"
+            ))
+        }
     }
 
     /// The covariance part of [`Self::validate`]; `Err` carries the detail.
@@ -402,6 +459,14 @@ mod tests {
             accel_bias_mps2: [1e-4, 2e-4, -3e-4],
             prev_inc: [1e-5, 2e-5, 3e-5, 0.01, 0.02, 0.049, 0.005],
             pending_cov: [0.045, 0.001, 0.002, 0.44],
+            // The heading error 80 % explained by a magnetometer error of
+            // 4 mrad (σ).
+            consider: {
+                let mut c = [0.0; 15];
+                c[idx::PHI + 2] = -0.8 * sd[idx::PHI + 2] * 4e-3;
+                c
+            },
+            consider_var: 16e-6,
         }
     }
 
@@ -507,6 +572,20 @@ mod tests {
             ("pending_cov[0]", |c| c.pending_cov[0] = f64::NAN),
             ("pending_cov[0]", |c| c.pending_cov[0] = 1e6),
             ("pending_cov[2]", |c| c.pending_cov[2] = f64::NAN),
+            ("consider[3]", |c| c.consider[3] = f64::NAN),
+            ("consider_var", |c| c.consider_var = f64::INFINITY),
+            ("consider_var", |c| c.consider_var = -1e-6),
+            ("consider_var", |c| c.consider_var = 1e15),
+            ("consider[8] = 0.5 with consider_var 0", |c| {
+                c.consider = [0.0; 15];
+                c.consider[8] = 0.5;
+                c.consider_var = 0.0;
+            }),
+            ("consider is not consistent with p", |c| {
+                // A correlation of 1.5 between the heading error and b.
+                c.consider[idx::PHI + 2] =
+                    -1.5 * (c.p[16 * (idx::PHI + 2)] * c.consider_var).sqrt();
+            }),
         ];
         for (k, (field, defect)) in defects.iter().enumerate() {
             let mut c = sample();
@@ -556,6 +635,44 @@ mod tests {
         write_atomic(&path, &buf).expect("write");
         assert_eq!(Checkpoint::load(&path).expect("load"), Some(sample()));
         let _ = std::fs::remove_file(&path);
+    }
+
+    /// A `PNCKPT01` file (written here field by field in the first
+    /// format: no consider parameter, its magic) reads with every field
+    /// and the parameter zero, and validates; its truncations and a flipped
+    /// bit are refused like the current format's.
+    #[test]
+    fn a_first_format_checkpoint_reads_with_no_consider_parameter() {
+        let mut c = sample();
+        c.consider = [0.0; 15];
+        c.consider_var = 0.0;
+        let mut cur = [0u8; ENCODED_LEN];
+        c.encode(&mut cur);
+        let mut old = Vec::with_capacity(ENCODED_LEN_V1);
+        old.extend_from_slice(MAGIC_V1);
+        old.extend_from_slice(&cur[8..40 + 8 * N_F64_V1]);
+        let crc = crc32fast::hash(&old);
+        old.extend_from_slice(&crc.to_le_bytes());
+        assert_eq!(old.len(), ENCODED_LEN_V1);
+        let back = Checkpoint::decode(&old, "v1").expect("a PNCKPT01 file");
+        assert_eq!(back, c);
+        back.validate().expect("valid");
+        for len in 0..ENCODED_LEN_V1 {
+            assert!(
+                Checkpoint::decode(&old[..len], "v1").is_err(),
+                "{len} bytes"
+            );
+        }
+        let mut flipped = old.clone();
+        flipped[100] ^= 4;
+        assert!(Checkpoint::decode(&flipped, "v1").is_err());
+        // The current magic on the old length, and the old on the new.
+        let mut wrong = old.clone();
+        wrong[..8].copy_from_slice(MAGIC);
+        assert!(Checkpoint::decode(&wrong, "v1").is_err());
+        let mut wrong = cur.to_vec();
+        wrong[..8].copy_from_slice(MAGIC_V1);
+        assert!(Checkpoint::decode(&wrong, "v2").is_err());
     }
 
     #[test]

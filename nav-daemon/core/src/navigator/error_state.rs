@@ -795,4 +795,54 @@ mod tests {
             );
         }
     }
+
+    /// A checkpoint keeps the consider parameter: a navigator resumed from
+    /// it carries the same cov(δx, b) and variance, bit for bit, and its
+    /// next magnetometer update is the one the running navigator would
+    /// have made (the same P after it).
+    #[test]
+    fn a_checkpoint_keeps_the_consider_parameter() {
+        use crate::navigator::{Navigator, NavigatorConfig};
+        let geo = earth::Geodetic::from_deg(45.0, 7.0, 500.0);
+        let q = frames::quat_from_dcm(&frames::c_e_g(geo.lat_rad, geo.lon_rad).transpose())
+            .into_inner();
+        let init = InitState {
+            t_ns: 1_000_000_000,
+            r_e_m: earth::geodetic_to_ecef(&geo).into(),
+            q_b_e: [q.w, q.i, q.j, q.k],
+            sigma_pos_h_m: 5.0,
+            sigma_pos_v_m: 5.0,
+            sigma_vel_h_mps: 0.1,
+            sigma_vel_v_mps: 0.1,
+            sigma_tilt_rad: 1e-3,
+            sigma_heading_rad: 2e-2,
+            ..Default::default()
+        };
+        let cfg = NavigatorConfig::default();
+        let mut nav = Navigator::new(&init, &cfg);
+        let mut h = SMatrix::<f64, 1, 15>::zeros();
+        h[idx::PHI + 2] = 1.0;
+        let m = Measurement {
+            z: SVector::<f64, 1>::new(1e-3),
+            h,
+            r: SMatrix::<f64, 1, 1>::new(2e-5),
+        };
+        assert!(
+            nav.err
+                .update(&m, f64::INFINITY, 1e-5)
+                .is_some_and(|o| o.fused)
+        );
+        assert!(nav.err.consider.amax() > 0.0);
+        let mut resumed = Navigator::from_checkpoint(&nav.checkpoint(), &cfg);
+        assert_eq!(resumed.err.consider, nav.err.consider);
+        assert_eq!(
+            resumed.err.consider_var.to_bits(),
+            nav.err.consider_var.to_bits()
+        );
+        assert_eq!(resumed.err.p, nav.err.p);
+        nav.err.update(&m, f64::INFINITY, 1e-5).expect("update");
+        resumed.err.update(&m, f64::INFINITY, 1e-5).expect("update");
+        assert_eq!(resumed.err.p, nav.err.p);
+        assert_eq!(resumed.err.consider, nav.err.consider);
+    }
 }

@@ -435,6 +435,8 @@ impl Navigator {
             p,
             gyro_bias_rps: self.err.gyro_bias.into(),
             accel_bias_mps2: self.err.accel_bias.into(),
+            consider: self.err.consider.into(),
+            consider_var: self.err.consider_var,
             prev_inc,
             pending_cov: [
                 self.err.acc_dt,
@@ -474,6 +476,8 @@ impl Navigator {
         n.err.p = Mat15::from_row_slice(&c.p);
         n.err.gyro_bias = Vector3::from(c.gyro_bias_rps);
         n.err.accel_bias = Vector3::from(c.accel_bias_mps2);
+        n.err.consider = c.consider.into();
+        n.err.consider_var = c.consider_var;
         let i = c.prev_inc;
         n.prev_inc = (i[6] > 0.0).then(|| Increment {
             d_theta: Vector3::new(i[0], i[1], i[2]),
