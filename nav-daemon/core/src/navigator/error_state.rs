@@ -726,6 +726,20 @@ mod tests {
         assert!(!covariance_usable(&p));
     }
 
+    /// The σ of the consider tests' start: metres, decimetres per second,
+    /// a milliradian of tilt and 20 mrad of heading.
+    fn heading_held_init() -> InitState {
+        InitState {
+            sigma_pos_h_m: 5.0,
+            sigma_pos_v_m: 5.0,
+            sigma_vel_h_mps: 0.1,
+            sigma_vel_v_mps: 0.1,
+            sigma_tilt_rad: 1e-3,
+            sigma_heading_rad: 2e-2,
+            ..Default::default()
+        }
+    }
+
     /// The magnetometer's persistent variance changes along a flight (the
     /// model's declination σ grows as the horizontal field weakens, and
     /// falls again): a hundred scalar heading samples whose a swings
@@ -750,15 +764,7 @@ mod tests {
             v_n: Vector3::new(50.0, 0.0, 0.0),
             pos: geo,
         });
-        let init = InitState {
-            sigma_pos_h_m: 5.0,
-            sigma_pos_v_m: 5.0,
-            sigma_vel_h_mps: 0.1,
-            sigma_vel_v_mps: 0.1,
-            sigma_tilt_rad: 1e-3,
-            sigma_heading_rad: 2e-2,
-            ..Default::default()
-        };
+        let init = heading_held_init();
         let f = FilterSettings::default();
         let mut e = ErrorState::new(&nav, FrameKind::Geographic, &init, &f);
         let mut h = SMatrix::<f64, 1, 15>::zeros();
@@ -810,13 +816,7 @@ mod tests {
             t_ns: 1_000_000_000,
             r_e_m: earth::geodetic_to_ecef(&geo).into(),
             q_b_e: [q.w, q.i, q.j, q.k],
-            sigma_pos_h_m: 5.0,
-            sigma_pos_v_m: 5.0,
-            sigma_vel_h_mps: 0.1,
-            sigma_vel_v_mps: 0.1,
-            sigma_tilt_rad: 1e-3,
-            sigma_heading_rad: 2e-2,
-            ..Default::default()
+            ..heading_held_init()
         };
         let cfg = NavigatorConfig::default();
         let mut nav = Navigator::new(&init, &cfg);
