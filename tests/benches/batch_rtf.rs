@@ -704,7 +704,12 @@ fn micro(init: &msgs::InitState) {
     let noise = NavigatorConfig::default().filter.process_noise();
     let mut p = *nav.covariance();
     time("covariance propagation (Φ, ΦPΦᵀ, Q_d)", &mut || {
-        filter::propagate(std::hint::black_box(&mut p), &f, &noise, 0.05)
+        std::hint::black_box(filter::propagate(
+            std::hint::black_box(&mut p),
+            &f,
+            &noise,
+            0.05,
+        ));
     });
     let inc = Increment {
         d_theta: Vector3::new(1e-7, 2e-7, 3e-7),

@@ -151,10 +151,11 @@ pub fn transition(f: &Mat15, dt: f64) -> Mat15 {
 /// Propagates P over `dt` with system matrix `f`: P ← Φ P Φᵀ + Q_d, with
 /// Q_d = QΔt + ½(FQ + QFᵀ)Δt², the second-order expansion of ∫Φ Q Φᵀ that
 /// matches the second-order Φ (the same order as the trapezoidal ½(ΦQΦᵀ + Q)Δt,
-/// but with Q diagonal it needs no 15×15 product).
-pub fn propagate(p: &mut Mat15, f: &Mat15, noise: &ProcessNoise, dt: f64) {
+/// but with Q diagonal it needs no 15×15 product). Returns the Φ it used
+/// (the identity when `dt` ≤ 0), for what else it propagates.
+pub fn propagate(p: &mut Mat15, f: &Mat15, noise: &ProcessNoise, dt: f64) -> Mat15 {
     if dt <= 0.0 {
-        return;
+        return Mat15::identity();
     }
     let phi = transition(f, dt);
     let q = noise.density();
@@ -188,6 +189,7 @@ pub fn propagate(p: &mut Mat15, f: &Mat15, noise: &ProcessNoise, dt: f64) {
         *x += a;
     }
     symmetrize(p);
+    phi
 }
 
 /// Forces exact symmetry (P = (P + Pᵀ)/2).

@@ -206,11 +206,11 @@ fn read_back(buf: &[u8], end: usize) -> Option<(Record, usize)> {
             let mut f = nav.error_dynamics(&f_b);
             noise.add_bias_dynamics(&mut f);
             let mut p_a = p_b;
-            filter::propagate(&mut p_a, &f, &noise, dt);
+            let phi = filter::propagate(&mut p_a, &f, &noise, dt);
             Record::Propagate {
                 t_b,
                 t_a,
-                phi: filter::transition(&f, dt),
+                phi,
                 p_b,
                 p_a,
             }

@@ -45,10 +45,9 @@ pub(super) struct ErrorState {
     /// cov(δx, b) of the magnetometer's persistent error b (the model's
     /// declination error: one error for a flight, not noise), carried as
     /// a consider parameter ([`filter::update_considering`]): propagated
-    /// and converted with P, updated by every aid's update, zero until
-    /// the magnetometer is first fused, after a repair and in a
-    /// checkpoint's resume (which forgets it). While it is zero every
-    /// other aid's update is [`filter::update`] itself.
+    /// and converted with P, updated by every aid's update, kept by a
+    /// checkpoint, zero until the magnetometer is first fused and after a
+    /// repair. While it is zero every update is [`filter::update`] itself.
     pub(super) consider: SVector<f64, 15>,
     /// The variance of b that `consider` is the covariance with (0 while
     /// `consider` is zero). The model's σ changes along a flight (it grows
@@ -166,13 +165,13 @@ impl ErrorState {
             );
         }
         self.last_propagation_ns = self.clock_ns;
-        filter::propagate(&mut self.p, &f, &self.noise, self.acc_dt);
+        let phi = filter::propagate(&mut self.p, &f, &self.noise, self.acc_dt);
         if self.consider != SVector::<f64, 15>::zeros() {
-            self.consider = filter::transition(&f, self.acc_dt) * self.consider;
+            self.consider = phi * self.consider;
         }
-        // The bias estimates are the mean of Gauss–Markov processes: they
-        // decay as e^(−Δt/τ) between updates, so that the error δb = b̂ − b
-        // follows δḃ = −δb/τ − w as F states (constant when τ = ∞).
+        // The bias estimates decay by their Gauss–Markov share between
+        // updates; a turn-on part beyond the wander stays
+        // ([`ProcessNoise::bias_decay`]; constant biases when τ = ∞).
         let (dg, da) = self.noise.bias_decay(
             self.acc_dt,
             (self.bias_sigma.gyro_rps, self.bias_sigma.accel_mps2),
@@ -745,8 +744,9 @@ mod tests {
     /// falls again): a hundred scalar heading samples whose a swings
     /// between 1e-4 and 1e-6 rad² (log-uniform) are all fused, the
     /// augmented covariance [[P, c], [cᵀ, a]] stays positive definite
-    /// after each (its Cholesky factor exists), and the heading variance
-    /// never falls below the smallest a so far (the one error cannot be
+    /// after each (its Cholesky factor exists), b's variance is the
+    /// largest a met, and the heading variance never falls below the
+    /// smallest a so far (the one error cannot be
     /// averaged away). Rescaling c with √(a_new/a_old) instead kept the
     /// augmented covariance valid but made the heading observable from two
     /// samples of different a: the variance fell below every a by the
@@ -770,7 +770,7 @@ mod tests {
         let mut h = SMatrix::<f64, 1, 15>::zeros();
         h[idx::PHI + 2] = 1.0;
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(3);
-        let mut lowest = f64::INFINITY;
+        let (mut lowest, mut largest) = (f64::INFINITY, 0.0f64);
         for k in 0..100 {
             let a = 10f64.powf(rng.gen_range(-6.0..-4.0));
             let m = Measurement {
@@ -794,6 +794,12 @@ mod tests {
                 "sample {k}: augmented covariance not positive definite"
             );
             lowest = lowest.min(a);
+            largest = largest.max(a);
+            assert_eq!(
+                e.consider_var.to_bits(),
+                largest.to_bits(),
+                "sample {k}: b's variance is not the largest σ² met"
+            );
             let var = e.p[(idx::PHI + 2, idx::PHI + 2)];
             assert!(
                 var >= lowest * (1.0 - 1e-9),
