@@ -326,7 +326,7 @@ fn run_session(records: &[Record], settings: SessionSettings, init: Option<InitS
                         cov_vel,
                         cov_att,
                         frame: nav.solution().frame,
-                        flags: nav.solution().flags | excluded_flags(&session),
+                        flags: nav.solution().flags | session.integrity_flags(),
                         levels_fused: nav.level_counters().fused,
                     });
                     out.truth.push(*t);
@@ -359,15 +359,6 @@ fn run_session(records: &[Record], settings: SessionSettings, init: Option<InitS
         })
         .sum();
     out
-}
-
-/// The solution flags of the aids the session's integrity test excludes.
-fn excluded_flags(session: &Session) -> u32 {
-    msgs::AidKind::ALL
-        .into_iter()
-        .filter(|k| session.integrity(*k).excluded)
-        .map(|k| k.decl().excluded_flag)
-        .fold(0, |a, b| a | b)
 }
 
 /// NEES of position, velocity and attitude (3 degrees of freedom each) of

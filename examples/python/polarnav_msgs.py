@@ -32,6 +32,14 @@ FLAG_MAG_FRESH = 1 << 14
 FLAG_FLIGHT_STATE_SHIFT = 15
 FLAG_FLIGHT_STATE_MASK = 0b11 << FLAG_FLIGHT_STATE_SHIFT
 FLAG_LEVEL_FUSED = 1 << 17
+# GNSS fused untested: its integrity test is unavailable (the autonomous
+# solution's horizontal protection level beyond the alert limit).
+FLAG_GNSS_UNTESTED = 1 << 18
+
+# AidStatus.integrity_state: could the integrity test judge the last sample.
+INTEGRITY_NOT_TESTED = 0
+INTEGRITY_TESTED = 1
+INTEGRITY_UNAVAILABLE = 2
 
 # InitState.method and Status.init_method: how the attitude was found.
 INIT_GIVEN = 0
@@ -135,7 +143,8 @@ class AidStatus(ctypes.Structure):
         ("made_in_frame", ctypes.c_uint8),
         ("excluded", ctypes.c_uint8),
         ("exclusion_cause", ctypes.c_uint8),
-        ("_pad", ctypes.c_uint8 * 3),
+        ("integrity_state", ctypes.c_uint8),
+        ("_pad", ctypes.c_uint8 * 2),
     ]
 
     @staticmethod

@@ -232,6 +232,22 @@
 #define POLARNAV_FLAG_LEVEL_FUSED (1 << 17)
 
 /**
+ * GNSS's integrity test is unavailable (at its last fix), so its
+ * fixes are fused untested: the autonomous solution's horizontal
+ * protection level is beyond the alert limit (`[aids.gnss]
+ * integrity_alert_limit_m`), and it cannot tell a spoofed position
+ * from its own error (an INS without a horizontal autonomous aid,
+ * such as a MEMS INS with only baro and magnetometer).
+ */
+#define POLARNAV_FLAG_GNSS_UNTESTED (1 << 18)
+
+#define POLARNAV_INTEGRITY_NOT_TESTED 0
+
+#define POLARNAV_INTEGRITY_TESTED 1
+
+#define POLARNAV_INTEGRITY_UNAVAILABLE 2
+
+/**
  * An aid, by its index in every per-aid array (`Status::aids`).
  */
 enum AidKind
@@ -860,9 +876,18 @@ typedef struct {
    */
   uint8_t exclusion_cause;
   /**
+   * An aid that is not autonomous: whether its integrity test could
+   * judge its last sample ([`integrity_state`]: 0 not tested (an
+   * autonomous aid, the test off, or no sample yet), 1 tested, 2
+   * unavailable: the autonomous solution's horizontal protection level
+   * beyond the alert limit, the aid fused untested). The byte was
+   * padding (always zero) before: an older sender reads "not tested".
+   */
+  uint8_t integrity_state;
+  /**
    * Always zero.
    */
-  uint8_t _pad[3];
+  uint8_t _pad[2];
 } AidStatus;
 
 /**

@@ -104,6 +104,7 @@ macro_rules! for_each_aid {
                 causes: &["invalid content"],
                 autonomous: true,
                 excluded_flag: 0,
+                untested_flag: 0,
             }),
             (Cns, cns, CnsFix, {
                 label: "CNS",
@@ -119,6 +120,7 @@ macro_rules! for_each_aid {
                 causes: &["invalid content"],
                 autonomous: true,
                 excluded_flag: 0,
+                untested_flag: 0,
             }),
             (Baro, baro, BaroSample, {
                 label: "baro",
@@ -131,6 +133,7 @@ macro_rules! for_each_aid {
                 causes: &["invalid content"],
                 autonomous: true,
                 excluded_flag: 0,
+                untested_flag: 0,
             }),
             (Star, star, StarSample, {
                 label: "star",
@@ -147,6 +150,7 @@ macro_rules! for_each_aid {
                 causes: &["invalid content"],
                 autonomous: true,
                 excluded_flag: 0,
+                untested_flag: 0,
             }),
             (Gnss, gnss, GnssFix, {
                 label: "GNSS",
@@ -171,6 +175,7 @@ macro_rules! for_each_aid {
                 ],
                 autonomous: false,
                 excluded_flag: GNSS_EXCLUDED,
+                untested_flag: GNSS_UNTESTED,
             }),
             (Baseline, baseline, BaselineSample, {
                 label: "baseline",
@@ -203,6 +208,7 @@ macro_rules! for_each_aid {
                 // cannot drag the position as a GNSS spoofer does.
                 autonomous: true,
                 excluded_flag: 0,
+                untested_flag: 0,
             }),
             (Mag, mag, MagSample, {
                 label: "mag",
@@ -220,6 +226,7 @@ macro_rules! for_each_aid {
                 ],
                 autonomous: true,
                 excluded_flag: 0,
+                untested_flag: 0,
             }),
         ] }
     };
@@ -311,6 +318,9 @@ pub struct AidDecl {
     /// Its bit of the solution's flags while its integrity test excludes
     /// it (0 for an autonomous aid).
     pub excluded_flag: u32,
+    /// Its bit of the solution's flags while it is fused untested, its
+    /// integrity test being unavailable (0 for an autonomous aid).
+    pub untested_flag: u32,
 }
 
 impl AidDecl {
@@ -469,6 +479,18 @@ impl AidKind {
         let mut k = 0;
         while k < AID_COUNT {
             f |= Self::ALL[k].decl().excluded_flag;
+            k += 1;
+        }
+        f
+    }
+
+    /// The bits of every aid that is fused untested while its integrity
+    /// test is unavailable.
+    pub const fn all_untested_flags() -> u32 {
+        let mut f = 0;
+        let mut k = 0;
+        while k < AID_COUNT {
+            f |= Self::ALL[k].decl().untested_flag;
             k += 1;
         }
         f
@@ -667,10 +689,13 @@ mod tests {
             assert!(!d.components.is_empty() && d.components.len() <= MAX_COMPONENTS);
             assert!(!d.causes.is_empty() && d.causes.len() <= MAX_CAUSES);
             assert_eq!(d.autonomous, d.excluded_flag == 0, "{}", d.name);
-            if d.excluded_flag != 0 {
-                assert_eq!(d.excluded_flag.count_ones(), 1, "{}", d.name);
-                assert_eq!(flags & d.excluded_flag, 0, "{}: flag used twice", d.name);
-                flags |= d.excluded_flag;
+            assert_eq!(d.autonomous, d.untested_flag == 0, "{}", d.name);
+            for f in [d.excluded_flag, d.untested_flag] {
+                if f != 0 {
+                    assert_eq!(f.count_ones(), 1, "{}", d.name);
+                    assert_eq!(flags & f, 0, "{}: flag used twice", d.name);
+                    flags |= f;
+                }
             }
             // The components of one unit are neighbours (the integrity
             // test takes each unit's block as a run).
@@ -690,7 +715,9 @@ mod tests {
             assert_eq!(AidKind::from_record(d.record), Some(k));
         }
         assert_eq!(
-            AidKind::all_fresh_flags() | AidKind::all_excluded_flags(),
+            AidKind::all_fresh_flags()
+                | AidKind::all_excluded_flags()
+                | AidKind::all_untested_flags(),
             flags
         );
         assert_eq!(

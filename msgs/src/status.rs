@@ -105,8 +105,22 @@ pub struct AidStatus {
     /// Why (`polarnav::integrity::cause`: 1 position, 2 velocity, 3 other
     /// components inconsistent with the autonomous solution; 0 none).
     pub exclusion_cause: u8,
+    /// An aid that is not autonomous: whether its integrity test could
+    /// judge its last sample ([`integrity_state`]: 0 not tested (an
+    /// autonomous aid, the test off, or no sample yet), 1 tested, 2
+    /// unavailable: the autonomous solution's horizontal protection level
+    /// beyond the alert limit, the aid fused untested). The byte was
+    /// padding (always zero) before: an older sender reads "not tested".
+    pub integrity_state: u8,
     /// Always zero.
-    pub _pad: [u8; 3],
+    pub _pad: [u8; 2],
+}
+
+/// Values of [`AidStatus::integrity_state`].
+pub mod integrity_state {
+    pub const NOT_TESTED: u8 = 0;
+    pub const TESTED: u8 = 1;
+    pub const UNAVAILABLE: u8 = 2;
 }
 
 impl AidStatus {

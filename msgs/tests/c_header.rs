@@ -33,6 +33,9 @@ int main(void) {
     printf("SRS_MAX_LINES %d\n", POLARNAV_SRS_MAX_LINES);
     printf("IMU_LOST %d\n", POLARNAV_FLAG_IMU_LOST);
     printf("STAR_FRESH %d\n", POLARNAV_FLAG_STAR_FRESH);
+    O(AidStatus, integrity_state)
+    printf("GNSS_UNTESTED %d\n", POLARNAV_FLAG_GNSS_UNTESTED);
+    printf("INTEGRITY_UNAVAILABLE %d\n", POLARNAV_INTEGRITY_UNAVAILABLE);
     return 0;
 }
 "#;
@@ -110,6 +113,15 @@ int main(void) {
         ),
         ("BaselineSample.flags", offset_of!(BaselineSample, flags)),
         ("BASELINE_FRESH", solution_flags::BASELINE_FRESH as usize),
+        (
+            "AidStatus.integrity_state",
+            offset_of!(AidStatus, integrity_state),
+        ),
+        ("GNSS_UNTESTED", solution_flags::GNSS_UNTESTED as usize),
+        (
+            "INTEGRITY_UNAVAILABLE",
+            usize::from(integrity_state::UNAVAILABLE),
+        ),
         ("CARR_SOLN_FIXED", usize::from(baseline::carr_soln::FIXED)),
         (
             "BASELINE_NORMALIZED",

@@ -150,6 +150,36 @@ pub fn log_event(log: &str, e: &Event) {
             stream.name()
         ),
         Event::Integrity { .. } => {}
+        Event::IntegrityAvailability {
+            stream,
+            t_ns,
+            available: false,
+            protection_m,
+            alert_limit_m,
+        } => tracing::warn!(
+            t_s = secs(*t_ns),
+            protection_m,
+            alert_limit_m,
+            "{log}: {} integrity test unavailable: the autonomous solution's horizontal protection level {:.0} m is beyond the alert limit {:.0} m (it cannot tell a spoofed position from its own error); {} is fused untested",
+            stream.name(),
+            protection_m,
+            alert_limit_m,
+            stream.name()
+        ),
+        Event::IntegrityAvailability {
+            stream,
+            t_ns,
+            available: true,
+            protection_m,
+            alert_limit_m,
+        } => tracing::info!(
+            t_s = secs(*t_ns),
+            protection_m,
+            "{log}: {} integrity test available again: horizontal protection level {:.0} m within the alert limit {:.0} m",
+            stream.name(),
+            protection_m,
+            alert_limit_m
+        ),
         Event::AidReset {
             stream,
             reset,

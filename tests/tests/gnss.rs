@@ -179,6 +179,18 @@ fn spoofed_at(drag: &str) {
     let g = on.status.aid(AidKind::Gnss);
     assert_eq!((g.excluded, g.exclusions), (0, 1));
     assert!(on.status.aid_counters(AidKind::Gnss).rejected_integrity > 0);
+    // The autonomous aids hold the reference: the test could judge every
+    // fix (its protection level within the 100 m alert limit).
+    let worst_level = on
+        .integrity
+        .iter()
+        .map(|(_, t, _)| t.protection_m)
+        .fold(0.0, f64::max);
+    assert!(
+        on.decisions(Verdict::Untested).is_empty() && worst_level <= 100.0,
+        "drag {drag} m/s²: the test unavailable (protection level up to {worst_level} m)"
+    );
+    assert_eq!(g.integrity_state, msgs::integrity_state::TESTED);
 }
 
 #[test]
@@ -496,6 +508,10 @@ fn no_false_alarm_over_22_flight_hours_of_clean_gnss() {
         assert!(
             r.decisions(Verdict::Exclude).is_empty(),
             "seed {seed}: a false alarm"
+        );
+        assert!(
+            r.decisions(Verdict::Untested).is_empty(),
+            "seed {seed}: the test unavailable"
         );
     }
     eprintln!(

@@ -1087,7 +1087,7 @@ fn python_ctypes_mirror_has_the_rust_layout() {
     rust.extend(
         offsets!(AidStatus: innovation, innovation_var, test_ratio, last_fuse_t_ns,
         exclusions, integrity_ratio, excluded_since_t_ns, refused, fused, fresh, made_in_frame,
-        excluded, exclusion_cause, _pad),
+        excluded, exclusion_cause, integrity_state, _pad),
     );
     rust.extend(
         offsets!(Status: t_ns, seq, streams, aids, cycles, overruns, overruns_cpu, cycle_time_mean_ns, cycle_time_max_ns, last_switch_t_ns, imu_gap_count,

@@ -44,7 +44,16 @@ const ADDED_SINCE_THE_PIN: &[(&str, &str)] = &[
     ("mcap metadata polarnav.settings aids.mag", MAG),
     ("mcap metadata polarnav.settings aids.baseline", BASELINE),
     ("csv column baseline_fresh", BASELINE),
+    ("csv column gnss_untested", UNTESTED),
 ];
+
+/// GNSS fused untested while its integrity test is unavailable (the
+/// reference's horizontal protection level beyond the alert limit): its
+/// column in the CSV's aid group, `polarnav.Solution.gnss_untested`,
+/// `AidStatus.integrity_unavailable` (and `[aids.gnss]
+/// integrity_alert_limit_m`, under `aids.gnss` above). These flights fly
+/// no GNSS: the column is 0 and the fields false (not encoded).
+const UNTESTED: &str = "GNSS fused untested while its integrity test is unavailable";
 
 /// The magnetometer, the seventh aid (issue 30): its settings (`[aids.mag]`,
 /// `mag_gate`, `mag_timeout_s`), its freshness column, and its name among
@@ -107,13 +116,14 @@ const FORMAT_5: &str = "navlog format 7: the _v7 status record, the GNSS (issue 
 const FUSE: &str = "the aids fused by default grew: gnss (issue 29), baseline and mag (issue 30)";
 /// The CSV header: the aid group of issue 29, then `baseline_fresh` and
 /// `mag_fresh`.
-const AID_COLUMNS_GROWN: &str =
-    "the CSV's aid group (issue 29), grown by baseline_fresh and mag_fresh (issue 30)";
+const AID_COLUMNS_GROWN: &str = "the CSV's aid group (issue 29), grown by baseline_fresh and \
+                                 mag_fresh (issue 30), then gnss_untested";
 /// `polarnav.proto` grew: Status.aids (every aid by name),
 /// StreamCounters.rejected_integrity, AidStatus' integrity and refusal
 /// fields (issue 29). Every channel's messages stay pinned.
 const SCHEMA: &str = "polarnav.proto grew with the aids' status (issue 29), then the \
-                      baseline's message and Solution.baseline_fresh (issue 30)";
+                      baseline's message and Solution.baseline_fresh (issue 30), then \
+                      Solution.gnss_untested and AidStatus.integrity_unavailable";
 
 /// The fields of `polarnav.Status` and `polarnav.Solution` added since the pin, cleared before a
 /// `/status` or `/solution` message is hashed: every byte the message had at the pin

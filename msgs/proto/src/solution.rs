@@ -92,6 +92,7 @@ impl pb::Solution {
             gnss_excluded: bit(solution_flags::GNSS_EXCLUDED),
             baseline_fresh: bit(solution_flags::BASELINE_FRESH),
             mag_fresh: bit(solution_flags::MAG_FRESH),
+            gnss_untested: bit(solution_flags::GNSS_UNTESTED),
         }
     }
 

@@ -38,6 +38,29 @@
 //! continuously for `readmit_after_s` of sensor time, and from then the
 //! main navigator fuses it again while the reference goes on without it.
 //! Everything is decided on the samples' stamps, so live equals `batch`.
+//!
+//! **When the test is unavailable.** The test can only tell a spoofed
+//! position from the reference's own error when that error is small. Its
+//! measure is the reference's horizontal protection level, as in RAIM:
+//! HPL = √(χ²₂ quantile of the false-alarm probability) · σ_max, σ_max² the
+//! largest eigenvalue of the reference's horizontal position covariance
+//! (m²) — the radius that its horizontal error, were it as large as it is
+//! along its worst axis in every direction, exceeds with the false-alarm
+//! probability (|e|²/σ_max² ~ χ²₂; smaller along the other axis, so the
+//! bound holds). While HPL is beyond the alert limit from the settings
+//! (default 100 m: a drag of 100 m must be caught), the test is
+//! unavailable: its statistic is still computed and reported, but not
+//! acted on. A sample is fused untested (the solution flag and the
+//! status say so, and one log line each time the test is lost or
+//! regained); an excluded aid stays excluded (readmission needs a test
+//! that can judge), its agreement time starting again. This is the case
+//! of an INS without a horizontal autonomous aid: a MEMS INS with only a
+//! barometer and a magnetometer is kilometres off within minutes, its
+//! error no longer small enough for the linear filter's covariance to
+//! describe (mems-aircraft, seed 3, with the test on: q rose from 3 to 55
+//! over the first two minutes, mean χ²(6) being 6, and a false alarm at
+//! 85 s made the solution jump 976 m to the reference). There, HPL passes
+//! 100 m within the first half minute, and no alarm is raised.
 
 use serde::{Deserialize, Serialize};
 
@@ -52,6 +75,9 @@ pub struct IntegritySettings {
     pub integrity: bool,
     /// False-alarm probability of one test (one sample).
     pub integrity_false_alarm: f64,
+    /// The test is available while the reference's horizontal protection
+    /// level is within this alert limit (m).
+    pub integrity_alert_limit_m: f64,
     /// An excluded aid is readmitted after its samples have agreed with the
     /// autonomous solution continuously for this long (s).
     pub readmit_after_s: f64,
@@ -62,6 +88,7 @@ impl Default for IntegritySettings {
         Self {
             integrity: true,
             integrity_false_alarm: 1e-7,
+            integrity_alert_limit_m: 100.0,
             readmit_after_s: 60.0,
         }
     }
@@ -84,6 +111,18 @@ impl IntegritySettings {
         )?;
         Bound {
             lo: 1.0,
+            hi: 1e7,
+            unit: "m",
+            below: "an alert limit under a metre is within a GNSS fix's own error: the test would never be available",
+            above: "beyond ten thousand kilometres every error is within it: the test would always be available, whatever the reference's error",
+        }
+        .check(
+            origin,
+            &format!("{table}.integrity_alert_limit_m"),
+            self.integrity_alert_limit_m,
+        )?;
+        Bound {
+            lo: 1.0,
             hi: crate::bounds::MAX_FLIGHT_S,
             unit: "s",
             below: "an aid must agree for at least a second before it is trusted again",
@@ -99,6 +138,17 @@ impl IntegritySettings {
     /// The alarm threshold on q for an innovation of `dof` components.
     pub fn threshold(&self, dof: usize) -> f64 {
         crate::chi2::quantile_upper(self.integrity_false_alarm, dof as f64)
+    }
+
+    /// The horizontal protection level (m) of a reference whose horizontal
+    /// position covariance (east, north; m²) is `[[a, b], [b, c]]`:
+    /// √(χ²₂ quantile) · √λ_max (see the module's documentation). Not
+    /// finite (so unavailable) when the covariance is not.
+    pub fn protection_level(&self, a: f64, b: f64, c: f64) -> f64 {
+        let half = 0.5 * (a - c);
+        let lambda_max = 0.5 * (a + c) + (half * half + b * b).sqrt();
+        let k2 = crate::chi2::quantile_upper(self.integrity_false_alarm, 2.0);
+        (k2 * lambda_max.max(0.0)).sqrt()
     }
 }
 
@@ -135,6 +185,10 @@ pub struct Test {
     /// The cause an alarm would have (the block of components with the
     /// larger share of q, each against its own χ² quantile).
     pub cause: u8,
+    /// The reference's horizontal protection level (m), and the alert
+    /// limit it must be within for the test to judge.
+    pub protection_m: f64,
+    pub alert_limit_m: f64,
 }
 
 impl Test {
@@ -145,6 +199,12 @@ impl Test {
 
     pub fn alarm(&self) -> bool {
         self.q.is_nan() || self.q > self.threshold
+    }
+
+    /// The test can judge: the protection level is within the alert limit
+    /// (a NaN one is not).
+    pub fn available(&self) -> bool {
+        self.protection_m <= self.alert_limit_m
     }
 }
 
@@ -160,6 +220,9 @@ pub enum Verdict {
     Refuse,
     /// The aid has agreed long enough: readmit it and offer the sample.
     Readmit,
+    /// The test is unavailable (the protection level is beyond the alert
+    /// limit) and the aid is not excluded: offer the sample untested.
+    Untested,
 }
 
 /// One non-autonomous aid's integrity state.
@@ -176,6 +239,8 @@ pub struct Monitor {
     pub last_ratio: Option<f64>,
     /// Exclusions so far.
     pub exclusions: u64,
+    /// Whether the last test could judge (None before any).
+    pub available: Option<bool>,
 }
 
 impl Monitor {
@@ -183,6 +248,17 @@ impl Monitor {
     /// readmission time being `readmit_ns`.
     pub fn decide(&mut self, t_ns: u64, test: &Test, readmit_ns: u64) -> Verdict {
         self.last_ratio = Some(test.ratio());
+        self.available = Some(test.available());
+        if !test.available() {
+            // Nothing is judged: an excluded aid stays excluded and must
+            // agree for the whole readmission time once the test is back.
+            self.agreeing_since_ns = None;
+            return if self.excluded {
+                Verdict::Refuse
+            } else {
+                Verdict::Untested
+            };
+        }
         if !self.excluded {
             if test.alarm() {
                 self.excluded = true;
@@ -218,6 +294,107 @@ mod tests {
             q,
             threshold: 10.0,
             cause: cause::VELOCITY,
+            protection_m: 40.0,
+            alert_limit_m: 100.0,
+        }
+    }
+
+    fn unavailable(q: f64) -> Test {
+        Test {
+            protection_m: 100.5,
+            ..test(q)
+        }
+    }
+
+    /// An unavailable test judges nothing: no alarm however large q, the
+    /// sample offered untested; an excluded aid stays excluded, and its
+    /// readmission time starts again once the test is back. A NaN
+    /// protection level is unavailable.
+    #[test]
+    fn an_unavailable_test_neither_excludes_nor_readmits() {
+        let s = 1_000_000_000u64;
+        let mut m = Monitor::default();
+        assert_eq!(m.available, None);
+        assert_eq!(m.decide(s, &unavailable(1e9), 60 * s), Verdict::Untested);
+        assert_eq!(
+            (m.excluded, m.exclusions, m.available),
+            (false, 0, Some(false))
+        );
+        assert_eq!(m.decide(2 * s, &test(3.0), 60 * s), Verdict::Admit);
+        assert_eq!(m.available, Some(true));
+        assert_eq!(m.decide(3 * s, &test(11.0), 60 * s), Verdict::Exclude);
+        // Agreeing for 50 s, then the test is lost for a sample: the
+        // agreement starts again when it is back.
+        assert_eq!(m.decide(4 * s, &test(1.0), 60 * s), Verdict::Refuse);
+        assert_eq!(m.decide(54 * s, &test(1.0), 60 * s), Verdict::Refuse);
+        assert_eq!(m.decide(55 * s, &unavailable(1.0), 60 * s), Verdict::Refuse);
+        assert_eq!(m.decide(64 * s, &test(1.0), 60 * s), Verdict::Refuse);
+        assert_eq!(m.decide(123 * s, &test(1.0), 60 * s), Verdict::Refuse);
+        assert_eq!(m.decide(124 * s, &test(1.0), 60 * s), Verdict::Readmit);
+        let nan = Test {
+            protection_m: f64::NAN,
+            ..test(1.0)
+        };
+        assert!(!nan.available() && test(1.0).available() && !unavailable(1.0).available());
+        assert_eq!(m.decide(125 * s, &nan, 60 * s), Verdict::Untested);
+    }
+
+    /// The protection level against two independent computations: for an
+    /// isotropic covariance σ² I the closed form of χ²₂'s tail,
+    /// P(|e| > HPL) = exp(−HPL²/(2σ²)) = the false-alarm probability; for
+    /// any covariance, the largest eigenvalue by nalgebra's symmetric
+    /// eigen-decomposition of the same matrix rotated by a random angle
+    /// (the level does not depend on the axes); and a Monte Carlo run of
+    /// the exceedance of a loose level (p = 0.01), which must not exceed
+    /// p (the bound is conservative off the worst axis) and must be near
+    /// it for an isotropic covariance.
+    #[test]
+    fn the_protection_level_bounds_the_horizontal_error_with_the_false_alarm_probability() {
+        let s = IntegritySettings::default();
+        for sigma in [1e-3, 1.0, 17.0, 3e4] {
+            let hpl = s.protection_level(sigma * sigma, 0.0, sigma * sigma);
+            let tail = (-hpl * hpl / (2.0 * sigma * sigma)).exp();
+            assert!((tail / 1e-7 - 1.0).abs() < 1e-6, "σ {sigma}: tail {tail}");
+        }
+        let mut seed = 3u64;
+        let mut u = || {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        };
+        for _ in 0..200 {
+            let (l1, l2) = (10f64.powf(u() * 8.0 - 2.0), 10f64.powf(u() * 8.0 - 2.0));
+            let th = u() * std::f64::consts::TAU;
+            let r = nalgebra::Matrix2::new(th.cos(), -th.sin(), th.sin(), th.cos());
+            let c = r * nalgebra::Matrix2::new(l1, 0.0, 0.0, l2) * r.transpose();
+            let got = s.protection_level(c[(0, 0)], c[(0, 1)], c[(1, 1)]);
+            let eig = c.symmetric_eigen().eigenvalues.max();
+            let want = (crate::chi2::quantile_upper(1e-7, 2.0) * eig).sqrt();
+            assert!((got / want - 1.0).abs() < 1e-9, "{got} {want}");
+        }
+        let loose = IntegritySettings {
+            integrity_false_alarm: 0.01,
+            ..s
+        };
+        let mut gauss = || {
+            let (a, b) = (u().max(1e-300), u());
+            (-2.0 * a.ln()).sqrt() * (std::f64::consts::TAU * b).cos()
+        };
+        for (sx, sy, isotropic) in [(3.0, 3.0, true), (3.0, 0.5, false)] {
+            let hpl = loose.protection_level(sx * sx, 0.0, sy * sy);
+            let n = 200_000;
+            let out = (0..n)
+                .filter(|_| (sx * gauss()).hypot(sy * gauss()) > hpl)
+                .count() as f64
+                / n as f64;
+            // 4.5 binomial σ of p = 0.01 over 200 000 draws: 0.001.
+            assert!(out <= 0.011, "σ ({sx}, {sy}): {out} beyond the level");
+            if isotropic {
+                assert!(out >= 0.009, "isotropic: {out}");
+            } else {
+                assert!(out < 0.005, "anisotropic: {out}");
+            }
         }
     }
 

@@ -293,6 +293,16 @@ pub enum Event {
         /// reference's state.
         step: Option<crate::navigator::ResetRecord>,
     },
+    /// The integrity test of an aid that is not autonomous was lost (the
+    /// reference's horizontal protection level went beyond the alert
+    /// limit: the aid is fused untested) or regained; one per change.
+    IntegrityAvailability {
+        stream: Stream,
+        t_ns: u64,
+        available: bool,
+        protection_m: f64,
+        alert_limit_m: f64,
+    },
     /// An aid rejected for `[aids] reset_after_s` while consistent reset the
     /// states it observes: the reset as published, the tests' findings, and
     /// the bias model the process noise was widened to if this reset did.
@@ -678,8 +688,13 @@ impl Session {
             a.exclusion_cause = m.cause;
             a.excluded_since_t_ns = m.excluded_since_ns;
             a.exclusions = m.exclusions;
+            a.integrity_state = match m.available {
+                None => msgs::integrity_state::NOT_TESTED,
+                Some(true) => msgs::integrity_state::TESTED,
+                Some(false) => msgs::integrity_state::UNAVAILABLE,
+            };
         }
-        s.flags |= self.excluded_flags();
+        s.flags |= self.integrity_flags();
         s.resumed = u8::from(self.resumed);
         (s.init_method, s.init_heading_aid) = self.init_method.to_wire();
         s.reinit_count = self.reinits;
@@ -697,12 +712,16 @@ impl Session {
         s
     }
 
-    /// The solution flags of the aids the integrity test excludes now.
-    fn excluded_flags(&self) -> u32 {
+    /// The solution flags of the aids the integrity test excludes now, and
+    /// of those fused untested (their test unavailable): what the session
+    /// adds to each solution's flags.
+    pub fn integrity_flags(&self) -> u32 {
         let mut f = 0;
         for (k, m) in self.integrity.iter() {
             if m.excluded {
                 f |= k.decl().excluded_flag;
+            } else if m.available == Some(false) {
+                f |= k.decl().untested_flag;
             }
         }
         f
@@ -1103,7 +1122,7 @@ impl Session {
         let marks = (n.switch_count(), n.last_reset().count, self.reinits);
         let must = last || self.marks != Some(marks);
         self.marks = Some(marks);
-        let excluded = self.excluded_flags();
+        let excluded = self.integrity_flags();
         let Some(n) = &mut self.nav else { return };
         if sink.wants_solution(n.t_ns(), must) {
             let mut s = n.solution();
@@ -1260,7 +1279,17 @@ impl Session {
         let k = a.kind();
         let m = &mut self.integrity[k];
         let readmit_ns = (is.readmit_after_s * 1e9).round() as u64;
+        let was = m.available;
         let verdict = m.decide(a.t_ns(), &test, readmit_ns);
+        if m.available != was && (was.is_some() || !test.available()) {
+            sink.event(&Event::IntegrityAvailability {
+                stream: stream_of(a),
+                t_ns: a.t_ns(),
+                available: test.available(),
+                protection_m: test.protection_m,
+                alert_limit_m: test.alert_limit_m,
+            });
+        }
         let mut step = None;
         if verdict == Verdict::Exclude {
             // What the main navigator fused of the aid is dropped: it

@@ -57,7 +57,8 @@ pub const HEADER: &str = "t_s,frame,lat_deg,lon_deg,h_m,x_m,y_m,z_m,vx_mps,vy_mp
 /// `NAME_fresh` (0/1) for every aid whose freshness has no column among
 /// [`HEADER_REQUIRED`] (the first three aids have theirs there), then
 /// `NAME_excluded` (0/1) for every aid that is not autonomous (its
-/// integrity test excludes it). So a pandas or MATLAB user reads which
+/// integrity test excludes it), then `NAME_untested` (0/1) for each of
+/// them (fused untested: its integrity test unavailable). So a pandas or MATLAB user reads which
 /// aids navigated at each epoch by name, e.g. `star_fresh`, `gnss_fresh`,
 /// `gnss_excluded`. Each column repeats one bit of `flags`, which is what
 /// [`parse`] reads: the group is ignored on reading, and a file written
@@ -74,7 +75,11 @@ pub fn aid_columns() -> &'static [(String, u32)] {
             .iter()
             .filter(|d| !d.autonomous)
             .map(|d| (format!("{}_excluded", d.name), d.excluded_flag));
-        fresh.chain(excluded).collect()
+        let untested = decls
+            .iter()
+            .filter(|d| !d.autonomous)
+            .map(|d| (format!("{}_untested", d.name), d.untested_flag));
+        fresh.chain(excluded).chain(untested).collect()
     })
 }
 
@@ -823,7 +828,8 @@ mod tests {
                 "gnss_fresh",
                 "baseline_fresh",
                 "mag_fresh",
-                "gnss_excluded"
+                "gnss_excluded",
+                "gnss_untested"
             ]
         );
         let bits: Vec<u32> = aid_columns().iter().map(|&(_, b)| b).collect();
@@ -834,7 +840,8 @@ mod tests {
                 solution_flags::GNSS_FRESH,
                 solution_flags::BASELINE_FRESH,
                 solution_flags::MAG_FRESH,
-                solution_flags::GNSS_EXCLUDED
+                solution_flags::GNSS_EXCLUDED,
+                solution_flags::GNSS_UNTESTED
             ]
         );
         let head: Vec<&str> = header().split(',').collect();
@@ -853,9 +860,18 @@ mod tests {
                 solution_flags::BASELINE_FRESH | solution_flags::GNSS_FRESH,
                 ["0", "1", "1", "0"],
             ),
+            (
+                solution_flags::GNSS_UNTESTED | solution_flags::GNSS_FRESH,
+                ["0", "1", "0", "0"],
+            ),
         ] {
             let s = Solution { flags, ..sample() };
-            let want = [want[0], want[1], want[2], "0", want[3]];
+            let untested = if flags & solution_flags::GNSS_UNTESTED != 0 {
+                "1"
+            } else {
+                "0"
+            };
+            let want = [want[0], want[1], want[2], "0", want[3], untested];
             let text = csv_of(&s);
             let row: Vec<&str> = text.lines().nth(1).expect("row").split(',').collect();
             assert_eq!(row.len(), head.len());
@@ -865,6 +881,7 @@ mod tests {
                 "baseline_fresh",
                 "mag_fresh",
                 "gnss_excluded",
+                "gnss_untested",
             ]
             .iter()
             .zip(want)

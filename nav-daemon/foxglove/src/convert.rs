@@ -156,6 +156,8 @@ fn aid_status(t_ns: u64, kind: AidKind, a: &AidStatus, at: UpdateAt) -> pb::AidS
         excluded,
         excluded_since_t_ns,
         exclusion_cause,
+        integrity_unavailable: !decl.autonomous
+            && a.integrity_state == msgs::integrity_state::UNAVAILABLE,
         refused: decl
             .causes
             .iter()

@@ -89,6 +89,10 @@ pub struct GnssSettings {
     pub integrity: bool,
     /// False-alarm probability of one integrity test (one fix).
     pub integrity_false_alarm: f64,
+    /// The test is available while the autonomous solution's horizontal
+    /// protection level is within this (m); beyond it GNSS is fused
+    /// untested (flagged `GNSS_UNTESTED`).
+    pub integrity_alert_limit_m: f64,
     /// Excluded GNSS is readmitted after its fixes have agreed with the
     /// autonomous solution continuously for this long (s).
     pub readmit_after_s: f64,
@@ -107,6 +111,7 @@ impl Default for GnssSettings {
             max_pdop: 10.0,
             integrity: IntegritySettings::default().integrity,
             integrity_false_alarm: IntegritySettings::default().integrity_false_alarm,
+            integrity_alert_limit_m: IntegritySettings::default().integrity_alert_limit_m,
             readmit_after_s: IntegritySettings::default().readmit_after_s,
         }
     }
@@ -117,6 +122,7 @@ impl OwnSettings for GnssSettings {
         Some(IntegritySettings {
             integrity: self.integrity,
             integrity_false_alarm: self.integrity_false_alarm,
+            integrity_alert_limit_m: self.integrity_alert_limit_m,
             readmit_after_s: self.readmit_after_s,
         })
     }

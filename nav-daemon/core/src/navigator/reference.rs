@@ -59,11 +59,27 @@ impl Navigator {
         };
         let (q, by_unit) = q?;
         let threshold = settings.threshold(decl.dof());
+        let [[a, b], [_, c]] = self.horizontal_position_covariance(&p);
         Some(Test {
             q,
             threshold,
             cause: by_unit,
+            protection_m: settings.protection_level(a, b, c),
+            alert_limit_m: settings.integrity_alert_limit_m,
         })
+    }
+
+    /// The east-north block (m²) of the position covariance in `p` (this
+    /// navigator's frame) at the current position.
+    fn horizontal_position_covariance(&self, p: &crate::error_model::Mat15) -> [[f64; 2]; 2] {
+        use crate::error_model::idx;
+        let m = self
+            .nominal
+            .nav()
+            .position_error_to_enu(&self.nominal.local().c_e_g());
+        let pp = p.fixed_view::<3, 3>(idx::DP, idx::DP);
+        let enu = m * pp * m.transpose();
+        [[enu[(0, 0)], enu[(0, 1)]], [enu[(1, 0)], enu[(1, 1)]]]
     }
 
     /// Takes `reference`'s navigation state, covariance, biases, history
