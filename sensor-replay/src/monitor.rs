@@ -89,7 +89,7 @@ pub fn render(sol: Option<&Solution>, st: Option<&Status>, solutions_per_s: f64)
                 )
             ));
             let rows = std::iter::once(("imu", x.imu(), None))
-                .chain(x.each_aid().map(|(k, c, a)| (k.name(), c, Some(a))));
+                .chain(x.each_aid().map(|(k, c, a)| (k.name(), c, Some((k, a)))));
             for (name, c, a) in rows {
                 let name = format!("{name:<4}");
                 s.push_str(&format!(
@@ -102,18 +102,40 @@ pub fn render(sol: Option<&Solution>, st: Option<&Status>, solutions_per_s: f64)
                     c.not_used,
                     c.seq_gaps
                 ));
-                if let Some(a) = a {
+                if let Some((k, a)) = a {
                     s.push_str(&format!(
                         "  test ratio {:.2} {}",
                         a.test_ratio,
                         if a.fresh == 1 { "fresh" } else { "stale" }
                     ));
+                    if !k.decl().autonomous {
+                        s.push_str(&integrity(a));
+                    }
                 }
                 s.push('\n');
             }
         }
     }
     s
+}
+
+/// The integrity test of an aid that is not autonomous, for its row.
+fn integrity(a: &msgs::AidStatus) -> String {
+    use msgs::integrity_state as st;
+    if a.excluded != 0 {
+        return format!(
+            "  EXCLUDED since {:.1} s: {} (q/threshold {:.2})",
+            a.excluded_since_t_ns as f64 * 1e-9,
+            polarnav::integrity::cause::text(a.exclusion_cause),
+            a.integrity_ratio
+        );
+    }
+    match a.integrity_state {
+        st::TESTED => format!("  integrity tested, q/threshold {:.2}", a.integrity_ratio),
+        st::UNAVAILABLE => "  integrity UNAVAILABLE: fused untested".to_owned(),
+        st::NOT_TESTED => "  integrity not tested".to_owned(),
+        other => format!("  integrity state {other} unknown"),
+    }
 }
 
 /// One update of the monitor as written to stdout: on a terminal the screen
@@ -196,6 +218,24 @@ mod tests {
         );
         assert!(text.contains("rx      300"), "{text}");
         assert!(render(None, None, 0.0).contains("none yet"));
+        // GNSS, the aid that is not autonomous: its integrity test's state.
+        let g = msgs::AidKind::Gnss;
+        assert!(text.contains("integrity not tested"), "{text}");
+        st.aid_mut(g).integrity_state = msgs::integrity_state::UNAVAILABLE;
+        let text = render(Some(&sol), Some(&st), 200.0);
+        assert!(
+            text.contains("integrity UNAVAILABLE: fused untested"),
+            "{text}"
+        );
+        st.aid_mut(g).excluded = 1;
+        st.aid_mut(g).exclusion_cause = 2;
+        st.aid_mut(g).excluded_since_t_ns = 318_000_000_000;
+        let text = render(Some(&sol), Some(&st), 200.0);
+        assert!(
+            text.contains("EXCLUDED since 318.0 s: velocity inconsistent"),
+            "{text}"
+        );
+        assert_eq!(text.matches("integrity").count(), 0, "{text}");
     }
 
     #[test]

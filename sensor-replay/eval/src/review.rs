@@ -621,20 +621,29 @@ const NOT_AUTONOMOUS: usize = {
 
 /// Lanes of the health timeline: COASTING and IMU lost, the flight state
 /// (on the ground, manoeuvre) and the accelerometers' level, each aid
-/// stale, each aid that is not autonomous excluded, then aid reset,
-/// rejected update and second publisher.
-const LANE_COUNT: usize = 8 + msgs::AID_COUNT + NOT_AUTONOMOUS;
+/// stale, each aid that is not autonomous excluded, then fused untested
+/// (its integrity test unavailable), then aid reset, rejected update and
+/// second publisher.
+const LANE_COUNT: usize = 8 + msgs::AID_COUNT + 2 * NOT_AUTONOMOUS;
+
+/// What an aid's lane shows.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum AidLane {
+    Stale,
+    Excluded,
+    Untested,
+}
 
 /// A lane of the health timeline: set when the flags' bits `mask` equal
 /// `value` (or differ, `clear`, for a fresh flag drawn as stale). `aid`:
-/// whose freshness or exclusion.
+/// whose freshness, exclusion or untested fusion.
 #[derive(Debug)]
 struct Lane {
     name: String,
     mask: u32,
     value: u32,
     clear: bool,
-    aid: Option<AidKind>,
+    aid: Option<(AidKind, AidLane)>,
 }
 
 /// The lanes, the aids' from their declaration (`msgs::for_each_aid!`).
@@ -669,20 +678,31 @@ fn lanes() -> &'static [Lane; LANE_COUNT] {
             mask: k.decl().fresh_flag,
             value: k.decl().fresh_flag,
             clear: true,
-            aid: Some(*k),
+            aid: Some((*k, AidLane::Stale)),
         }));
-        v.extend(
-            AidKind::ALL
-                .iter()
-                .filter(|k| !k.decl().autonomous)
-                .map(|k| Lane {
-                    name: format!("{} excluded", k.decl().label),
-                    mask: k.decl().excluded_flag,
-                    value: k.decl().excluded_flag,
-                    clear: false,
-                    aid: Some(*k),
-                }),
-        );
+        for (what, lane) in [
+            ("excluded", AidLane::Excluded),
+            ("untested", AidLane::Untested),
+        ] {
+            v.extend(
+                AidKind::ALL
+                    .iter()
+                    .filter(|k| !k.decl().autonomous)
+                    .map(|k| {
+                        let bit = match lane {
+                            AidLane::Untested => k.decl().untested_flag,
+                            _ => k.decl().excluded_flag,
+                        };
+                        Lane {
+                            name: format!("{} {what}", k.decl().label),
+                            mask: bit,
+                            value: bit,
+                            clear: false,
+                            aid: Some((*k, lane)),
+                        }
+                    }),
+            );
+        }
         v.push(flag("aid reset", solution_flags::AID_RESET));
         v.push(flag(
             "last update rejected",
@@ -693,11 +713,9 @@ fn lanes() -> &'static [Lane; LANE_COUNT] {
     })
 }
 
-/// The lane of aid `k`'s freshness (`excluded`: of its exclusion).
-fn lane_of(k: AidKind, excluded: bool) -> Option<usize> {
-    lanes()
-        .iter()
-        .position(|l| l.aid == Some(k) && l.clear != excluded)
+/// The lane of aid `k`'s freshness, exclusion or untested fusion.
+fn lane_of(k: AidKind, lane: AidLane) -> Option<usize> {
+    lanes().iter().position(|l| l.aid == Some((k, lane)))
 }
 
 /// The label of lane `k` of [`lanes`]: a fresh flag that was clear in
@@ -1730,7 +1748,9 @@ fn aids_section(pass: &Pass, faults: &[(AidKind, String, f64)]) -> String {
     let mut md = String::from("### Which aids navigated\n\n");
     let rows = pass.rows.max(1) as f64;
     for k in AidKind::ALL {
-        let Some(c) = lane_of(k, false) else { continue };
+        let Some(c) = lane_of(k, AidLane::Stale) else {
+            continue;
+        };
         let fresh = pass.rows - pass.health_set[c + 1];
         let _ = write!(
             md,
@@ -1739,7 +1759,7 @@ fn aids_section(pass: &Pass, faults: &[(AidKind, String, f64)]) -> String {
             k.decl().title,
             100.0 * fresh as f64 / rows
         );
-        if let Some(e) = lane_of(k, true) {
+        if let Some(e) = lane_of(k, AidLane::Excluded) {
             let ex: Vec<&(f64, AidKind, bool)> =
                 pass.exclusions.iter().filter(|x| x.1 == k).collect();
             let n = ex.iter().filter(|x| x.2).count();
@@ -1762,6 +1782,15 @@ fn aids_section(pass: &Pass, faults: &[(AidKind, String, f64)]) -> String {
             if !times.is_empty() {
                 let _ = write!(md, " ({})", times.join(", "));
             }
+        }
+        if let Some(u) = lane_of(k, AidLane::Untested) {
+            let _ = write!(
+                md,
+                "; its integrity test unavailable (the autonomous solution's horizontal \
+                 protection level beyond the alert limit: its samples fused untested) in {:.2} % \
+                 of rows",
+                100.0 * pass.health_set[u + 1] as f64 / rows
+            );
         }
         md.push('\n');
     }
@@ -1864,7 +1893,7 @@ fn aids_figure<DB: DrawingBackend>(
     };
     for (i, k) in AidKind::ALL.iter().enumerate() {
         let y = n - 1.0 - i as f64;
-        let Some(c) = lane_of(*k, false) else {
+        let Some(c) = lane_of(*k, AidLane::Stale) else {
             continue;
         };
         // The stale lane: min 0 = fused somewhere in the column, max 0 = throughout.
@@ -1882,7 +1911,7 @@ fn aids_figure<DB: DrawingBackend>(
                     }),
             )
             .map_err(plots::s)?;
-        if let Some(e) = lane_of(*k, true) {
+        if let Some(e) = lane_of(*k, AidLane::Excluded) {
             chart
                 .draw_series(
                     spans(e + 1)
@@ -1890,6 +1919,21 @@ fn aids_figure<DB: DrawingBackend>(
                         .filter(|p| p.3 > 0.5)
                         .map(|(a, b, _, _)| {
                             Rectangle::new([(a, y - 0.42), (b, y - 0.3)], RED_.mix(0.9).filled())
+                        }),
+                )
+                .map_err(plots::s)?;
+        }
+        if let Some(u) = lane_of(*k, AidLane::Untested) {
+            chart
+                .draw_series(
+                    spans(u + 1)
+                        .into_iter()
+                        .filter(|p| p.3 > 0.5)
+                        .map(|(a, b, _, _)| {
+                            Rectangle::new(
+                                [(a, y - 0.42), (b, y - 0.3)],
+                                plots::ORANGE.mix(0.9).filled(),
+                            )
                         }),
                 )
                 .map_err(plots::s)?;
@@ -1925,6 +1969,10 @@ fn aids_figure<DB: DrawingBackend>(
         &[
             ("fused (within timeout)".into(), Mark::Square(plots::GREEN)),
             ("excluded (integrity)".into(), Mark::Square(RED_)),
+            (
+                "integrity unavailable (fused untested)".into(),
+                Mark::Square(plots::ORANGE),
+            ),
             ("fault injected".into(), Mark::Triangle),
         ],
         &notes,
