@@ -529,12 +529,15 @@ fn without_a_horizontal_autonomous_aid_gnss_is_fused_untested_not_excluded() {
             "seed {seed}: available until {first_untested} s"
         );
         assert_eq!(untested.len() + admitted.len(), tested, "seed {seed}");
+        // Lost beyond the alert limit and never back within 90 % of it.
         assert!(
-            on.integrity
-                .iter()
-                .all(|(_, t, v)| (*v == Verdict::Untested) != t.available()),
-            "seed {seed}: a verdict against its test's availability"
+            on.integrity.iter().all(|(_, t, v)| match v {
+                Verdict::Admit => t.available(),
+                _ => t.protection_m > polarnav::integrity::REGAIN * t.alert_limit_m,
+            }),
+            "seed {seed}: a verdict against its test's protection level"
         );
+        assert!(!on.integrity[admitted.len()].1.available());
         // The main navigator is the one of the flight without the test.
         assert_eq!(on.snaps.len(), off.snaps.len());
         for (a, b) in on.snaps.iter().zip(&off.snaps) {

@@ -50,7 +50,8 @@
 //! bound holds). While HPL is beyond the alert limit from the settings
 //! (default 100 m: a drag of 100 m must be caught), the test is
 //! unavailable: its statistic is still computed and reported, but not
-//! acted on. A sample is fused untested (the solution flag and the
+//! acted on (regained once HPL is back within 90 % of the limit, so that
+//! a level hovering at it does not flap). A sample is fused untested (the solution flag and the
 //! status say so, and one log line each time the test is lost or
 //! regained); an excluded aid stays excluded (readmission needs a test
 //! that can judge), its agreement time starting again. This is the case
@@ -208,6 +209,10 @@ impl Test {
     }
 }
 
+/// A lost test is regained once the protection level is back within this
+/// share of the alert limit.
+pub const REGAIN: f64 = 0.9;
+
 /// What to do with a tested sample.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub enum Verdict {
@@ -248,8 +253,16 @@ impl Monitor {
     /// readmission time being `readmit_ns`.
     pub fn decide(&mut self, t_ns: u64, test: &Test, readmit_ns: u64) -> Verdict {
         self.last_ratio = Some(test.ratio());
-        self.available = Some(test.available());
-        if !test.available() {
+        // Lost beyond the alert limit, regained within REGAIN of it: a
+        // protection level hovering at the limit (it grows between the
+        // autonomous aids' updates and drops at each) does not flap.
+        let available = if self.available == Some(false) {
+            test.protection_m <= REGAIN * test.alert_limit_m
+        } else {
+            test.available()
+        };
+        self.available = Some(available);
+        if !available {
             // Nothing is judged: an excluded aid stays excluded and must
             // agree for the whole readmission time once the test is back.
             self.agreeing_since_ns = None;
@@ -337,6 +350,17 @@ mod tests {
         };
         assert!(!nan.available() && test(1.0).available() && !unavailable(1.0).available());
         assert_eq!(m.decide(125 * s, &nan, 60 * s), Verdict::Untested);
+        // Regained only within 90 % of the limit: 95 m stays lost, 90 m
+        // is back; then lost again only beyond the limit.
+        let at = |p: f64| Test {
+            protection_m: p,
+            ..test(1.0)
+        };
+        assert_eq!(m.decide(126 * s, &at(95.0), 60 * s), Verdict::Untested);
+        assert_eq!(m.decide(127 * s, &at(90.0), 60 * s), Verdict::Admit);
+        assert_eq!(m.decide(128 * s, &at(99.9), 60 * s), Verdict::Admit);
+        assert_eq!(m.decide(129 * s, &at(100.1), 60 * s), Verdict::Untested);
+        assert_eq!(m.available, Some(false));
     }
 
     /// The protection level against two independent computations: for an
