@@ -219,6 +219,8 @@ pub struct Run {
     /// Every integrity test (an aid that is not autonomous): its time,
     /// test and decision.
     pub integrity: Vec<(u64, Test, Verdict)>,
+    /// Each time an integrity test was lost (false) or regained (true).
+    pub availability: Vec<(u64, bool)>,
     /// The final status.
     pub status: msgs::Status,
     /// The flight-state recognition's and the level compensation's counts
@@ -248,6 +250,7 @@ struct RunSink {
     switches: Vec<SwitchEvent>,
     rejected_imu: u64,
     integrity: Vec<(u64, Test, Verdict)>,
+    availability: Vec<(u64, bool)>,
 }
 
 impl Sink for RunSink {
@@ -261,6 +264,9 @@ impl Sink for RunSink {
                 verdict,
                 ..
             } => self.integrity.push((*t_ns, *test, *verdict)),
+            Event::IntegrityAvailability {
+                t_ns, available, ..
+            } => self.availability.push((*t_ns, *available)),
             Event::Rejected {
                 stream: Stream::Imu,
                 ..
@@ -350,6 +356,7 @@ fn run_session(records: &[Record], settings: SessionSettings, init: Option<InitS
     let st = session.status();
     out.status = st;
     out.integrity = sink.integrity;
+    out.availability = sink.availability;
     out.switches = sink.switches;
     out.fused = st.each_aid().map(|(_, c, _)| c.accepted).sum();
     out.rejected = st

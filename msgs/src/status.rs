@@ -108,8 +108,9 @@ pub struct AidStatus {
     /// An aid that is not autonomous: whether its integrity test could
     /// judge its last sample ([`integrity_state`]: 0 not tested (an
     /// autonomous aid, the test off, or no sample yet), 1 tested, 2
-    /// unavailable: the autonomous solution's horizontal protection level
-    /// beyond the alert limit, the aid fused untested). The byte was
+    /// unavailable: the test's horizontal protection level beyond the
+    /// alert limit, the sample fused untested unless the aid is excluded).
+    /// The last sample's state: it stays through an outage. The byte was
     /// padding (always zero) before: an older sender reads "not tested".
     pub integrity_state: u8,
     /// Always zero.

@@ -560,6 +560,11 @@ fn review_of_a_spoofed_flight_says_which_aids_navigated_and_the_time_to_alarm() 
             let t = t_ns as f64 * 1e-9;
             st.aid_mut(AidKind::Gnss).integrity_ratio = if (20.0..40.0).contains(&t) {
                 12.0
+            } else if t >= 48.0 {
+                // The test unavailable at the end: its statistic is drawn
+                // apart (not acted on), however large.
+                st.aid_mut(AidKind::Gnss).integrity_state = msgs::integrity_state::UNAVAILABLE;
+                2.0 + (t - 48.0)
             } else {
                 0.1 + 0.05 * (t * 0.7).sin()
             };

@@ -528,6 +528,9 @@ fn without_a_horizontal_autonomous_aid_gnss_is_fused_untested_not_excluded() {
             first_untested < 60.0,
             "seed {seed}: available until {first_untested} s"
         );
+        // One event: the test lost at the first untested fix (none for the
+        // first test, which was available).
+        assert_eq!(on.availability, [(untested[0], false)], "seed {seed}");
         assert_eq!(untested.len() + admitted.len(), tested, "seed {seed}");
         // Lost beyond the alert limit and never back within 90 % of it.
         assert!(

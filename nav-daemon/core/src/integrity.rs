@@ -40,28 +40,37 @@
 //! Everything is decided on the samples' stamps, so live equals `batch`.
 //!
 //! **When the test is unavailable.** The test can only tell a spoofed
-//! position from the reference's own error when that error is small. Its
-//! measure is the reference's horizontal protection level, as in RAIM:
-//! HPL = √(χ²₂ quantile of the false-alarm probability) · σ_max, σ_max² the
-//! largest eigenvalue of the reference's horizontal position covariance
-//! (m²) — the radius that its horizontal error, were it as large as it is
-//! along its worst axis in every direction, exceeds with the false-alarm
-//! probability (|e|²/σ_max² ~ χ²₂; smaller along the other axis, so the
-//! bound holds). While HPL is beyond the alert limit from the settings
-//! (default 100 m: a drag of 100 m must be caught), the test is
-//! unavailable: its statistic is still computed and reported, but not
-//! acted on (regained once HPL is back within 90 % of the limit, so that
-//! a level hovering at it does not flap). A sample is fused untested (the solution flag and the
-//! status say so, and one log line each time the test is lost or
-//! regained); an excluded aid stays excluded (readmission needs a test
-//! that can judge), its agreement time starting again. This is the case
-//! of an INS without a horizontal autonomous aid: a MEMS INS with only a
-//! barometer and a magnetometer is kilometres off within minutes, its
-//! error no longer small enough for the linear filter's covariance to
-//! describe (mems-aircraft, seed 3, with the test on: q rose from 3 to 55
-//! over the first two minutes, mean χ²(6) being 6, and a false alarm at
-//! 85 s made the solution jump 976 m to the reference). There, HPL passes
-//! 100 m within the first half minute, and no alarm is raised.
+//! position from the reference's own error while that error is small. Its
+//! measure is a protection level, as in RAIM: the smallest horizontal
+//! position offset (the velocity left alone) that the test detects with
+//! probability at least 1 − [`P_MISSED_DETECTION`] in its worst direction.
+//! An offset δ in the sample's horizontal position components adds
+//! δᵀ (S⁻¹)_hh δ to q's non-centrality ((S⁻¹)_hh: the horizontal block of
+//! S's inverse); q ≥ ((δ + n)/σ_w)² for the whitened noise n along it, so
+//! q passes the threshold T with probability at least 1 − p_md once
+//! |δ| ≥ (√T + K_md) · σ_w, σ_w² = 1/λ_min((S⁻¹)_hh) and K_md the normal
+//! quantile of 1 − p_md: that |δ| is the protection level. (A spoofer's
+//! drag also moves the velocity, which only raises q.) S is taken as
+//! the reference's H P_ref Hᵀ alone: the receiver's R is what the
+//! receiver claims, and a spoofer claiming a large σ must not be able to
+//! switch the test off; the refusal of fixes claiming more than
+//! `max_h_acc_m` bounds what R takes from the test's power. While it is beyond the alert limit from the settings
+//! (default 100 m), the test is unavailable (until the level is back within
+//! 90 % of the limit, so that a level hovering at it does not flap): q is
+//! still computed and reported, but nothing is decided on it. A sample is
+//! fused untested (the solution flag and the status say so, and one log
+//! line each time the test is lost or regained); an excluded aid stays
+//! excluded (readmission needs a test that can judge), its agreement time
+//! starting again. This is the case of an INS without a horizontal
+//! autonomous aid: a MEMS INS with only a barometer and a magnetometer is
+//! kilometres off within minutes, its error no longer small enough for the
+//! linear filter's covariance to describe (mems-aircraft, seed 3, with the
+//! test on: q rose from 3 to 55 over the first two minutes, mean χ²(6)
+//! being 6, and a false alarm at 85 s made the solution jump 976 m to the
+//! reference). There the level passes 100 m 39 s after the start, and
+//! no alarm is raised. On such an aircraft an exclusion in those first
+//! seconds would be for the rest of the flight: the test never comes back
+//! to readmit the aid.
 
 use serde::{Deserialize, Serialize};
 
@@ -141,17 +150,27 @@ impl IntegritySettings {
         crate::chi2::quantile_upper(self.integrity_false_alarm, dof as f64)
     }
 
-    /// The horizontal protection level (m) of a reference whose horizontal
-    /// position covariance (east, north; m²) is `[[a, b], [b, c]]`:
-    /// √(χ²₂ quantile) · √λ_max (see the module's documentation). Not
-    /// finite (so unavailable) when the covariance is not.
-    pub fn protection_level(&self, a: f64, b: f64, c: f64) -> f64 {
+    /// The protection level (m) of a test of `dof` components whose
+    /// inverse innovation covariance has the horizontal position block
+    /// `[[a, b], [b, c]]` (1/m²): (√T + K_md) / √λ_min (see the module's
+    /// documentation). Infinite (so unavailable) when the block is not
+    /// finite or not positive definite.
+    pub fn protection_level(&self, dof: usize, a: f64, b: f64, c: f64) -> f64 {
         let half = 0.5 * (a - c);
-        let lambda_max = 0.5 * (a + c) + (half * half + b * b).sqrt();
-        let k2 = crate::chi2::quantile_upper(self.integrity_false_alarm, 2.0);
-        (k2 * lambda_max.max(0.0)).sqrt()
+        let lambda_min = 0.5 * (a + c) - half.hypot(b);
+        let definite = a > 0.0 && c > 0.0 && a * c > b * b && lambda_min > 0.0;
+        if !(definite && lambda_min.is_finite() && (a + c).is_finite()) {
+            return f64::INFINITY;
+        }
+        (self.threshold(dof).sqrt() + K_MISSED_DETECTION) / lambda_min.sqrt()
     }
 }
+
+/// Probability that the test misses a horizontal offset of its protection
+/// level (the RAIM convention, 10⁻³).
+pub const P_MISSED_DETECTION: f64 = 1e-3;
+/// Its normal quantile: K with P(N(0, 1) < −K) = [`P_MISSED_DETECTION`].
+pub const K_MISSED_DETECTION: f64 = 3.090_232_306_167_813_5;
 
 /// Why an aid was excluded ([`Monitor::cause`], `AidStatus::exclusion_cause`).
 pub mod cause {
@@ -186,8 +205,8 @@ pub struct Test {
     /// The cause an alarm would have (the block of components with the
     /// larger share of q, each against its own χ² quantile).
     pub cause: u8,
-    /// The reference's horizontal protection level (m), and the alert
-    /// limit it must be within for the test to judge.
+    /// The test's horizontal protection level (m), and the alert limit it
+    /// must be within for the test to judge.
     pub protection_m: f64,
     pub alert_limit_m: f64,
 }
@@ -246,12 +265,22 @@ pub struct Monitor {
     pub exclusions: u64,
     /// Whether the last test could judge (None before any).
     pub available: Option<bool>,
+    /// Stamp of the last test that agreed while the aid is excluded.
+    last_agreeing_ns: u64,
 }
 
 impl Monitor {
+    /// A sample of the aid could not be tested (its S not positive
+    /// definite): an excluded aid's agreement starts again.
+    pub fn untestable(&mut self) {
+        self.agreeing_since_ns = None;
+    }
+
     /// Decides on a sample stamped `t_ns` that was tested (`test`), the
-    /// readmission time being `readmit_ns`.
-    pub fn decide(&mut self, t_ns: u64, test: &Test, readmit_ns: u64) -> Verdict {
+    /// readmission time being `readmit_ns`. An excluded aid's agreement
+    /// must be continuous: a gap of more than `max_gap_ns` between two
+    /// agreeing samples (the aid's timeout: an outage) starts it again.
+    pub fn decide(&mut self, t_ns: u64, test: &Test, readmit_ns: u64, max_gap_ns: u64) -> Verdict {
         self.last_ratio = Some(test.ratio());
         // Lost beyond the alert limit, regained within REGAIN of it: a
         // protection level hovering at the limit (it grows between the
@@ -287,6 +316,10 @@ impl Monitor {
             self.agreeing_since_ns = None;
             return Verdict::Refuse;
         }
+        if t_ns.saturating_sub(self.last_agreeing_ns) > max_gap_ns {
+            self.agreeing_since_ns = None;
+        }
+        self.last_agreeing_ns = t_ns;
         let since = *self.agreeing_since_ns.get_or_insert(t_ns);
         if t_ns.saturating_sub(since) >= readmit_ns {
             self.excluded = false;
@@ -328,58 +361,96 @@ mod tests {
         let s = 1_000_000_000u64;
         let mut m = Monitor::default();
         assert_eq!(m.available, None);
-        assert_eq!(m.decide(s, &unavailable(1e9), 60 * s), Verdict::Untested);
+        assert_eq!(
+            m.decide(s, &unavailable(1e9), 60 * s, u64::MAX),
+            Verdict::Untested
+        );
         assert_eq!(
             (m.excluded, m.exclusions, m.available),
             (false, 0, Some(false))
         );
-        assert_eq!(m.decide(2 * s, &test(3.0), 60 * s), Verdict::Admit);
+        assert_eq!(
+            m.decide(2 * s, &test(3.0), 60 * s, u64::MAX),
+            Verdict::Admit
+        );
         assert_eq!(m.available, Some(true));
-        assert_eq!(m.decide(3 * s, &test(11.0), 60 * s), Verdict::Exclude);
+        assert_eq!(
+            m.decide(3 * s, &test(11.0), 60 * s, u64::MAX),
+            Verdict::Exclude
+        );
         // Agreeing for 50 s, then the test is lost for a sample: the
         // agreement starts again when it is back.
-        assert_eq!(m.decide(4 * s, &test(1.0), 60 * s), Verdict::Refuse);
-        assert_eq!(m.decide(54 * s, &test(1.0), 60 * s), Verdict::Refuse);
-        assert_eq!(m.decide(55 * s, &unavailable(1.0), 60 * s), Verdict::Refuse);
-        assert_eq!(m.decide(64 * s, &test(1.0), 60 * s), Verdict::Refuse);
-        assert_eq!(m.decide(123 * s, &test(1.0), 60 * s), Verdict::Refuse);
-        assert_eq!(m.decide(124 * s, &test(1.0), 60 * s), Verdict::Readmit);
+        assert_eq!(
+            m.decide(4 * s, &test(1.0), 60 * s, u64::MAX),
+            Verdict::Refuse
+        );
+        assert_eq!(
+            m.decide(54 * s, &test(1.0), 60 * s, u64::MAX),
+            Verdict::Refuse
+        );
+        assert_eq!(
+            m.decide(55 * s, &unavailable(1.0), 60 * s, u64::MAX),
+            Verdict::Refuse
+        );
+        assert_eq!(
+            m.decide(64 * s, &test(1.0), 60 * s, u64::MAX),
+            Verdict::Refuse
+        );
+        assert_eq!(
+            m.decide(123 * s, &test(1.0), 60 * s, u64::MAX),
+            Verdict::Refuse
+        );
+        assert_eq!(
+            m.decide(124 * s, &test(1.0), 60 * s, u64::MAX),
+            Verdict::Readmit
+        );
         let nan = Test {
             protection_m: f64::NAN,
             ..test(1.0)
         };
         assert!(!nan.available() && test(1.0).available() && !unavailable(1.0).available());
-        assert_eq!(m.decide(125 * s, &nan, 60 * s), Verdict::Untested);
+        assert_eq!(m.decide(125 * s, &nan, 60 * s, u64::MAX), Verdict::Untested);
         // Regained only within 90 % of the limit: 95 m stays lost, 90 m
         // is back; then lost again only beyond the limit.
         let at = |p: f64| Test {
             protection_m: p,
             ..test(1.0)
         };
-        assert_eq!(m.decide(126 * s, &at(95.0), 60 * s), Verdict::Untested);
-        assert_eq!(m.decide(127 * s, &at(90.0), 60 * s), Verdict::Admit);
-        assert_eq!(m.decide(128 * s, &at(99.9), 60 * s), Verdict::Admit);
-        assert_eq!(m.decide(129 * s, &at(100.1), 60 * s), Verdict::Untested);
+        assert_eq!(
+            m.decide(126 * s, &at(95.0), 60 * s, u64::MAX),
+            Verdict::Untested
+        );
+        assert_eq!(
+            m.decide(127 * s, &at(90.0), 60 * s, u64::MAX),
+            Verdict::Admit
+        );
+        assert_eq!(
+            m.decide(128 * s, &at(99.9), 60 * s, u64::MAX),
+            Verdict::Admit
+        );
+        assert_eq!(
+            m.decide(129 * s, &at(100.1), 60 * s, u64::MAX),
+            Verdict::Untested
+        );
         assert_eq!(m.available, Some(false));
     }
 
-    /// The protection level against two independent computations: for an
-    /// isotropic covariance σ² I the closed form of χ²₂'s tail,
-    /// P(|e| > HPL) = exp(−HPL²/(2σ²)) = the false-alarm probability; for
-    /// any covariance, the largest eigenvalue by nalgebra's symmetric
-    /// eigen-decomposition of the same matrix rotated by a random angle
-    /// (the level does not depend on the axes); and a Monte Carlo run of
-    /// the exceedance of a loose level (p = 0.01), which must not exceed
-    /// p (the bound is conservative off the worst axis) and must be near
-    /// it for an isotropic covariance.
+    /// The protection level against independent computations: K_md
+    /// against the normal quantile; the smallest eigenvalue by nalgebra's
+    /// symmetric eigen-decomposition (the closed form must agree, whatever
+    /// the axes); and a Monte Carlo run of the χ²(6) test itself: an offset
+    /// of the level along the worst horizontal direction, the innovation
+    /// drawn from N(offset, S) for a random S, is detected at least
+    /// 1 − p_md of the time, and one of 0.8 times the level clearly less
+    /// often. Non-finite, indefinite and singular blocks are infinite.
     #[test]
-    fn the_protection_level_bounds_the_horizontal_error_with_the_false_alarm_probability() {
+    fn the_protection_level_is_the_offset_the_test_detects() {
+        use nalgebra::{SMatrix, SVector};
         let s = IntegritySettings::default();
-        for sigma in [1e-3, 1.0, 17.0, 3e4] {
-            let hpl = s.protection_level(sigma * sigma, 0.0, sigma * sigma);
-            let tail = (-hpl * hpl / (2.0 * sigma * sigma)).exp();
-            assert!((tail / 1e-7 - 1.0).abs() < 1e-6, "σ {sigma}: tail {tail}");
-        }
+        assert!(
+            (crate::chi2::normal_quantile(1.0 - P_MISSED_DETECTION) - K_MISSED_DETECTION).abs()
+                < 1e-9
+        );
         let mut seed = 3u64;
         let mut u = || {
             seed = seed
@@ -388,37 +459,69 @@ mod tests {
             (seed >> 11) as f64 / (1u64 << 53) as f64
         };
         for _ in 0..200 {
-            let (l1, l2) = (10f64.powf(u() * 8.0 - 2.0), 10f64.powf(u() * 8.0 - 2.0));
+            let (l1, l2) = (10f64.powf(u() * 8.0 - 6.0), 10f64.powf(u() * 8.0 - 6.0));
             let th = u() * std::f64::consts::TAU;
             let r = nalgebra::Matrix2::new(th.cos(), -th.sin(), th.sin(), th.cos());
             let c = r * nalgebra::Matrix2::new(l1, 0.0, 0.0, l2) * r.transpose();
-            let got = s.protection_level(c[(0, 0)], c[(0, 1)], c[(1, 1)]);
-            let eig = c.symmetric_eigen().eigenvalues.max();
-            let want = (crate::chi2::quantile_upper(1e-7, 2.0) * eig).sqrt();
-            assert!((got / want - 1.0).abs() < 1e-9, "{got} {want}");
+            let got = s.protection_level(6, c[(0, 0)], c[(0, 1)], c[(1, 1)]);
+            let min = c.symmetric_eigen().eigenvalues.min();
+            let want = (s.threshold(6).sqrt() + K_MISSED_DETECTION) / min.sqrt();
+            assert!((got / want - 1.0).abs() < 1e-7, "{got} {want}");
         }
-        let loose = IntegritySettings {
-            integrity_false_alarm: 0.01,
-            ..s
-        };
+        for bad in [
+            [f64::NAN, 0.0, 1.0],
+            [1.0, f64::NAN, 1.0],
+            [f64::INFINITY, 0.0, 1.0],
+            [-1.0, 0.0, -1.0],
+            [4.0, 0.0, -4e4],
+            [1.0, 1.0, 1.0],
+            [1.0, 2.0, 1.0],
+            [0.0, 0.0, 0.0],
+            [1e-320, 0.0, 1e-320],
+        ] {
+            let p = s.protection_level(6, bad[0], bad[1], bad[2]);
+            assert!(p.is_infinite() || p > 1e150, "{bad:?}: {p}");
+        }
+        // Monte Carlo of the test: random S (6×6, position then velocity),
+        // the innovation N(δ, S) with δ the level along the worst direction.
         let mut gauss = || {
             let (a, b) = (u().max(1e-300), u());
             (-2.0 * a.ln()).sqrt() * (std::f64::consts::TAU * b).cos()
         };
-        for (sx, sy, isotropic) in [(3.0, 3.0, true), (3.0, 0.5, false)] {
-            let hpl = loose.protection_level(sx * sx, 0.0, sy * sy);
-            let n = 200_000;
-            let out = (0..n)
-                .filter(|_| (sx * gauss()).hypot(sy * gauss()) > hpl)
-                .count() as f64
-                / n as f64;
-            // 4.5 binomial σ of p = 0.01 over 200 000 draws: 0.001.
-            assert!(out <= 0.011, "σ ({sx}, {sy}): {out} beyond the level");
-            if isotropic {
-                assert!(out >= 0.009, "isotropic: {out}");
-            } else {
-                assert!(out < 0.005, "anisotropic: {out}");
-            }
+        let loose = IntegritySettings {
+            integrity_false_alarm: 1e-3,
+            ..s
+        };
+        for case in 0..4 {
+            let a = SMatrix::<f64, 6, 6>::from_fn(|_, _| gauss());
+            let sm = a * a.transpose() + SMatrix::<f64, 6, 6>::identity() * (0.1 + case as f64);
+            let sinv = sm.try_inverse().expect("S");
+            let hh = sinv.fixed_view::<2, 2>(0, 0).into_owned();
+            let level = loose.protection_level(6, hh[(0, 0)], hh[(0, 1)], hh[(1, 1)]);
+            let e = hh.symmetric_eigen();
+            let k = e.eigenvalues.imin();
+            let dir = e.eigenvectors.column(k).into_owned();
+            let chol = sm.cholesky().expect("S").l();
+            let t = loose.threshold(6);
+            let rate = |scale: f64, gauss: &mut dyn FnMut() -> f64| {
+                let mut delta = SVector::<f64, 6>::zeros();
+                delta[0] = dir[0] * level * scale;
+                delta[1] = dir[1] * level * scale;
+                let n = 100_000;
+                let hits = (0..n)
+                    .filter(|_| {
+                        let w = SVector::<f64, 6>::from_fn(|_, _| gauss());
+                        let z = delta + chol * w;
+                        z.dot(&(sinv * z)) > t
+                    })
+                    .count();
+                hits as f64 / n as f64
+            };
+            let at = rate(1.0, &mut gauss);
+            let below = rate(0.8, &mut gauss);
+            // 1 − 1e-3 less 4.5 binomial σ over 100 000 draws.
+            assert!(at >= 0.9985, "case {case}: detected {at} at the level");
+            assert!(below < 0.99, "case {case}: detected {below} at 0.8 of it");
         }
     }
 
@@ -428,22 +531,78 @@ mod tests {
     fn exclusion_and_readmission_follow_the_stamps() {
         let s = 1_000_000_000u64;
         let mut m = Monitor::default();
-        assert_eq!(m.decide(s, &test(3.0), 60 * s), Verdict::Admit);
-        assert_eq!(m.decide(2 * s, &test(11.0), 60 * s), Verdict::Exclude);
+        assert_eq!(m.decide(s, &test(3.0), 60 * s, u64::MAX), Verdict::Admit);
+        assert_eq!(
+            m.decide(2 * s, &test(11.0), 60 * s, u64::MAX),
+            Verdict::Exclude
+        );
         assert_eq!(
             (m.excluded, m.cause, m.exclusions),
             (true, cause::VELOCITY, 1)
         );
-        assert_eq!(m.decide(3 * s, &test(1.0), 60 * s), Verdict::Refuse);
-        assert_eq!(m.decide(40 * s, &test(1.0), 60 * s), Verdict::Refuse);
+        assert_eq!(
+            m.decide(3 * s, &test(1.0), 60 * s, u64::MAX),
+            Verdict::Refuse
+        );
+        assert_eq!(
+            m.decide(40 * s, &test(1.0), 60 * s, u64::MAX),
+            Verdict::Refuse
+        );
         // A disagreement restarts the time.
-        assert_eq!(m.decide(50 * s, &test(f64::NAN), 60 * s), Verdict::Refuse);
-        assert_eq!(m.decide(60 * s, &test(2.0), 60 * s), Verdict::Refuse);
-        assert_eq!(m.decide(119 * s, &test(2.0), 60 * s), Verdict::Refuse);
-        assert_eq!(m.decide(120 * s, &test(2.0), 60 * s), Verdict::Readmit);
+        assert_eq!(
+            m.decide(50 * s, &test(f64::NAN), 60 * s, u64::MAX),
+            Verdict::Refuse
+        );
+        assert_eq!(
+            m.decide(60 * s, &test(2.0), 60 * s, u64::MAX),
+            Verdict::Refuse
+        );
+        assert_eq!(
+            m.decide(119 * s, &test(2.0), 60 * s, u64::MAX),
+            Verdict::Refuse
+        );
+        assert_eq!(
+            m.decide(120 * s, &test(2.0), 60 * s, u64::MAX),
+            Verdict::Readmit
+        );
         assert!(!m.excluded);
-        assert_eq!(m.decide(121 * s, &test(2.0), 60 * s), Verdict::Admit);
+        assert_eq!(
+            m.decide(121 * s, &test(2.0), 60 * s, u64::MAX),
+            Verdict::Admit
+        );
         assert!((m.last_ratio.unwrap() - 0.2).abs() < 1e-15);
+    }
+
+    /// Agreement must be continuous: an outage longer than the aid's
+    /// timeout (here 3 s) or a sample that could not be tested starts the
+    /// readmission time again, so an aid is never readmitted on agreement
+    /// it was not seen to keep.
+    #[test]
+    fn an_outage_or_an_untestable_sample_restarts_the_agreement() {
+        let s = 1_000_000_000u64;
+        let mut m = Monitor::default();
+        let decide = |m: &mut Monitor, t: u64, q: f64| m.decide(t * s, &test(q), 60 * s, 3 * s);
+        assert_eq!(decide(&mut m, 1, 11.0), Verdict::Exclude);
+        assert_eq!(decide(&mut m, 4, 1.0), Verdict::Refuse);
+        // Out from 4 s to 64 s: no readmission on the first sample back.
+        assert_eq!(decide(&mut m, 64, 1.0), Verdict::Refuse);
+        for t in 65..100 {
+            assert_eq!(decide(&mut m, t, 1.0), Verdict::Refuse, "{t} s");
+        }
+        // A second monitor, whose sample at 100 s could not be tested:
+        // its agreement starts again at 101 s.
+        let mut n = m;
+        assert_eq!(decide(&mut m, 100, 1.0), Verdict::Refuse);
+        n.untestable();
+        for t in 101..124 {
+            assert_eq!(decide(&mut m, t, 1.0), Verdict::Refuse, "{t} s");
+            assert_eq!(decide(&mut n, t, 1.0), Verdict::Refuse, "{t} s");
+        }
+        assert_eq!(decide(&mut m, 124, 1.0), Verdict::Readmit);
+        for t in 124..161 {
+            assert_eq!(decide(&mut n, t, 1.0), Verdict::Refuse, "{t} s");
+        }
+        assert_eq!(decide(&mut n, 161, 1.0), Verdict::Readmit);
     }
 
     #[test]

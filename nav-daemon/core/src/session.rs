@@ -1271,16 +1271,18 @@ impl Session {
             return false;
         }
         let r = self.reference.get_or_insert_with(|| n.reference_copy());
+        let k = a.kind();
         let Some(test) = r.test_aid(a, is) else {
             // Refused content is counted as such by the navigator; a sample
             // whose S is not positive definite is not trusted.
+            self.integrity[k].untestable();
             return true;
         };
-        let k = a.kind();
         let m = &mut self.integrity[k];
         let readmit_ns = (is.readmit_after_s * 1e9).round() as u64;
+        let max_gap_ns = (self.settings.navigator.aid_settings.timeout_s[k] * 1e9).round() as u64;
         let was = m.available;
-        let verdict = m.decide(a.t_ns(), &test, readmit_ns);
+        let verdict = m.decide(a.t_ns(), &test, readmit_ns, max_gap_ns);
         if m.available != was && (was.is_some() || !test.available()) {
             sink.event(&Event::IntegrityAvailability {
                 stream: stream_of(a),

@@ -118,8 +118,9 @@ pub fn write_row<W: Write>(out: &mut W, s: &Solution) -> std::io::Result<()> {
 const FLOAT_COLUMNS: usize = 35 + COLUMNS_BIAS_SIGMA;
 
 /// Longest line: every column at most 24 bytes, separators and newline,
-/// and at most two 0/1 columns per aid in the aid group.
-const LINE_CAP: usize = COLUMNS * 25 + 16 + 4 * msgs::AID_COUNT;
+/// and the aid group's 0/1 columns (one per aid, two more per aid that
+/// is not autonomous: at most three per aid).
+const LINE_CAP: usize = COLUMNS * 25 + 16 + 6 * msgs::AID_COUNT;
 
 /// The last value written in a column and its text.
 #[derive(Clone, Copy)]

@@ -790,7 +790,7 @@ impl Pass {
             health: Envelope::new(LANE_COUNT + 1),
             health_set: [0; LANE_COUNT + 1],
             exclusions: Vec::new(),
-            integrity: Envelope::new(NOT_AUTONOMOUS.max(1)),
+            integrity: Envelope::new(2 * NOT_AUTONOMOUS.max(1)),
             integrity_tested: 0,
             switches: Vec::new(),
             resets: Vec::new(),
@@ -1027,12 +1027,15 @@ impl<'a> Reviewer<'a> {
     /// integrity test's statistic.
     pub fn status_record(&mut self, st: &Status) -> Result<(), String> {
         self.status.push(st).map_err(io_err)?;
-        let mut v = [f64::NAN; NOT_AUTONOMOUS];
+        // Per aid that is not autonomous: its statistic where its test
+        // could judge, then (the second half) where it was unavailable.
+        let mut v = [f64::NAN; 2 * NOT_AUTONOMOUS];
         let tested = AidKind::ALL.iter().filter(|k| !k.decl().autonomous);
-        for (slot, k) in v.iter_mut().zip(tested) {
-            let r = st.aid(*k).integrity_ratio;
-            if r > 0.0 {
-                *slot = r;
+        for (j, k) in tested.enumerate() {
+            let a = st.aid(*k);
+            if a.integrity_ratio > 0.0 {
+                let unavailable = a.integrity_state == msgs::integrity_state::UNAVAILABLE;
+                v[j + if unavailable { NOT_AUTONOMOUS } else { 0 }] = a.integrity_ratio;
             }
         }
         if v.iter().any(|x| x.is_finite()) {
@@ -1991,7 +1994,7 @@ fn integrity_figure<DB: DrawingBackend>(
 ) -> Result<(), String> {
     let (main, side) = split_title(
         root,
-        "Integrity test: statistic q over its threshold (log scale; above 1 excludes)",
+        "Integrity test: statistic q over its threshold (log scale; above 1 excludes while the test is available)",
     )?;
     let tested: Vec<AidKind> = AidKind::ALL
         .into_iter()
@@ -2000,15 +2003,27 @@ fn integrity_figure<DB: DrawingBackend>(
     let colors = [BLUE, plots::GREEN, GREY];
     let mut bands = Vec::new();
     let mut entries = Vec::new();
-    for (j, k) in tested.iter().enumerate() {
-        let c = colors[j % colors.len()];
-        let b: Vec<(f64, f64, f64)> = env
-            .column_range(j)
+    let band = |column: usize| -> Vec<(f64, f64, f64)> {
+        env.column_range(column)
             .filter(|p| p.1 > 0.0)
             .map(|(t, lo, hi)| (t, lo.log10(), hi.log10()))
-            .collect();
-        bands.push((b, c));
+            .collect()
+    };
+    for (j, k) in tested.iter().enumerate() {
+        let c = colors[j % colors.len()];
+        bands.push((band(j), c));
         entries.push((format!("{} q / threshold", k.decl().label), Mark::Band(c)));
+        let unavailable = band(NOT_AUTONOMOUS + j);
+        if !unavailable.is_empty() {
+            bands.push((unavailable, plots::ORANGE));
+            entries.push((
+                format!(
+                    "{} q / threshold, test unavailable (not acted on)",
+                    k.decl().label
+                ),
+                Mark::Band(plots::ORANGE),
+            ));
+        }
     }
     let (lo, hi) = bands
         .iter()
@@ -2044,6 +2059,7 @@ fn integrity_figure<DB: DrawingBackend>(
     let mut notes = vec![
         "the threshold: the χ² quantile of the settings' false-alarm probability per test"
             .to_owned(),
+        "unavailable: the test's horizontal protection level beyond the alert limit; its samples fused untested".to_owned(),
     ];
     for (aid, kind, t0) in faults {
         notes.push(match first_exclusion(pass, *aid, *t0) {

@@ -57,29 +57,15 @@ impl Navigator {
             AnyMeasurement::D3(m) => statistic(m, &p, decl.components),
             AnyMeasurement::D6(m) => statistic(m, &p, decl.components),
         };
-        let (q, by_unit) = q?;
+        let (q, by_unit, [[a, b], [_, c]]) = q?;
         let threshold = settings.threshold(decl.dof());
-        let [[a, b], [_, c]] = self.horizontal_position_covariance(&p);
         Some(Test {
             q,
             threshold,
             cause: by_unit,
-            protection_m: settings.protection_level(a, b, c),
+            protection_m: settings.protection_level(decl.dof(), a, b, c),
             alert_limit_m: settings.integrity_alert_limit_m,
         })
-    }
-
-    /// The east-north block (m²) of the position covariance in `p` (this
-    /// navigator's frame) at the current position.
-    fn horizontal_position_covariance(&self, p: &crate::error_model::Mat15) -> [[f64; 2]; 2] {
-        use crate::error_model::idx;
-        let m = self
-            .nominal
-            .nav()
-            .position_error_to_enu(&self.nominal.local().c_e_g());
-        let pp = p.fixed_view::<3, 3>(idx::DP, idx::DP);
-        let enu = m * pp * m.transpose();
-        [[enu[(0, 0)], enu[(0, 1)]], [enu[(1, 0)], enu[(1, 1)]]]
     }
 
     /// Takes `reference`'s navigation state, covariance, biases, history
@@ -119,20 +105,43 @@ impl Navigator {
     }
 }
 
-/// q = zᵀ (H P Hᵀ + R)⁻¹ z of a measurement, and the cause its largest
-/// share of q points to: the block of components of one unit (position,
-/// velocity) whose own q over its own χ² quantile is the largest.
+/// q = zᵀ (H P Hᵀ + R)⁻¹ z of a measurement, the cause its largest
+/// share of q points to (the block of components of one unit, position or
+/// velocity, whose own q over its own χ² quantile is the largest), and
+/// the block of (H P Hᵀ)⁻¹ of its horizontal position components (the
+/// first two in metres: east and north in g, grid x and y in G), from
+/// which the protection level follows (NaN without two such components:
+/// no level). R is left out of the level on purpose: it is what the
+/// receiver claims, and a spoofer claiming a large σ must not be able to
+/// switch the test off (fixes claiming more than `max_h_acc_m` are refused
+/// before the test, which bounds what R takes from its power).
 fn statistic<const M: usize>(
     m: &crate::aids::Measurement<M>,
     p: &crate::error_model::Mat15,
     components: &[msgs::aids::Component],
-) -> Option<(f64, u8)> {
+) -> Option<(f64, u8, [[f64; 2]; 2])> {
     use msgs::aids::Unit;
     let s: SMatrix<f64, M, M> = m.h * p * m.h.transpose() + m.r;
     let chol = s.cholesky()?;
     let q = m.z.dot(&chol.solve(&m.z));
+    let horizontal = {
+        let mut metres = components
+            .iter()
+            .enumerate()
+            .take(M)
+            .filter(|(_, c)| c.unit == Unit::M)
+            .map(|(k, _)| k);
+        let reference: SMatrix<f64, M, M> = m.h * p * m.h.transpose();
+        match (metres.next(), metres.next(), reference.cholesky()) {
+            (Some(i), Some(j), Some(c)) => {
+                let inv = c.inverse();
+                [[inv[(i, i)], inv[(i, j)]], [inv[(j, i)], inv[(j, j)]]]
+            }
+            _ => [[f64::NAN; 2]; 2],
+        }
+    };
     if !q.is_finite() {
-        return Some((f64::INFINITY, integrity::cause::MEASUREMENT));
+        return Some((f64::INFINITY, integrity::cause::MEASUREMENT, horizontal));
     }
     // The blocks: position (m), velocity (m/s), the rest; each is a run
     // of at most 3 neighbouring components (as the declarations list
@@ -173,5 +182,5 @@ fn statistic<const M: usize>(
             best = (share, cause);
         }
     }
-    Some((q, best.1))
+    Some((q, best.1, horizontal))
 }
