@@ -606,5 +606,14 @@ fn review_of_a_spoofed_flight_says_which_aids_navigated_and_the_time_to_alarm() 
         summary.contains("1 exclusion (excluded at 20."),
         "{summary}"
     );
+    // Every autonomous aid holds the reference: GNSS was never fused
+    // untested (its solutions' GNSS_UNTESTED bit), and the summary says so.
+    assert!(
+        summary.contains(
+            "its integrity test unavailable (the autonomous solution's horizontal protection \
+             level beyond the alert limit: its samples fused untested) in 0.00 % of rows"
+        ),
+        "{summary}"
+    );
     std::fs::remove_dir_all(&dir).ok();
 }

@@ -1914,29 +1914,22 @@ fn aids_figure<DB: DrawingBackend>(
                     }),
             )
             .map_err(plots::s)?;
-        if let Some(e) = lane_of(*k, AidLane::Excluded) {
+        // Under the lane: excluded by the integrity test (red), its test
+        // unavailable (orange).
+        for (lane, colour) in [
+            (AidLane::Excluded, RED_),
+            (AidLane::Untested, plots::ORANGE),
+        ] {
+            let Some(e) = lane_of(*k, lane) else {
+                continue;
+            };
             chart
                 .draw_series(
                     spans(e + 1)
                         .into_iter()
                         .filter(|p| p.3 > 0.5)
                         .map(|(a, b, _, _)| {
-                            Rectangle::new([(a, y - 0.42), (b, y - 0.3)], RED_.mix(0.9).filled())
-                        }),
-                )
-                .map_err(plots::s)?;
-        }
-        if let Some(u) = lane_of(*k, AidLane::Untested) {
-            chart
-                .draw_series(
-                    spans(u + 1)
-                        .into_iter()
-                        .filter(|p| p.3 > 0.5)
-                        .map(|(a, b, _, _)| {
-                            Rectangle::new(
-                                [(a, y - 0.42), (b, y - 0.3)],
-                                plots::ORANGE.mix(0.9).filled(),
-                            )
+                            Rectangle::new([(a, y - 0.42), (b, y - 0.3)], colour.mix(0.9).filled())
                         }),
                 )
                 .map_err(plots::s)?;
