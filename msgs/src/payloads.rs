@@ -305,11 +305,11 @@ pub mod solution_flags {
     /// while no aid observing tilt was fresh) within the last two windows.
     pub const LEVEL_FUSED: u32 = 1 << 17;
     /// GNSS's integrity test is unavailable (at its last fix), so its
-    /// fixes are fused untested: the autonomous solution's horizontal
-    /// protection level is beyond the alert limit (`[aids.gnss]
-    /// integrity_alert_limit_m`), and it cannot tell a spoofed position
-    /// from its own error (an INS without a horizontal autonomous aid,
-    /// such as a MEMS INS with only baro and magnetometer).
+    /// fixes are fused untested: its horizontal protection level from the
+    /// reference's covariance is beyond the alert limit (`[aids.gnss]
+    /// integrity_alert_limit_m`), so the reference cannot tell a spoofed
+    /// position from its own error (an INS without a horizontal
+    /// autonomous aid, such as a MEMS INS with only baro and magnetometer).
     pub const GNSS_UNTESTED: u32 = 1 << 18;
 }
 

@@ -160,7 +160,7 @@ pub fn log_event(log: &str, e: &Event) {
             t_s = secs(*t_ns),
             protection_m,
             alert_limit_m,
-            "{log}: {} integrity test unavailable: the autonomous solution's horizontal protection level {:.0} m is beyond the alert limit {:.0} m (it cannot tell a spoofed position from its own error); {} is fused untested",
+            "{log}: {} integrity test unavailable: its horizontal protection level from the reference's covariance, {:.0} m, is beyond the alert limit {:.0} m (the reference cannot tell a spoofed position from its own error); {} fixes are fused untested, or refused while it is excluded",
             stream.name(),
             protection_m,
             alert_limit_m,

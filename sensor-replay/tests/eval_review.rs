@@ -610,8 +610,8 @@ fn review_of_a_spoofed_flight_says_which_aids_navigated_and_the_time_to_alarm() 
     // untested (its solutions' GNSS_UNTESTED bit), and the summary says so.
     assert!(
         summary.contains(
-            "its integrity test unavailable (the autonomous solution's horizontal protection \
-             level beyond the alert limit: its samples fused untested) in 0.00 % of rows"
+            "its integrity test unavailable (its horizontal protection level from the reference \
+             beyond the alert limit: its samples fused untested) in 0.00 % of rows"
         ),
         "{summary}"
     );

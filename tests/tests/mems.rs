@@ -473,7 +473,7 @@ fn magnetometer_heading_nees(aligned: bool) {
 /// MEMS INS, kilometres off within minutes. With the test on, seed 3 was
 /// excluded at 85 s (q 43.6 > 43.3) and the solution jumped 976 m to that
 /// reference. The test must instead say it is unavailable (the
-/// reference's horizontal protection level beyond the 100 m alert limit)
+/// test's horizontal protection level from the reference beyond the 100 m alert limit)
 /// and fuse GNSS untested: the main navigator's solution bit for bit the
 /// one of the flight with the test off, flagged `GNSS_UNTESTED`, and no
 /// exclusion. Seeds 1 to 3.
@@ -512,14 +512,15 @@ fn without_a_horizontal_autonomous_aid_gnss_is_fused_untested_not_excluded() {
         let tested = on.integrity.len();
         println!(
             "seed {seed}: {tested} fixes tested; the test available for the first {} (the \
-             largest protection level then {:.0} m), unavailable from {first_untested:.0} s on \
-             (protection level {:.0} m at the end); no exclusion",
+             largest protection level then {:.0} m), {} refused as unverifiable, unavailable \
+             from {first_untested:.0} s on (protection level {:.0} m at the end); no exclusion",
             admitted.len(),
             on.integrity
                 .iter()
                 .filter(|(_, _, v)| *v == Verdict::Admit)
                 .map(|(_, t, _)| t.protection_m)
                 .fold(0.0, f64::max),
+            on.decisions(Verdict::Unverifiable).len(),
             on.integrity
                 .last()
                 .map_or(f64::NAN, |(_, t, _)| t.protection_m)
@@ -531,25 +532,47 @@ fn without_a_horizontal_autonomous_aid_gnss_is_fused_untested_not_excluded() {
         // One event: the test lost at the first untested fix (none for the
         // first test, which was available).
         assert_eq!(on.availability, [(untested[0], false)], "seed {seed}");
-        assert_eq!(untested.len() + admitted.len(), tested, "seed {seed}");
+        // Between the last admitted fix and the test's loss, a fix whose own
+        // R put the level beyond the limit while the reference's was still
+        // within it is refused (at most a few, at the transition).
+        let refused = on.decisions(Verdict::Unverifiable);
+        assert!(
+            refused.len() <= 3
+                && refused
+                    .iter()
+                    .all(|&t| t > *admitted.last().expect("admitted") && t < untested[0]),
+            "seed {seed}: refused {refused:?}"
+        );
+        assert_eq!(
+            untested.len() + admitted.len() + refused.len(),
+            tested,
+            "seed {seed}"
+        );
         // Lost beyond the alert limit and never back within 90 % of it.
         assert!(
             on.integrity.iter().all(|(_, t, v)| match v {
-                Verdict::Admit => t.available(),
-                _ => t.protection_m > polarnav::integrity::REGAIN * t.alert_limit_m,
+                Verdict::Admit => t.available() && t.verifiable(),
+                Verdict::Unverifiable => t.available() && !t.verifiable(),
+                _ => t.reference_protection_m > polarnav::integrity::REGAIN * t.alert_limit_m,
             }),
-            "seed {seed}: a verdict against its test's protection level"
+            "seed {seed}: a verdict against its test's protection levels"
         );
-        assert!(!on.integrity[admitted.len()].1.available());
-        // The main navigator is the one of the flight without the test.
+        // The main navigator is the one of the flight without the test, bit
+        // for bit up to a refused fix, within a metre after it.
         assert_eq!(on.snaps.len(), off.snaps.len());
+        let first_refused = refused.first().copied().unwrap_or(u64::MAX);
+        let mut worst = 0.0f64;
         for (a, b) in on.snaps.iter().zip(&off.snaps) {
-            assert_eq!(
-                (a.r_e, a.v_e, a.q_b_e, a.cov_pos),
-                (b.r_e, b.v_e, b.q_b_e, b.cov_pos),
-                "seed {seed} at {} ns",
-                a.t_ns
-            );
+            if a.t_ns < first_refused {
+                assert_eq!(
+                    (a.r_e, a.v_e, a.q_b_e, a.cov_pos),
+                    (b.r_e, b.v_e, b.q_b_e, b.cov_pos),
+                    "seed {seed} at {} ns",
+                    a.t_ns
+                );
+            } else {
+                worst = worst.max((a.r_e - b.r_e).norm());
+            }
             // Snapshots are taken after the aids stamped at them.
             let untested_then = a.t_ns >= untested[0];
             assert_eq!(a.flags & GNSS_EXCLUDED, 0);
@@ -565,6 +588,10 @@ fn without_a_horizontal_autonomous_aid_gnss_is_fused_untested_not_excluded() {
                 assert_eq!(a.flags & GNSS_UNTESTED, 0, "seed {seed} at {} ns", a.t_ns);
             }
         }
+        assert!(
+            worst < 1.0,
+            "seed {seed}: {worst} m from the flight without the test"
+        );
         let g = on.status.aid(AidKind::Gnss);
         assert_eq!(
             (g.integrity_state, g.excluded),
@@ -572,6 +599,9 @@ fn without_a_horizontal_autonomous_aid_gnss_is_fused_untested_not_excluded() {
             "seed {seed}"
         );
         assert_ne!(on.status.flags & GNSS_UNTESTED, 0);
-        assert_eq!(on.status.aid_counters(AidKind::Gnss).rejected_integrity, 0);
+        assert_eq!(
+            on.status.aid_counters(AidKind::Gnss).rejected_integrity,
+            refused.len() as u64
+        );
     }
 }

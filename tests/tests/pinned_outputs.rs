@@ -48,7 +48,7 @@ const ADDED_SINCE_THE_PIN: &[(&str, &str)] = &[
 ];
 
 /// GNSS fused untested while its integrity test is unavailable (the
-/// reference's horizontal protection level beyond the alert limit): its
+/// test's horizontal protection level from the reference beyond the alert limit): its
 /// column in the CSV's aid group, `polarnav.Solution.gnss_untested`,
 /// `AidStatus.integrity_unavailable` (and `[aids.gnss]
 /// integrity_alert_limit_m`, under `aids.gnss` above). These flights fly

@@ -39,38 +39,43 @@
 //! main navigator fuses it again while the reference goes on without it.
 //! Everything is decided on the samples' stamps, so live equals `batch`.
 //!
-//! **When the test is unavailable.** The test can only tell a spoofed
+//! **When the test cannot judge.** The test can only tell a spoofed
 //! position from the reference's own error while that error is small. Its
 //! measure is a protection level, as in RAIM: the smallest horizontal
-//! position offset (the velocity left alone) that the test detects with
-//! probability at least 1 − [`P_MISSED_DETECTION`] in its worst direction.
-//! An offset δ in the sample's horizontal position components adds
-//! δᵀ (S⁻¹)_hh δ to q's non-centrality ((S⁻¹)_hh: the horizontal block of
-//! S's inverse); q ≥ ((δ + n)/σ_w)² for the whitened noise n along it, so
-//! q passes the threshold T with probability at least 1 − p_md once
-//! |δ| ≥ (√T + K_md) · σ_w, σ_w² = 1/λ_min((S⁻¹)_hh) and K_md the normal
-//! quantile of 1 − p_md: that |δ| is the protection level. (A spoofer's
-//! drag also moves the velocity, which only raises q.) S is taken as
-//! the reference's H P_ref Hᵀ alone: the receiver's R is what the
-//! receiver claims, and a spoofer claiming a large σ must not be able to
-//! switch the test off; the refusal of fixes claiming more than
-//! `max_h_acc_m` bounds what R takes from the test's power. While it is beyond the alert limit from the settings
-//! (default 100 m), the test is unavailable (until the level is back within
-//! 90 % of the limit, so that a level hovering at it does not flap): q is
-//! still computed and reported, but nothing is decided on it. A sample is
-//! fused untested (the solution flag and the status say so, and one log
-//! line each time the test is lost or regained); an excluded aid stays
-//! excluded (readmission needs a test that can judge), its agreement time
-//! starting again. This is the case of an INS without a horizontal
-//! autonomous aid: a MEMS INS with only a barometer and a magnetometer is
-//! kilometres off within minutes, its error no longer small enough for the
-//! linear filter's covariance to describe (mems-aircraft, seed 3, with the
-//! test on: q rose from 3 to 55 over the first two minutes, mean χ²(6)
-//! being 6, and a false alarm at 85 s made the solution jump 976 m to the
-//! reference). There the level passes 100 m 39 s after the start, and
-//! no alarm is raised. On such an aircraft an exclusion in those first
-//! seconds would be for the rest of the flight: the test never comes back
-//! to readmit the aid.
+//! position offset that the test detects with probability at least
+//! 1 − [`P_MISSED_DETECTION`] whatever its direction and whatever offsets
+//! come with it in the other components (a spoofer chooses the velocity
+//! too). With the other components free, the smallest non-centrality an
+//! offset δ in the horizontal position can have is δᵀ S_hh⁻¹ δ (S_hh the
+//! horizontal position block of S itself: the other components set to
+//! their regression on δ), at least |δ|²/λ_max(S_hh); q ≥ (|δ|/σ_h + n)²
+//! for a standard normal n, so q passes the threshold T with probability
+//! at least 1 − p_md once |δ| ≥ (√T + K_md)·σ_h, σ_h² = λ_max(S_hh), K_md
+//! the normal quantile of 1 − p_md: that |δ| is the level. Two levels are
+//! formed, each against the alert limit from the settings (default 100 m):
+//! - **the reference's** (S = H P_ref Hᵀ, the receiver's R left out):
+//!   beyond the limit the test is *unavailable* — the reference cannot
+//!   judge any fix (regained within 90 % of the limit, so that a level
+//!   hovering at it does not flap). q is still computed and reported, but
+//!   nothing is decided on it: a fix is fused untested (the solution flag
+//!   and the status say so, one log line each time the test is lost or
+//!   regained), and an excluded aid stays excluded, its agreement time
+//!   starting again. This is the case of an INS without a horizontal
+//!   autonomous aid: a MEMS INS with only a barometer and a magnetometer is
+//!   kilometres off within minutes, its error no longer small enough for
+//!   the linear filter's covariance to describe (mems-aircraft, seed 3,
+//!   with the test acting: q rose from 3 to 55 over the first two
+//!   minutes, mean χ²(6) being 6, and a false alarm at 85 s made the
+//!   solution jump 976 m to the reference). On such an aircraft an
+//!   exclusion in those first seconds would be for the rest of the flight:
+//!   the test never comes back to readmit the aid.
+//! - **the fix's** (S = H P_ref Hᵀ + R, as the test uses it): beyond the
+//!   limit while the reference's is within it, the fix's own claimed
+//!   accuracy makes it unverifiable, and it is *refused* (counted
+//!   `rejected_integrity`): a spoofer claiming a large σ can neither hide
+//!   in the test nor switch it off, and a jammed receiver's growing
+//!   accuracy estimates hand over to the autonomous aids before its fix is
+//!   lost.
 
 use serde::{Deserialize, Serialize};
 
@@ -85,8 +90,9 @@ pub struct IntegritySettings {
     pub integrity: bool,
     /// False-alarm probability of one test (one sample).
     pub integrity_false_alarm: f64,
-    /// The test is available while the reference's horizontal protection
-    /// level is within this alert limit (m).
+    /// The test is available while its horizontal protection level from
+    /// the reference's covariance is within this alert limit (m); a fix
+    /// whose own claimed accuracy puts the level beyond it is refused.
     pub integrity_alert_limit_m: f64,
     /// An excluded aid is readmitted after its samples have agreed with the
     /// autonomous solution continuously for this long (s).
@@ -151,18 +157,19 @@ impl IntegritySettings {
     }
 
     /// The protection level (m) of a test of `dof` components whose
-    /// inverse innovation covariance has the horizontal position block
-    /// `[[a, b], [b, c]]` (1/m²): (√T + K_md) / √λ_min (see the module's
-    /// documentation). Infinite (so unavailable) when the block is not
-    /// finite or not positive definite.
+    /// innovation covariance has the horizontal position block
+    /// `[[a, b], [b, c]]` (m²): (√T + K_md)·√λ_max (see the module's
+    /// documentation). Infinite (so beyond any limit) when the block is not
+    /// finite or not positive semi-definite.
     pub fn protection_level(&self, dof: usize, a: f64, b: f64, c: f64) -> f64 {
-        let half = 0.5 * (a - c);
-        let lambda_min = 0.5 * (a + c) - half.hypot(b);
-        let definite = a > 0.0 && c > 0.0 && a * c > b * b && lambda_min > 0.0;
-        if !(definite && lambda_min.is_finite() && (a + c).is_finite()) {
+        let finite = a.is_finite() && b.is_finite() && c.is_finite();
+        // Positive semi-definite, to the rounding of a product.
+        let psd = a >= 0.0 && c >= 0.0 && a * c - b * b >= -1e-12 * (a * c).abs();
+        if !(finite && psd) {
             return f64::INFINITY;
         }
-        (self.threshold(dof).sqrt() + K_MISSED_DETECTION) / lambda_min.sqrt()
+        let lambda_max = 0.5 * (a + c) + (0.5 * (a - c)).hypot(b);
+        (self.threshold(dof).sqrt() + K_MISSED_DETECTION) * lambda_max.sqrt()
     }
 }
 
@@ -205,9 +212,11 @@ pub struct Test {
     /// The cause an alarm would have (the block of components with the
     /// larger share of q, each against its own χ² quantile).
     pub cause: u8,
-    /// The test's horizontal protection level (m), and the alert limit it
-    /// must be within for the test to judge.
+    /// The test's horizontal protection level (m) with the fix's R, the
+    /// reference's alone (R left out), and the alert limit both are held
+    /// to (see the module's documentation).
     pub protection_m: f64,
+    pub reference_protection_m: f64,
     pub alert_limit_m: f64,
 }
 
@@ -221,9 +230,15 @@ impl Test {
         self.q.is_nan() || self.q > self.threshold
     }
 
-    /// The test can judge: the protection level is within the alert limit
-    /// (a NaN one is not).
+    /// The reference can judge: its protection level is within the alert
+    /// limit (a NaN one is not).
     pub fn available(&self) -> bool {
+        self.reference_protection_m <= self.alert_limit_m
+    }
+
+    /// This fix can be judged: the level with its own R is within the
+    /// limit too.
+    pub fn verifiable(&self) -> bool {
         self.protection_m <= self.alert_limit_m
     }
 }
@@ -244,9 +259,14 @@ pub enum Verdict {
     Refuse,
     /// The aid has agreed long enough: readmit it and offer the sample.
     Readmit,
-    /// The test is unavailable (the protection level is beyond the alert
-    /// limit) and the aid is not excluded: offer the sample untested.
+    /// The test is unavailable (the reference's protection level is
+    /// beyond the alert limit) and the aid is not excluded: offer the
+    /// sample untested.
     Untested,
+    /// The reference could judge, but not this fix: its own claimed
+    /// accuracy puts the level beyond the limit. Refuse the sample; the
+    /// aid is not excluded.
+    Unverifiable,
 }
 
 /// One non-autonomous aid's integrity state.
@@ -270,8 +290,9 @@ pub struct Monitor {
 }
 
 impl Monitor {
-    /// A sample of the aid could not be tested (its S not positive
-    /// definite): an excluded aid's agreement starts again.
+    /// A sample of the aid could not be tested (its content refused, its
+    /// stamp beyond the state history, or its S not positive definite):
+    /// an excluded aid's agreement starts again.
     pub fn untestable(&mut self) {
         self.agreeing_since_ns = None;
     }
@@ -286,7 +307,7 @@ impl Monitor {
         // protection level hovering at the limit (it grows between the
         // autonomous aids' updates and drops at each) does not flap.
         let available = if self.available == Some(false) {
-            test.protection_m <= REGAIN * test.alert_limit_m
+            test.reference_protection_m <= REGAIN * test.alert_limit_m
         } else {
             test.available()
         };
@@ -299,6 +320,16 @@ impl Monitor {
                 Verdict::Refuse
             } else {
                 Verdict::Untested
+            };
+        }
+        if !test.verifiable() {
+            // This fix cannot be judged: refused, and an excluded aid's
+            // agreement starts again.
+            self.agreeing_since_ns = None;
+            return if self.excluded {
+                Verdict::Refuse
+            } else {
+                Verdict::Unverifiable
             };
         }
         if !self.excluded {
@@ -340,14 +371,17 @@ mod tests {
             q,
             threshold: 10.0,
             cause: cause::VELOCITY,
-            protection_m: 40.0,
+            protection_m: 45.0,
+            reference_protection_m: 40.0,
             alert_limit_m: 100.0,
         }
     }
 
+    /// The reference's level beyond the limit (so the fix's too).
     fn unavailable(q: f64) -> Test {
         Test {
-            protection_m: 100.5,
+            protection_m: 101.0,
+            reference_protection_m: 100.5,
             ..test(q)
         }
     }
@@ -405,7 +439,7 @@ mod tests {
             Verdict::Readmit
         );
         let nan = Test {
-            protection_m: f64::NAN,
+            reference_protection_m: f64::NAN,
             ..test(1.0)
         };
         assert!(!nan.available() && test(1.0).available() && !unavailable(1.0).available());
@@ -413,6 +447,7 @@ mod tests {
         // Regained only within 90 % of the limit: 95 m stays lost, 90 m
         // is back; then lost again only beyond the limit.
         let at = |p: f64| Test {
+            reference_protection_m: p,
             protection_m: p,
             ..test(1.0)
         };
@@ -436,13 +471,16 @@ mod tests {
     }
 
     /// The protection level against independent computations: K_md
-    /// against the normal quantile; the smallest eigenvalue by nalgebra's
-    /// symmetric eigen-decomposition (the closed form must agree, whatever
-    /// the axes); and a Monte Carlo run of the χ²(6) test itself: an offset
-    /// of the level along the worst horizontal direction, the innovation
-    /// drawn from N(offset, S) for a random S, is detected at least
-    /// 1 − p_md of the time, and one of 0.8 times the level clearly less
-    /// often. Non-finite, indefinite and singular blocks are infinite.
+    /// against the normal quantile; λ_max by nalgebra's symmetric
+    /// eigen-decomposition (the closed form must agree whatever the axes);
+    /// and a Monte Carlo run of the χ²(6) test itself on random S: the
+    /// worst offset of the level's size — along S_hh's widest axis, the
+    /// other five components at their regression on it, as a spoofer would
+    /// choose them to hide — is detected at least 1 − p_md of the time,
+    /// one of 0.8 times the level clearly less often; that offset's
+    /// non-centrality is |δ_h|²/λ_max(S_hh), below that of the same
+    /// offset with the other components left alone. Non-finite and
+    /// indefinite blocks are infinite.
     #[test]
     fn the_protection_level_is_the_offset_the_test_detects() {
         use nalgebra::{SMatrix, SVector};
@@ -459,14 +497,14 @@ mod tests {
             (seed >> 11) as f64 / (1u64 << 53) as f64
         };
         for _ in 0..200 {
-            let (l1, l2) = (10f64.powf(u() * 8.0 - 6.0), 10f64.powf(u() * 8.0 - 6.0));
+            let (l1, l2) = (10f64.powf(u() * 8.0 - 2.0), 10f64.powf(u() * 8.0 - 2.0));
             let th = u() * std::f64::consts::TAU;
             let r = nalgebra::Matrix2::new(th.cos(), -th.sin(), th.sin(), th.cos());
             let c = r * nalgebra::Matrix2::new(l1, 0.0, 0.0, l2) * r.transpose();
             let got = s.protection_level(6, c[(0, 0)], c[(0, 1)], c[(1, 1)]);
-            let min = c.symmetric_eigen().eigenvalues.min();
-            let want = (s.threshold(6).sqrt() + K_MISSED_DETECTION) / min.sqrt();
-            assert!((got / want - 1.0).abs() < 1e-7, "{got} {want}");
+            let max = c.symmetric_eigen().eigenvalues.max();
+            let want = (s.threshold(6).sqrt() + K_MISSED_DETECTION) * max.sqrt();
+            assert!((got / want - 1.0).abs() < 1e-9, "{got} {want}");
         }
         for bad in [
             [f64::NAN, 0.0, 1.0],
@@ -474,16 +512,11 @@ mod tests {
             [f64::INFINITY, 0.0, 1.0],
             [-1.0, 0.0, -1.0],
             [4.0, 0.0, -4e4],
-            [1.0, 1.0, 1.0],
             [1.0, 2.0, 1.0],
-            [0.0, 0.0, 0.0],
-            [1e-320, 0.0, 1e-320],
         ] {
             let p = s.protection_level(6, bad[0], bad[1], bad[2]);
-            assert!(p.is_infinite() || p > 1e150, "{bad:?}: {p}");
+            assert!(p.is_infinite(), "{bad:?}: {p}");
         }
-        // Monte Carlo of the test: random S (6×6, position then velocity),
-        // the innovation N(δ, S) with δ the level along the worst direction.
         let mut gauss = || {
             let (a, b) = (u().max(1e-300), u());
             (-2.0 * a.ln()).sqrt() * (std::f64::consts::TAU * b).cos()
@@ -495,30 +528,46 @@ mod tests {
         for case in 0..4 {
             let a = SMatrix::<f64, 6, 6>::from_fn(|_, _| gauss());
             let sm = a * a.transpose() + SMatrix::<f64, 6, 6>::identity() * (0.1 + case as f64);
-            let sinv = sm.try_inverse().expect("S");
-            let hh = sinv.fixed_view::<2, 2>(0, 0).into_owned();
+            let hh = sm.fixed_view::<2, 2>(0, 0).into_owned();
             let level = loose.protection_level(6, hh[(0, 0)], hh[(0, 1)], hh[(1, 1)]);
             let e = hh.symmetric_eigen();
-            let k = e.eigenvalues.imin();
-            let dir = e.eigenvectors.column(k).into_owned();
+            let dir = e.eigenvectors.column(e.eigenvalues.imax()).into_owned();
+            let hh_inv = hh.try_inverse().expect("S_hh");
+            let sinv = sm.try_inverse().expect("S");
             let chol = sm.cholesky().expect("S").l();
             let t = loose.threshold(6);
-            let rate = |scale: f64, gauss: &mut dyn FnMut() -> f64| {
-                let mut delta = SVector::<f64, 6>::zeros();
-                delta[0] = dir[0] * level * scale;
-                delta[1] = dir[1] * level * scale;
+            let offset = |scale: f64, hide: bool| -> SVector<f64, 6> {
+                let dh = dir * (level * scale);
+                if hide {
+                    // The hiding offset: d = S[:, h] S_hh⁻¹ δ_h.
+                    sm.fixed_view::<6, 2>(0, 0) * (hh_inv * dh)
+                } else {
+                    SVector::<f64, 6>::from_fn(|i, _| if i < 2 { dh[i] } else { 0.0 })
+                }
+            };
+            // The hiding offset has the smallest non-centrality of all
+            // offsets with this horizontal part: |δ_h|²/λ_max(S_hh).
+            let nc = |d: &SVector<f64, 6>| d.dot(&(sinv * d));
+            let (hidden, plain) = (nc(&offset(1.0, true)), nc(&offset(1.0, false)));
+            let expected = (level / hh.symmetric_eigen().eigenvalues.max().sqrt()).powi(2);
+            assert!(
+                (hidden / expected - 1.0).abs() < 1e-9,
+                "{hidden} {expected}"
+            );
+            assert!(plain >= hidden, "case {case}: {plain} < {hidden}");
+            let mut rate = |scale: f64| {
+                let d = offset(scale, true);
                 let n = 100_000;
                 let hits = (0..n)
                     .filter(|_| {
                         let w = SVector::<f64, 6>::from_fn(|_, _| gauss());
-                        let z = delta + chol * w;
+                        let z = d + chol * w;
                         z.dot(&(sinv * z)) > t
                     })
                     .count();
                 hits as f64 / n as f64
             };
-            let at = rate(1.0, &mut gauss);
-            let below = rate(0.8, &mut gauss);
+            let (at, below) = (rate(1.0), rate(0.8));
             // 1 − 1e-3 less 4.5 binomial σ over 100 000 draws.
             assert!(at >= 0.9985, "case {case}: detected {at} at the level");
             assert!(below < 0.99, "case {case}: detected {below} at 0.8 of it");
@@ -603,6 +652,30 @@ mod tests {
             assert_eq!(decide(&mut n, t, 1.0), Verdict::Refuse, "{t} s");
         }
         assert_eq!(decide(&mut n, 161, 1.0), Verdict::Readmit);
+    }
+
+    /// A fix whose own claimed accuracy puts the level beyond the limit
+    /// while the reference's is within it is refused, however small its
+    /// q: it neither excludes the aid nor counts as agreement; an excluded
+    /// aid's agreement starts again.
+    #[test]
+    fn a_fix_its_own_accuracy_makes_unverifiable_is_refused() {
+        let s = 1_000_000_000u64;
+        let wide = |q: f64| Test {
+            protection_m: 480.0,
+            ..test(q)
+        };
+        assert!(wide(1.0).available() && !wide(1.0).verifiable());
+        let mut m = Monitor::default();
+        let decide = |m: &mut Monitor, t: u64, x: &Test| m.decide(t * s, x, 60 * s, u64::MAX);
+        assert_eq!(decide(&mut m, 1, &wide(1e9)), Verdict::Unverifiable);
+        assert_eq!((m.excluded, m.available), (false, Some(true)));
+        assert_eq!(decide(&mut m, 2, &test(11.0)), Verdict::Exclude);
+        assert_eq!(decide(&mut m, 3, &test(1.0)), Verdict::Refuse);
+        assert_eq!(decide(&mut m, 50, &wide(1.0)), Verdict::Refuse);
+        assert_eq!(decide(&mut m, 62, &test(1.0)), Verdict::Refuse);
+        assert_eq!(decide(&mut m, 110, &test(1.0)), Verdict::Refuse);
+        assert_eq!(decide(&mut m, 122, &test(1.0)), Verdict::Readmit);
     }
 
     #[test]

@@ -294,8 +294,9 @@ pub enum Event {
         step: Option<crate::navigator::ResetRecord>,
     },
     /// The integrity test of an aid that is not autonomous was lost (the
-    /// reference's horizontal protection level went beyond the alert
-    /// limit: the aid is fused untested) or regained; one per change.
+    /// test's horizontal protection level from the reference's covariance
+    /// went beyond the alert limit: the aid is fused untested) or
+    /// regained; one per change.
     IntegrityAvailability {
         stream: Stream,
         t_ns: u64,
@@ -1280,7 +1281,10 @@ impl Session {
         };
         let m = &mut self.integrity[k];
         let readmit_ns = (is.readmit_after_s * 1e9).round() as u64;
-        let max_gap_ns = (self.settings.navigator.aid_settings.timeout_s[k] * 1e9).round() as u64;
+        // Continuous agreement: no gap longer than the aid's timeout, and
+        // never as long as the readmission time itself.
+        let max_gap_ns = ((self.settings.navigator.aid_settings.timeout_s[k] * 1e9).round() as u64)
+            .min(readmit_ns / 2);
         let was = m.available;
         let verdict = m.decide(a.t_ns(), &test, readmit_ns, max_gap_ns);
         if m.available != was && (was.is_some() || !test.available()) {
@@ -1310,7 +1314,10 @@ impl Session {
             exclusions: m.exclusions,
             step,
         });
-        matches!(verdict, Verdict::Exclude | Verdict::Refuse)
+        matches!(
+            verdict,
+            Verdict::Exclude | Verdict::Refuse | Verdict::Unverifiable
+        )
     }
 
     fn offer(&mut self, a: &AidSample, sink: &mut impl Sink) {

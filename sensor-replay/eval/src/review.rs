@@ -1789,9 +1789,8 @@ fn aids_section(pass: &Pass, faults: &[(AidKind, String, f64)]) -> String {
         if let Some(u) = lane_of(k, AidLane::Untested) {
             let _ = write!(
                 md,
-                "; its integrity test unavailable (the autonomous solution's horizontal \
-                 protection level beyond the alert limit: its samples fused untested) in {:.2} % \
-                 of rows",
+                "; its integrity test unavailable (its horizontal protection level from the \
+                 reference beyond the alert limit: its samples fused untested) in {:.2} % of rows",
                 100.0 * pass.health_set[u + 1] as f64 / rows
             );
         }

@@ -89,9 +89,10 @@ pub struct GnssSettings {
     pub integrity: bool,
     /// False-alarm probability of one integrity test (one fix).
     pub integrity_false_alarm: f64,
-    /// The test is available while the autonomous solution's horizontal
-    /// protection level is within this (m); beyond it GNSS is fused
-    /// untested (flagged `GNSS_UNTESTED`).
+    /// The test is available while its horizontal protection level from
+    /// the reference's covariance is within this (m); beyond it GNSS is
+    /// fused untested (flagged `GNSS_UNTESTED`); a fix whose own claimed
+    /// accuracy puts the level beyond it is refused.
     pub integrity_alert_limit_m: f64,
     /// Excluded GNSS is readmitted after its fixes have agreed with the
     /// autonomous solution continuously for this long (s).

@@ -57,13 +57,15 @@ impl Navigator {
             AnyMeasurement::D3(m) => statistic(m, &p, decl.components),
             AnyMeasurement::D6(m) => statistic(m, &p, decl.components),
         };
-        let (q, by_unit, [[a, b], [_, c]]) = q?;
+        let (q, by_unit, with_r, reference) = q?;
         let threshold = settings.threshold(decl.dof());
+        let level = |[[a, b], [_, c]]: Block2| settings.protection_level(decl.dof(), a, b, c);
         Some(Test {
             q,
             threshold,
             cause: by_unit,
-            protection_m: settings.protection_level(decl.dof(), a, b, c),
+            protection_m: level(with_r),
+            reference_protection_m: level(reference),
             alert_limit_m: settings.integrity_alert_limit_m,
         })
     }
@@ -105,43 +107,48 @@ impl Navigator {
     }
 }
 
+/// A symmetric 2×2 block, rows of a matrix.
+type Block2 = [[f64; 2]; 2];
+
 /// q = zᵀ (H P Hᵀ + R)⁻¹ z of a measurement, the cause its largest
 /// share of q points to (the block of components of one unit, position or
 /// velocity, whose own q over its own χ² quantile is the largest), and
-/// the block of (H P Hᵀ)⁻¹ of its horizontal position components (the
-/// first two in metres: east and north in g, grid x and y in G), from
-/// which the protection level follows (NaN without two such components:
-/// no level). R is left out of the level on purpose: it is what the
-/// receiver claims, and a spoofer claiming a large σ must not be able to
-/// switch the test off (fixes claiming more than `max_h_acc_m` are refused
-/// before the test, which bounds what R takes from its power).
+/// the horizontal position blocks (the first two components in metres:
+/// east and north in g, grid x and y in G) of S = H P Hᵀ + R and of the
+/// reference's part H P Hᵀ, from which the protection levels follow (NaN
+/// without two such components: no level).
 fn statistic<const M: usize>(
     m: &crate::aids::Measurement<M>,
     p: &crate::error_model::Mat15,
     components: &[msgs::aids::Component],
-) -> Option<(f64, u8, [[f64; 2]; 2])> {
+) -> Option<(f64, u8, Block2, Block2)> {
     use msgs::aids::Unit;
     let s: SMatrix<f64, M, M> = m.h * p * m.h.transpose() + m.r;
     let chol = s.cholesky()?;
     let q = m.z.dot(&chol.solve(&m.z));
-    let horizontal = {
+    let (with_r, reference) = {
         let mut metres = components
             .iter()
             .enumerate()
             .take(M)
             .filter(|(_, c)| c.unit == Unit::M)
             .map(|(k, _)| k);
-        let reference: SMatrix<f64, M, M> = m.h * p * m.h.transpose();
-        match (metres.next(), metres.next(), reference.cholesky()) {
-            (Some(i), Some(j), Some(c)) => {
-                let inv = c.inverse();
-                [[inv[(i, i)], inv[(i, j)]], [inv[(j, i)], inv[(j, j)]]]
+        match (metres.next(), metres.next()) {
+            (Some(i), Some(j)) => {
+                let block =
+                    |m: &SMatrix<f64, M, M>| [[m[(i, i)], m[(i, j)]], [m[(j, i)], m[(j, j)]]];
+                (block(&s), block(&(s - m.r)))
             }
-            _ => [[f64::NAN; 2]; 2],
+            _ => ([[f64::NAN; 2]; 2], [[f64::NAN; 2]; 2]),
         }
     };
     if !q.is_finite() {
-        return Some((f64::INFINITY, integrity::cause::MEASUREMENT, horizontal));
+        return Some((
+            f64::INFINITY,
+            integrity::cause::MEASUREMENT,
+            with_r,
+            reference,
+        ));
     }
     // The blocks: position (m), velocity (m/s), the rest; each is a run
     // of at most 3 neighbouring components (as the declarations list
@@ -182,5 +189,5 @@ fn statistic<const M: usize>(
             best = (share, cause);
         }
     }
-    Some((q, best.1, horizontal))
+    Some((q, best.1, with_r, reference))
 }
