@@ -233,11 +233,11 @@
 
 /**
  * GNSS's integrity test is unavailable (at its last fix), so its
- * fixes are fused untested: the autonomous solution's horizontal
- * protection level is beyond the alert limit (`[aids.gnss]
- * integrity_alert_limit_m`), and it cannot tell a spoofed position
- * from its own error (an INS without a horizontal autonomous aid,
- * such as a MEMS INS with only baro and magnetometer).
+ * fixes are fused untested: its horizontal protection level from the
+ * reference's covariance is beyond the alert limit (`[aids.gnss]
+ * integrity_alert_limit_m`), so the reference cannot tell a spoofed
+ * position from its own error (an INS without a horizontal
+ * autonomous aid, such as a MEMS INS with only baro and magnetometer).
  */
 #define POLARNAV_FLAG_GNSS_UNTESTED (1 << 18)
 
@@ -879,8 +879,9 @@ typedef struct {
    * An aid that is not autonomous: whether its integrity test could
    * judge its last sample ([`integrity_state`]: 0 not tested (an
    * autonomous aid, the test off, or no sample yet), 1 tested, 2
-   * unavailable: the autonomous solution's horizontal protection level
-   * beyond the alert limit, the aid fused untested). The byte was
+   * unavailable: the test's horizontal protection level beyond the
+   * alert limit, the sample fused untested unless the aid is excluded).
+   * The last sample's state: it stays through an outage. The byte was
    * padding (always zero) before: an older sender reads "not tested".
    */
   uint8_t integrity_state;
