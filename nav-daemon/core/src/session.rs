@@ -1281,10 +1281,12 @@ impl Session {
         };
         let m = &mut self.integrity[k];
         let readmit_ns = (is.readmit_after_s * 1e9).round() as u64;
-        // Continuous agreement: no gap longer than the aid's timeout, and
-        // never as long as the readmission time itself.
+        // Continuous agreement: no gap longer than the aid's timeout, nor
+        // than the readmission time itself (a timeout set longer must not
+        // let two fixes that far apart readmit; half of it would never
+        // readmit a 1 Hz aid with a 1 s readmission time).
         let max_gap_ns = ((self.settings.navigator.aid_settings.timeout_s[k] * 1e9).round() as u64)
-            .min(readmit_ns / 2);
+            .min(readmit_ns);
         let was = m.available;
         let verdict = m.decide(a.t_ns(), &test, readmit_ns, max_gap_ns);
         if m.available != was && (was.is_some() || !test.available()) {
