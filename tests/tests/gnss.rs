@@ -430,8 +430,16 @@ fn jamming_over_the_pole_falls_back_without_a_transient() {
          {autonomous:.2} of its 3σ bound at worst (with clean GNSS before the jamming, {aided:.2}: the \
          receiver's correlated error); GNSS stale from {lost_flag_at:?} s, fresh again from \
          {back_flag_at:?} s (fix back at {end} s, step {:.2} m at σ {:.2} m); {} fixes refused as \
-         below 3D, {} exclusions",
-        back_step.0, back_step.1, g.refused[1], g.exclusions
+         below 3D, {} exclusions; {} fixes refused by the integrity test as unverifiable (their \
+         accuracy estimates beyond what it can check), the first at {:?} s",
+        back_step.0,
+        back_step.1,
+        g.refused[1],
+        g.exclusions,
+        r.decisions(Verdict::Unverifiable).len(),
+        r.decisions(Verdict::Unverifiable)
+            .first()
+            .map(|t| *t as f64 * 1e-9)
     );
     assert!(worst_step <= 3.0, "a step of {worst_step}σ");
     assert!(
@@ -442,6 +450,18 @@ fn jamming_over_the_pole_falls_back_without_a_transient() {
         r.decisions(Verdict::Exclude).is_empty(),
         "jamming is not spoofing"
     );
+    // The growing accuracy estimates hand over to the autonomous aids before
+    // the fix is lost: fixes the test cannot verify are refused (counted as
+    // rejected by the integrity test), only within the ramp.
+    let unverifiable = r.decisions(Verdict::Unverifiable);
+    assert!(
+        !unverifiable.is_empty()
+            && unverifiable
+                .iter()
+                .all(|&t| (start..=start + ramp).contains(&(t as f64 * 1e-9))),
+        "unverifiable fixes at {unverifiable:?}"
+    );
+    assert_eq!(c.rejected_integrity, unverifiable.len() as u64);
     // No fix from the end of the ramp: stale within the timeout (3 s).
     let lost = lost_flag_at.expect("GNSS never stale");
     assert!(lost <= start + ramp + 3.2, "stale only at {lost} s");

@@ -123,7 +123,8 @@ fn statistic<const M: usize>(
     components: &[msgs::aids::Component],
 ) -> Option<(f64, u8, Block2, Block2)> {
     use msgs::aids::Unit;
-    let s: SMatrix<f64, M, M> = m.h * p * m.h.transpose() + m.r;
+    let hph: SMatrix<f64, M, M> = m.h * p * m.h.transpose();
+    let s = hph + m.r;
     let chol = s.cholesky()?;
     let q = m.z.dot(&chol.solve(&m.z));
     let (with_r, reference) = {
@@ -137,7 +138,7 @@ fn statistic<const M: usize>(
             (Some(i), Some(j)) => {
                 let block =
                     |m: &SMatrix<f64, M, M>| [[m[(i, i)], m[(i, j)]], [m[(j, i)], m[(j, j)]]];
-                (block(&s), block(&(s - m.r)))
+                (block(&s), block(&hph))
             }
             _ => ([[f64::NAN; 2]; 2], [[f64::NAN; 2]; 2]),
         }
