@@ -144,7 +144,15 @@ impl Navigator {
             self.aids.streaks[k].fused(t_ns, &m.z, &m.h, &m.r, &out.dx);
             self.feed_back(t_ns, &out.dx);
         } else {
-            self.aids.streaks[k].rejected(t_ns, &m.z, &m.r, out.nis, &out.innovation_var);
+            let max_gap_ns = self.aids.controls[k].timeout_ns;
+            self.aids.streaks[k].rejected(
+                t_ns,
+                &m.z,
+                &m.r,
+                out.nis,
+                &out.innovation_var,
+                max_gap_ns,
+            );
             self.maybe_reset(which, t_ns, m, persistent_var);
         }
         AidOutcome {
@@ -201,11 +209,18 @@ impl Navigator {
     /// [`super::recovery`]: κ cannot say how the misfit is shared among the
     /// unobserved states, and a wrong bias model is not a one-time error),
     /// the observed states' is widened along the
-    /// measurement (Gᵀ Λ G with G = H on the observed block, Λ = 10⁴ (z² +
-    /// S) per component, so their prior no longer counts), and the
-    /// measurement is fused without a gate. The step is published as a
-    /// reset (count, time, deltas). An update that fails leaves everything
-    /// as it was.
+    /// measurement, and the measurement is fused without a gate. The step
+    /// is published as a reset (count, time, deltas). An update that fails
+    /// leaves everything as it was.
+    ///
+    /// The observed states are those of the aid's observed blocks that this
+    /// measurement's H reaches (a GNSS fix without velocity does not observe
+    /// the velocity: it is scaled by κ like any unobserved state). Their
+    /// widening is G⁺ Λ G⁺ᵀ with G = H on the observed blocks, G⁺ = Gᵀ (G
+    /// Gᵀ)⁻¹ its right inverse and Λ = 10⁴ (z² + S) per component: the prior
+    /// of the measured quantity grows by exactly Λ (G G⁺ = I), in the
+    /// measurement's units whatever the states' (a GNSS position in metres
+    /// of a latitude error in radians), so the prior no longer counts.
     fn reset_to_aid<const M: usize>(
         &mut self,
         which: AidKind,
@@ -220,7 +235,14 @@ impl Navigator {
         self.err.tape_break();
         let before = self.err.p;
         let old = self.solution();
-        let observed = observed_blocks(which);
+        let reached = |o: &usize| m.h.fixed_view::<M, 3>(0, *o).iter().any(|x| *x != 0.0);
+        let mut observed = [0_usize; 5];
+        let mut n_observed = 0;
+        for o in observed_blocks(which).iter().filter(|o| reached(o)) {
+            observed[n_observed] = *o;
+            n_observed += 1;
+        }
+        let observed = &observed[..n_observed];
         let kappa = verdict.covariance_inflation.min(KAPPA_MAX);
         let mut d = SVector::<f64, 15>::repeat(kappa.sqrt());
         for &o in observed {
@@ -255,12 +277,18 @@ impl Navigator {
             g.fixed_view_mut::<M, 3>(0, o)
                 .copy_from(&m.h.fixed_view::<M, 3>(0, o));
         }
+        // G has full row rank for every aid (its observed blocks determine
+        // what it measures); without it there is nothing to reset to.
+        let Some(ggt) = (g * g.transpose()).cholesky() else {
+            return;
+        };
+        let g_plus = ggt.solve(&g).transpose();
         let s = m.h * before * m.h.transpose() + m.r;
         let mut lambda = SMatrix::<f64, M, M>::zeros();
         for i in 0..M {
             lambda[(i, i)] = 1e4 * (m.z[i] * m.z[i] + s[(i, i)]);
         }
-        p += g.transpose() * lambda * g;
+        p += g_plus * lambda * g_plus.transpose();
         filter::symmetrize(&mut p);
         self.err.p = p;
         let Some(out) = self.err.update(m, f64::INFINITY, persistent_var) else {

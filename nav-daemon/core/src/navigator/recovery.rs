@@ -8,11 +8,24 @@
 //! the INS error if the aid is right) against time since the streak
 //! started. Two tests decide, once the streak has lasted `reset_after_s`:
 //!
-//! - **self-consistency**: a quadratic in time per component (an INS error
-//!   over tens of seconds is smooth) fitted by least squares leaves a
-//!   residual χ² per degree of freedom below the 99.9 % quantile of
-//!   χ²(ν)/ν (Wilson–Hilferty), ν = dof·(n − 3). Outliers, spikes and
-//!   alternating jumps fail it.
+//! - **self-consistency**: a cubic in time per component fitted by least
+//!   squares leaves a residual χ² per degree of freedom below the 99.9 %
+//!   quantile of χ²(ν)/ν (Wilson–Hilferty), ν = dof·(n − 4). Outliers,
+//!   spikes and alternating jumps fail it. A cubic because that is the
+//!   short-time INS error: a position error, a velocity error, a tilt or
+//!   accelerometer error (t²) and a gyro bias tilting the platform at a
+//!   constant rate (g·δω·t³/6), over times short against the Schuler
+//!   period. A quadratic leaves out the last term, the one that dominates
+//!   a MEMS gyro: on a real car record (rtklibexplorer's drive_0708, RTK
+//!   fixes of 1 cm σ after a 15 s outage while the car pulled away with a
+//!   heading 35° off) the quadratic's residual χ²/ν over the first 5 s of
+//!   the streak was 2.7 (bound 1.70) while the cubic's was 0.44, and the
+//!   filter with the default gate never came back to GNSS (8.7 km RMSE).
+//! - A streak is **samples seen in a row**: a gap in the aid's samples
+//!   longer than its timeout (an outage) starts a new streak, as at the
+//!   start of a run. Nothing says how the error went while the aid was not
+//!   there, and fitting across the gap judges the INS's free drift during
+//!   the outage instead of the aid.
 //! - **continuity with the last fused sample**: the post-fit residual of the
 //!   aid's last fused sample (relative to the state the streak's innovations
 //!   are also relative to) must lie on the streak's fitted trend extrapolated
@@ -63,25 +76,35 @@
 //!
 //! Fixed-size sums: nothing here allocates.
 
-use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
+use nalgebra::{Matrix4, SMatrix, SVector, Vector4};
 
 /// Sums of a streak for one aid.
 #[derive(Debug, Clone, Copy, PartialEq, Default)]
 pub(super) struct Streak {
-    /// Time of the first rejected sample (ns); meaningful when `n > 0`.
+    /// Time of the first and of the last rejected sample (ns); meaningful
+    /// when `n > 0`.
     start_ns: u64,
+    last_ns: u64,
     /// Rejected samples in the streak.
     pub(super) n: u32,
     /// Components of the measurement.
     dof: usize,
     /// Whitened innovation of the streak's first sample (the fit is of the
-    /// differences from it, which keeps the sums small).
+    /// differences from it).
     y0: [f64; 3],
-    /// Σ tᵏ, k = 0..4 (t in s since `start_ns`).
-    st: [f64; 5],
-    /// Per component: Σ Δy tᵏ, k = 0..2, and Σ Δy².
-    sy: [[f64; 3]; 3],
-    syy: [f64; 3],
+    /// The cubic's least squares as a QR factorization updated by Givens
+    /// rotations, one sample at a time: `qr` the upper triangle R of the
+    /// design (rows 1, t, t², t³, t in s since `start_ns`) with Qᵀ Δy of
+    /// each component beside it (columns 4..7), `rss` each component's
+    /// residual sum of squares, which the rotations accumulate directly.
+    /// Unlike running sums of tᵏ and Δy tᵏ (the normal equations), nothing
+    /// cancels: the residual keeps its precision when the innovations are
+    /// 10⁸ times their σ or the streak lasts an hour.
+    qr: [[f64; 7]; 4],
+    rss: [f64; 3],
+    /// Σ t^(2k), k = 0..3: each design column's squared norm, against which
+    /// R's diagonal says whether the times can fix a cubic.
+    col_sq: [f64; 4],
     /// Σ NIS of the rejected samples.
     nis: f64,
     /// Σ (zᵀz − tr R) and Σ tr(H P Hᵀ) = Σ (tr S − tr R): what the
@@ -98,7 +121,7 @@ pub struct StreakVerdict {
     /// Duration (s) and rejected samples.
     pub duration_s: f64,
     pub samples: u32,
-    /// Residual χ² per degree of freedom of the quadratic fit, and its bound.
+    /// Residual χ² per degree of freedom of the cubic fit, and its bound.
     pub consistency: f64,
     pub consistency_bound: f64,
     /// χ² of the step from the last fused sample to the trend (None without
@@ -162,6 +185,8 @@ impl Streak {
     }
 
     /// A sample rejected at the gate, with its NIS and the diagonal of S.
+    /// A gap longer than `max_gap_ns` since the streak's last sample (the
+    /// aid's timeout) starts a new streak; the anchor stays.
     pub(super) fn rejected<const M: usize>(
         &mut self,
         t_ns: u64,
@@ -169,34 +194,50 @@ impl Streak {
         r: &SMatrix<f64, M, M>,
         nis: f64,
         s_diag: &SVector<f64, M>,
+        max_gap_ns: u64,
     ) {
         let Some(y) = whiten(z, r) else {
             return;
         };
+        if self.n > 0 && t_ns.saturating_sub(self.last_ns) > max_gap_ns {
+            *self = Streak {
+                anchor: self.anchor,
+                ..Streak::default()
+            };
+        }
         if self.n == 0 {
             self.start_ns = t_ns;
             self.dof = M.min(3);
             self.y0 = y;
         }
+        self.last_ns = self.last_ns.max(t_ns);
         let t = t_ns.saturating_sub(self.start_ns) as f64 * 1e-9;
+        // The new row [1 t t² t³ | Δy], rotated into R row by row.
+        let mut row = [0.0; 7];
         let mut tk = 1.0;
-        for s in &mut self.st {
-            *s += tk;
+        for (k, c) in row.iter_mut().take(4).enumerate() {
+            *c = tk;
+            self.col_sq[k] += tk * tk;
             tk *= t;
         }
-        let dof = self.dof;
-        for (((yi, y0), sy), syy) in y
-            .iter()
-            .zip(&self.y0)
-            .zip(&mut self.sy)
-            .zip(&mut self.syy)
-            .take(dof)
-        {
-            let d = yi - y0;
-            sy[0] += d;
-            sy[1] += d * t;
-            sy[2] += d * t * t;
-            *syy += d * d;
+        for i in 0..self.dof {
+            row[4 + i] = y[i] - self.y0[i];
+        }
+        for k in 0..4 {
+            let (a, b) = (self.qr[k][k], row[k]);
+            if b == 0.0 {
+                continue;
+            }
+            let r = a.hypot(b);
+            let (c, s) = (a / r, b / r);
+            for (rk, x) in self.qr[k].iter_mut().zip(row.iter_mut()).skip(k) {
+                let (u, v) = (*rk, *x);
+                *rk = c * u + s * v;
+                *x = c * v - s * u;
+            }
+        }
+        for i in 0..self.dof {
+            self.rss[i] += row[4 + i] * row[4 + i];
         }
         self.nis += nis;
         self.excess += z.norm_squared() - r.trace();
@@ -226,24 +267,33 @@ impl Streak {
         if self.n < 6 || self.dof == 0 {
             return None;
         }
-        let s = &self.st;
-        let a = Matrix3::new(s[0], s[1], s[2], s[1], s[2], s[3], s[2], s[3], s[4]);
-        let a_inv = a.try_inverse()?;
-        let mut resid = 0.0;
-        let mut coef = [Vector3::zeros(); 3];
-        for ((sy, syy), c) in self.sy.iter().zip(&self.syy).zip(&mut coef).take(self.dof) {
-            let b = Vector3::from(*sy);
-            *c = a_inv * b;
-            resid += (syy - b.dot(c)).max(0.0);
+        // Samples at fewer than four distinct times (or all but a few at
+        // one time) cannot fix a cubic: R's diagonal against each column's
+        // norm (1 minus that column's squared correlation with the earlier
+        // ones) says so.
+        let r = Matrix4::from_fn(|i, j| if j >= i { self.qr[i][j] } else { 0.0 });
+        for k in 0..4 {
+            // (Written so that a NaN refuses too.)
+            let independent = r[(k, k)] * r[(k, k)] > 1e-12 * self.col_sq[k];
+            if !independent {
+                return None;
+            }
         }
-        let nu = (self.dof * (self.n as usize - 3)) as f64;
+        let resid: f64 = self.rss.iter().take(self.dof).sum();
+        let mut coef = [Vector4::zeros(); 3];
+        for (i, c) in coef.iter_mut().enumerate().take(self.dof) {
+            let qty = Vector4::from_fn(|k, _| self.qr[k][4 + i]);
+            *c = r.solve_upper_triangular(&qty)?;
+        }
+        let nu = (self.dof * (self.n as usize - 4)) as f64;
         let step = self.anchor.and_then(|(ta, ya)| {
             if self.start_ns.saturating_sub(ta) > anchor_max_ns {
                 return None;
             }
             let t = -(self.start_ns.saturating_sub(ta) as f64 * 1e-9);
-            let basis = Vector3::new(1.0, t, t * t);
-            let var_fit = basis.dot(&(a_inv * basis));
+            let basis = Vector4::new(1.0, t, t * t, t * t * t);
+            // bᵀ (RᵀR)⁻¹ b = |R⁻ᵀ b|².
+            let var_fit = r.transpose().solve_lower_triangular(&basis)?.norm_squared();
             let mut chi2 = 0.0;
             for i in 0..self.dof {
                 let trend = self.y0[i] + coef[i].dot(&basis);
@@ -314,7 +364,14 @@ mod tests {
                 if outliers && k % 2 == 0 {
                     z[1] += 60.0;
                 }
-                s.rejected(ns(t), &z, &r, 100.0, &SVector::<f64, 2>::new(5.0, 10.0));
+                s.rejected(
+                    ns(t),
+                    &z,
+                    &r,
+                    100.0,
+                    &SVector::<f64, 2>::new(5.0, 10.0),
+                    3_000_000_000,
+                );
             }
             s.verdict(ns(30.0), 13.816, 3_000_000_000).expect("verdict")
         };
@@ -339,5 +396,170 @@ mod tests {
         assert!(!run(0.0, true, &mut rng).healthy());
         let v = run(0.0, false, &mut rng);
         assert!((v.inflation - 50.0).abs() < 1e-9, "{}", v.inflation);
+    }
+
+    /// Residual sum of squares of a least-squares polynomial fit of `deg`
+    /// to (t, y), by the SVD of the column-normalized design matrix: a
+    /// second formulation of the streak's normal equations.
+    fn lsq_residual(ts: &[f64], ys: &[f64], deg: usize) -> f64 {
+        let x = nalgebra::DMatrix::from_fn(ts.len(), deg + 1, |i, j| ts[i].powi(j as i32));
+        let norms: Vec<f64> = x.column_iter().map(|c| c.norm()).collect();
+        let xn = nalgebra::DMatrix::from_fn(ts.len(), deg + 1, |i, j| x[(i, j)] / norms[j]);
+        let y = nalgebra::DVector::from_column_slice(ys);
+        let c = xn.clone().svd(true, true).solve(&y, 1e-14).expect("svd");
+        (y - xn * c).norm_squared()
+    }
+
+    /// The streak's residual χ²/ν is that of an independent least-squares
+    /// cubic (SVD of all the data at once, not Givens rotations of one
+    /// sample at a time), to 1e-9, for a 5 s streak at 4 Hz and for an
+    /// hour-long one at 0.1 Hz whose innovations reach 10⁵ σ (where the
+    /// running sums of the normal equations, Σ Δy² of 10¹² against a
+    /// residual of 10³, kept only 1e-7).
+    #[test]
+    fn the_consistency_residual_is_an_independent_least_squares_fit() {
+        let mut rng = rand_chacha::ChaCha20Rng::seed_from_u64(11);
+        let r = SMatrix::<f64, 1, 1>::new(0.25);
+        for (n, dt) in [(21_u32, 0.25), (360, 10.0)] {
+            let mut s = Streak::default();
+            let (mut ts, mut ys) = (Vec::new(), Vec::new());
+            for k in 0..n {
+                let t = f64::from(k) * dt;
+                let e: f64 = StandardNormal.sample(&mut rng);
+                let z = 4.0 + 0.3 * t - 2e-3 * t * t + 1e-6 * t * t * t + 0.5 * e;
+                s.rejected(
+                    (t * 1e9) as u64 + 7_000_000_000,
+                    &SVector::<f64, 1>::new(z),
+                    &r,
+                    50.0,
+                    &SVector::<f64, 1>::new(1.0),
+                    u64::MAX,
+                );
+                ts.push(t);
+                ys.push(z / 0.5);
+            }
+            let y0 = ys[0];
+            let dy: Vec<f64> = ys.iter().map(|y| y - y0).collect();
+            let want = lsq_residual(&ts, &dy, 3) / f64::from(n - 4);
+            let v = s.verdict(u64::MAX, 10.8, 0).expect("verdict");
+            assert!(
+                (v.consistency - want).abs() <= 1e-9 * want,
+                "n {n}: streak {} against least squares {want}",
+                v.consistency
+            );
+        }
+    }
+
+    /// A MEMS gyro bias tilts the platform at a constant rate, so the INS
+    /// position error grows as g·δω·t³/6: with an aid of centimetres (a
+    /// whitened error of hundreds) a quadratic cannot follow it, the cubic
+    /// does. The drift below (whitened units, 4 Hz for 6 s: 2.2 m of error
+    /// seen with σ = 1 cm) leaves the quadratic's residual far beyond the
+    /// bound in every run (SVD fit), and the cubic passes in ≥ 190 of 200
+    /// runs; alternating outliers still fail the cubic.
+    #[test]
+    fn a_gyro_bias_drift_seen_by_a_precise_aid_passes_the_cubic() {
+        let mut rng = rand_chacha::ChaCha20Rng::seed_from_u64(5);
+        let r = SMatrix::<f64, 2, 2>::identity();
+        let trend = |t: f64| {
+            SVector::<f64, 2>::new(
+                120.0 + 40.0 * t + 6.0 * t * t + 1.0 * t * t * t,
+                -80.0 * t - 2.0 * t * t - 0.6 * t * t * t,
+            )
+        };
+        let run = |outliers: bool, rng: &mut rand_chacha::ChaCha20Rng| {
+            let mut s = Streak::default();
+            let (mut ts, mut y1) = (Vec::new(), Vec::new());
+            for k in 0..25 {
+                let t = f64::from(k) * 0.25;
+                let mut z = trend(t)
+                    + SVector::<f64, 2>::new(
+                        StandardNormal.sample(rng),
+                        StandardNormal.sample(rng),
+                    );
+                if outliers && k % 2 == 0 {
+                    z[1] += 30.0;
+                }
+                s.rejected(
+                    (t * 1e9) as u64 + 1_000_000_000,
+                    &z,
+                    &r,
+                    1e5,
+                    &SVector::<f64, 2>::new(1.0, 1.0),
+                    3_000_000_000,
+                );
+                ts.push(t);
+                y1.push(z[0]);
+            }
+            let dy: Vec<f64> = y1.iter().map(|y| y - y1[0]).collect();
+            let quadratic = lsq_residual(&ts, &dy, 2) / f64::from(25 - 3);
+            (
+                s.verdict(7_000_000_000, 22.458, 3_000_000_000)
+                    .expect("verdict"),
+                quadratic,
+            )
+        };
+        let mut passed = 0;
+        for _ in 0..200 {
+            let (v, quadratic) = run(false, &mut rng);
+            assert!(v.step.is_none(), "no anchor, no step test");
+            // The first component alone, against the bound for its ν.
+            assert!(
+                quadratic > 5.0 * chi2_999_per_dof(22.0),
+                "quadratic residual χ²/ν {quadratic}"
+            );
+            passed += usize::from(v.healthy());
+        }
+        assert!(passed >= 190, "the cubic drift passed {passed}/200");
+        assert!(!run(true, &mut rng).0.healthy());
+    }
+
+    /// An outage longer than the aid's timeout starts a new streak: its
+    /// duration and samples count from the first sample after the gap, and
+    /// the anchor before the outage is too old for the step test.
+    #[test]
+    fn a_gap_longer_than_the_timeout_starts_a_new_streak() {
+        let r = SMatrix::<f64, 1, 1>::identity();
+        let h = SMatrix::<f64, 1, 15>::zeros();
+        let ns = |t: f64| (t * 1e9) as u64 + 1_000_000_000;
+        let mut s = Streak::default();
+        s.fused(
+            ns(0.0),
+            &SVector::<f64, 1>::new(0.1),
+            &h,
+            &r,
+            &SVector::<f64, 15>::zeros(),
+        );
+        let one = SVector::<f64, 1>::new(1.0);
+        for k in 1..=8 {
+            s.rejected(
+                ns(f64::from(k)),
+                &(one * 50.0),
+                &r,
+                2500.0,
+                &one,
+                3_000_000_000,
+            );
+        }
+        assert_eq!((s.n, s.duration_ns(ns(8.0))), (8, 7_000_000_000));
+        // A 3 s gap is within the timeout; 3.5 s after the last is not.
+        s.rejected(ns(11.0), &(one * 50.0), &r, 2500.0, &one, 3_000_000_000);
+        assert_eq!(s.n, 9);
+        for k in 0..8 {
+            let t = 14.5 + f64::from(k);
+            s.rejected(
+                ns(t),
+                &(one * (60.0 + f64::from(k))),
+                &r,
+                3600.0,
+                &one,
+                3_000_000_000,
+            );
+        }
+        assert_eq!((s.n, s.duration_ns(ns(21.5))), (8, 7_000_000_000));
+        let v = s.verdict(ns(21.5), 10.8, 3_000_000_000).expect("verdict");
+        assert_eq!(v.samples, 8);
+        assert!(v.step.is_none(), "the anchor is 14.5 s before the streak");
+        assert!(v.healthy(), "{v:?}");
     }
 }
