@@ -39,7 +39,7 @@ the result):
 - Init: both at the first GNSS epoch, position that fix's, velocity that
   fix's RTK velocity, roll and pitch from the mean specific force of the
   first second after it (the vehicle is still for 40 s), yaw the course over ground of the
-  first epoch moving faster than 2 m/s (the vehicle has not turned in
+  first epoch moving faster than 2 m/s (1 m/s for the walk; the vehicle has not turned in
   place); the σ below. KF-GINS's initatt/initvel/initposstd ↔ polarnav's
   --init-att/--init-vel/--init-att-sigma/--init-vel-sigma.
 - Noise model: the data set's own IMU specification (its *_config.py):
@@ -82,6 +82,7 @@ RUNS = {
         start_coast=40.0,
         end_coast=30.0,
         fs=100.0,
+        moving_mps=2.0,
     ),
     "1730": dict(  # walk_0827
         imu_misalign=(180.0, 0.0, -90.0),
@@ -90,6 +91,8 @@ RUNS = {
         start_coast=25.0,
         end_coast=45.0,
         fs=100.0,
+        # A walker: about 1.3 m/s at most, never the car's 2 m/s.
+        moving_mps=1.0,
     ),
 }
 COAST_LEN_S = 15.0
@@ -317,12 +320,12 @@ def main():
             f.write(f"{p['t_sow']:.3f} {p['lat']:.9f} {p['lon']:.9f} {p['h']:.4f} "
                     f"{p['sdn']:.4f} {p['sde']:.4f} {p['sdu']:.4f}\n")
 
-    # Init: leveling over the first second, yaw from the first course over 2 m/s.
+    # Init: leveling over the first second, yaw from the first course over moving_mps.
     still = [(g, a) for t, g, a in imu if start["t"] <= t < start["t"] + 1.0]
     fm = [sum(a[k] for _, a in still) / len(still) for k in range(3)]
     roll = math.degrees(math.atan2(-fm[1], -fm[2]))
     pitch = math.degrees(math.atan2(fm[0], math.hypot(fm[1], fm[2])))
-    moving = next(p for p in pos if p["t"] >= start["t"] and math.hypot(p["vn"], p["ve"]) > 2.0)
+    moving = next(p for p in pos if p["t"] >= start["t"] and math.hypot(p["vn"], p["ve"]) > cfg["moving_mps"])
     yaw = math.degrees(math.atan2(moving["ve"], moving["vn"])) % 360.0
     vel = (start["vn"], start["ve"], -start["vu"])
     lever = cfg["lever_frd"]
