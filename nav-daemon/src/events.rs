@@ -190,10 +190,11 @@ pub fn log_event(log: &str, e: &Event) {
             tracing::warn!(
                 t_ns = reset.t_ns,
                 count = reset.count,
-                "{log}: {} rejected for {:.1} s ({} samples) while consistent (residual χ²/ν {:.2} ≤ {:.2}, step from last fused {}): reset to it, |Δr| {:.2} m, |Δv| {:.3} m/s, Δψ {:.4}°, covariance of the unobserved states ×{:.3e}{}",
+                "{log}: {} rejected for {:.1} s ({} samples) while consistent ({} fit's residual χ²/ν {:.2} ≤ {:.2}, step from last fused {}): reset to it, |Δr| {:.2} m, |Δv| {:.3} m/s, Δψ {:.4}°, covariance of the unobserved states ×{:.3e}{}",
                 stream.name(),
                 verdict.duration_s,
                 verdict.samples,
+                if verdict.degree == 3 { "cubic" } else { "quadratic" },
                 verdict.consistency,
                 verdict.consistency_bound,
                 verdict.step.map_or("none (stale)".to_owned(), |s| format!(

@@ -34,7 +34,9 @@ pub trait Aid: AidPayload {
     /// when it has none).
     type Settings: OwnSettings;
     /// The first state of each 3-state block of the error state that the
-    /// aid observes directly (a reset to the aid resets those blocks).
+    /// aid observes directly (a reset to the aid resets those blocks): at
+    /// most two (the reset's widening is sized for six states; checked by
+    /// a test in `navigator::gating`).
     const OBSERVED: &'static [usize];
     /// Whether the aid makes roll and pitch observable, so that the
     /// accelerometers' level (paper 003 §4.5, [`crate::flight_state`])

@@ -4,11 +4,11 @@
 //! measurement models are `crate::aids`.
 
 use msgs::{AidKind, AidSample, PerAid};
-use nalgebra::{SMatrix, SVector, Vector3};
+use nalgebra::{Matrix6, SVector, Vector3};
 
 use crate::aids::control::AidControl;
 use crate::aids::{Aid, AidError, AnyMeasurement, Context, Measured, Measurement, OwnOf};
-use crate::error_model::idx;
+use crate::error_model::{Mat15, idx};
 use crate::filter;
 use crate::mech::AnyNav;
 use crate::settings::{AidSet, AidSettings, BiasModel, SensorGrade};
@@ -68,6 +68,64 @@ impl AidGate {
 /// The blocks of states an aid observes.
 pub(super) fn observed_blocks(which: AidKind) -> &'static [usize] {
     msgs::match_aid_kind!(which, P => <P as Aid>::OBSERVED)
+}
+
+/// The reset's widening of the observed blocks' prior (their 3×3 blocks in
+/// order, padded to 6×6): W = X Λ Xᵀ, Λ = 10⁴ (z² + S) per component
+/// (S = H P Hᵀ + R), X a right inverse of G, the measurement's H on those
+/// blocks (M × 3k): the prior of what the measurement sees grows by Λ
+/// (G W Gᵀ = Λ when G has full row rank), in the measurement's units
+/// whatever the states' (a GNSS fix in metres of a latitude in radians),
+/// so the prior no longer counts; and nothing is added along a direction
+/// the measurement cannot see (rotation about a baseline), because X's
+/// columns lie in G's row space.
+///
+/// X = Gᵀ (G Gᵀ)⁺ with G's rows scaled to unit norm first (G = S G_s, X =
+/// G_sᵀ (G_s G_sᵀ)⁺ S⁻¹; scaling rows keeps the row space): a latitude
+/// row is 6.4·10⁶ times a height row, which a relative eigenvalue
+/// threshold would take for rank deficiency. The pseudo-inverse is from
+/// the symmetric eigen-decomposition of the M × M (padded to 6 × 6)
+/// G_s G_sᵀ, eigenvalues below 10⁻¹² of the largest taken as zero. None
+/// when G or Λ is not finite or G is zero.
+fn observed_widening<const M: usize>(
+    m: &Measurement<M>,
+    p: &Mat15,
+    observed: &[usize],
+) -> Option<Matrix6<f64>> {
+    // Rows: the measurement's components (M ≤ 6), padded with zeros.
+    let mut g = Matrix6::<f64>::zeros();
+    for (b, &o) in observed.iter().enumerate() {
+        g.view_mut((0, 3 * b), (M, 3))
+            .copy_from(&m.h.fixed_view::<M, 3>(0, o));
+    }
+    let mut s_inv = SVector::<f64, 6>::zeros();
+    for (i, mut row) in g.row_iter_mut().enumerate() {
+        let norm = row.norm();
+        if norm > 0.0 {
+            row /= norm;
+            s_inv[i] = 1.0 / norm;
+        }
+    }
+    let eigen = (g * g.transpose()).symmetric_eigen();
+    let largest = eigen.eigenvalues.amax();
+    if !(largest.is_finite() && largest > 0.0) {
+        return None;
+    }
+    let mut n_plus = Matrix6::<f64>::zeros();
+    for (k, &l) in eigen.eigenvalues.iter().enumerate() {
+        if l > 1e-12 * largest {
+            let v = eigen.eigenvectors.column(k);
+            n_plus += v * v.transpose() / l;
+        }
+    }
+    let x = g.transpose() * n_plus * Matrix6::from_diagonal(&s_inv);
+    let s = m.h * p * m.h.transpose() + m.r;
+    let mut lambda = Matrix6::<f64>::zeros();
+    for i in 0..M {
+        lambda[(i, i)] = 1e4 * (m.z[i] * m.z[i] + s[(i, i)]);
+    }
+    let w = x * lambda * x.transpose();
+    w.iter().all(|x| x.is_finite()).then_some(w)
 }
 
 impl Navigator {
@@ -216,11 +274,10 @@ impl Navigator {
     /// The observed states are those of the aid's observed blocks that this
     /// measurement's H reaches (a GNSS fix without velocity does not observe
     /// the velocity: it is scaled by κ like any unobserved state). Their
-    /// widening is G⁺ Λ G⁺ᵀ with G = H on the observed blocks, G⁺ = Gᵀ (G
-    /// Gᵀ)⁻¹ its right inverse and Λ = 10⁴ (z² + S) per component: the prior
-    /// of the measured quantity grows by exactly Λ (G G⁺ = I), in the
-    /// measurement's units whatever the states' (a GNSS position in metres
-    /// of a latitude error in radians), so the prior no longer counts.
+    /// prior is widened in the measurement's units by [`observed_widening`]
+    /// (before, by Gᵀ Λ G, which is right only where H is the identity: a
+    /// GNSS fix in metres of a latitude in radians put the reset 467 km off
+    /// on paper 003's aircraft), so the prior no longer counts.
     fn reset_to_aid<const M: usize>(
         &mut self,
         which: AidKind,
@@ -231,18 +288,23 @@ impl Navigator {
     ) {
         // σ at most 10⁴ times what P said: beyond, the state is unknown anyway.
         const KAPPA_MAX: f64 = 1e8;
-        // The smoother carries nothing back across a reset.
-        self.err.tape_break();
         let before = self.err.p;
-        let old = self.solution();
         let reached = |o: &usize| m.h.fixed_view::<M, 3>(0, *o).iter().any(|x| *x != 0.0);
-        let mut observed = [0_usize; 5];
+        let mut observed = [0_usize; 2];
         let mut n_observed = 0;
-        for o in observed_blocks(which).iter().filter(|o| reached(o)) {
+        for o in observed_blocks(which).iter().filter(|o| reached(o)).take(2) {
             observed[n_observed] = *o;
             n_observed += 1;
         }
         let observed = &observed[..n_observed];
+        // The observed blocks' widening, before anything changes: nothing
+        // to reset to without it.
+        let Some(widening) = observed_widening(m, &before, observed) else {
+            return;
+        };
+        // The smoother carries nothing back across a reset.
+        self.err.tape_break();
+        let old = self.solution();
         let kappa = verdict.covariance_inflation.min(KAPPA_MAX);
         let mut d = SVector::<f64, 15>::repeat(kappa.sqrt());
         for &o in observed {
@@ -272,23 +334,12 @@ impl Navigator {
             p[(bg, bg)] = p[(bg, bg)].max(bound.gyro_sigma.powi(2));
             p[(ba, ba)] = p[(ba, ba)].max(bound.accel_sigma.powi(2));
         }
-        let mut g = SMatrix::<f64, M, 15>::zeros();
-        for &o in observed {
-            g.fixed_view_mut::<M, 3>(0, o)
-                .copy_from(&m.h.fixed_view::<M, 3>(0, o));
+        for (a, &oa) in observed.iter().enumerate() {
+            for (b, &ob) in observed.iter().enumerate() {
+                let mut block = p.fixed_view_mut::<3, 3>(oa, ob);
+                block += widening.fixed_view::<3, 3>(3 * a, 3 * b);
+            }
         }
-        // G has full row rank for every aid (its observed blocks determine
-        // what it measures); without it there is nothing to reset to.
-        let Some(ggt) = (g * g.transpose()).cholesky() else {
-            return;
-        };
-        let g_plus = ggt.solve(&g).transpose();
-        let s = m.h * before * m.h.transpose() + m.r;
-        let mut lambda = SMatrix::<f64, M, M>::zeros();
-        for i in 0..M {
-            lambda[(i, i)] = 1e4 * (m.z[i] * m.z[i] + s[(i, i)]);
-        }
-        p += g_plus * lambda * g_plus.transpose();
         filter::symmetrize(&mut p);
         self.err.p = p;
         let Some(out) = self.err.update(m, f64::INFINITY, persistent_var) else {
@@ -409,5 +460,109 @@ impl Navigator {
             self.aids.controls[which].status.exclusions += 1;
         }
         Ok(out)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use nalgebra::SMatrix;
+
+    /// Every aid observes at most two blocks ([`observed_widening`] is sized
+    /// for six states), each the first of a 3-state block.
+    #[test]
+    fn every_aid_observes_at_most_two_blocks() {
+        for k in AidKind::ALL {
+            let o = observed_blocks(k);
+            assert!(!o.is_empty() && o.len() <= 2, "{}: {o:?}", k.name());
+            assert!(
+                o.iter().all(|b| b % 3 == 0 && *b < 15),
+                "{}: {o:?}",
+                k.name()
+            );
+        }
+    }
+
+    /// The widening is the pseudo-inverse's: against the right inverse
+    /// Gᵀ(G Gᵀ)⁻¹ for a full-rank G in mixed units (a GNSS-like position
+    /// in metres of radians, 6.4·10⁶ m/rad), and for a rank-2 G (a
+    /// baseline's skew(b): rotation about b unseen) G W Gᵀ is Λ projected on
+    /// G's range and W adds nothing along b, where G Gᵀ has no inverse.
+    #[test]
+    fn the_widening_is_lambda_in_the_measurements_units() {
+        let p = Mat15::identity() * 1e-12;
+        // Full rank, position block in rad → m.
+        let mut h = SMatrix::<f64, 3, 15>::zeros();
+        h.fixed_view_mut::<3, 3>(0, idx::DP)
+            .copy_from(&nalgebra::Matrix3::new(
+                6.37e6, 0.0, 0.0, 0.0, 4.9e6, 0.0, 0.0, 0.0, 1.0,
+            ));
+        h[(0, idx::PHI + 1)] = 0.3;
+        let m = Measurement {
+            z: SVector::<f64, 3>::new(31.0, -12.0, 4.0),
+            h,
+            r: SMatrix::<f64, 3, 3>::identity() * 1e-4,
+        };
+        let w = observed_widening(&m, &p, &[idx::DP]).expect("widening");
+        let g = h.fixed_view::<3, 3>(0, idx::DP).into_owned();
+        let right = g.transpose() * (g * g.transpose()).try_inverse().expect("inverse");
+        let s = h * p * h.transpose() + m.r;
+        let lambda = nalgebra::Matrix3::from_fn(|i, j| {
+            if i == j {
+                1e4 * (m.z[i] * m.z[i] + s[(i, i)])
+            } else {
+                0.0
+            }
+        });
+        let want = right * lambda * right.transpose();
+        let got = w.fixed_view::<3, 3>(0, 0);
+        for (a, b) in got.iter().zip(want.iter()) {
+            assert!((a - b).abs() <= 1e-9 * b.abs().max(1e-30), "{a} vs {b}");
+        }
+        // The measured quantity's prior grows by exactly Λ.
+        let seen = g * got * g.transpose();
+        assert!((seen - lambda).norm() <= 1e-9 * lambda.norm());
+        assert!(w.fixed_view::<3, 3>(3, 3).iter().all(|x| *x == 0.0));
+
+        // Rank 2: a baseline along (1, 2, 2)/3 sees tilts across it only.
+        let b = Vector3::new(1.0, 2.0, 2.0) / 3.0 * 0.8;
+        let mut h = SMatrix::<f64, 3, 15>::zeros();
+        h.fixed_view_mut::<3, 3>(0, idx::PHI)
+            .copy_from(&b.cross_matrix());
+        let m = Measurement {
+            z: SVector::<f64, 3>::new(0.02, -0.01, 0.0),
+            h,
+            r: SMatrix::<f64, 3, 3>::identity() * 1e-6,
+        };
+        let w = observed_widening(&m, &p, &[idx::PHI]).expect("widening");
+        let w3 = w.fixed_view::<3, 3>(0, 0).into_owned();
+        let axis = b.normalize();
+        assert!(
+            (w3 * axis).norm() <= 1e-9 * w3.norm(),
+            "widened along the baseline"
+        );
+        // What it sees grows along both directions of G's range, here by
+        // more than the smallest Λ (0.49 and 3.3 against Λ of 0.01 to 4:
+        // with G rank-deficient the row scaling makes G W Gᵀ an oblique
+        // projection of Λ rather than Λ itself).
+        let g = b.cross_matrix();
+        let seen = g * w3 * g.transpose();
+        let s = h * p * h.transpose() + m.r;
+        let smallest = (0..3)
+            .map(|i| 1e4 * (m.z[i] * m.z[i] + s[(i, i)]))
+            .fold(f64::INFINITY, f64::min);
+        let eig = seen.symmetric_eigen();
+        let mut seen_sorted: Vec<f64> = eig.eigenvalues.iter().copied().collect();
+        seen_sorted.sort_by(f64::total_cmp);
+        assert!(
+            seen_sorted[0].abs() <= 1e-9 * seen_sorted[2],
+            "{seen_sorted:?}"
+        );
+        assert!(
+            seen_sorted[1] >= smallest,
+            "{seen_sorted:?} against {smallest}"
+        );
+        // G Gᵀ itself is singular here: the right inverse does not exist.
+        assert!((g * g.transpose()).determinant().abs() < 1e-12);
     }
 }

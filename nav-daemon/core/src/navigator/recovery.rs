@@ -8,24 +8,30 @@
 //! the INS error if the aid is right) against time since the streak
 //! started. Two tests decide, once the streak has lasted `reset_after_s`:
 //!
-//! - **self-consistency**: a cubic in time per component fitted by least
-//!   squares leaves a residual χ² per degree of freedom below the 99.9 %
-//!   quantile of χ²(ν)/ν (Wilson–Hilferty), ν = dof·(n − 4). Outliers,
-//!   spikes and alternating jumps fail it. A cubic because that is the
-//!   short-time INS error: a position error, a velocity error, a tilt or
-//!   accelerometer error (t²) and a gyro bias tilting the platform at a
-//!   constant rate (g·δω·t³/6), over times short against the Schuler
-//!   period. A quadratic leaves out the last term, the one that dominates
-//!   a MEMS gyro: on a real car record (rtklibexplorer's drive_0708, RTK
+//! - **self-consistency**: a quadratic in time per component fitted by
+//!   least squares leaves a residual χ² per degree of freedom below the
+//!   99.9 % quantile of χ²(ν)/ν (Wilson–Hilferty), ν = dof·(n − 3); when
+//!   it does not, a cubic (ν = dof·(n − 4)) must. Outliers, spikes and
+//!   alternating jumps fail both. The cubic is the short-time INS error: a
+//!   position error, a velocity error, a tilt or accelerometer error (t²)
+//!   and a gyro bias tilting the platform at a constant rate (g·δω·t³/6),
+//!   over times short against the Schuler period. The quadratic leaves out
+//!   the last term, which a MEMS gyro makes dominant and a precise aid
+//!   resolves: on a real car record (rtklibexplorer's drive_0708, RTK
 //!   fixes of 1 cm σ after a 15 s outage while the car pulled away with a
 //!   heading 35° off) the quadratic's residual χ²/ν over the first 5 s of
-//!   the streak was 2.7 (bound 1.70) while the cubic's was 0.44, and the
-//!   filter with the default gate never came back to GNSS (8.7 km RMSE).
+//!   the streak was about 2.7 (bound 1.70, an offline fit) and the cubic's
+//!   0.62, and the filter with the default gate never came back to GNSS
+//!   (8.7 km RMSE). The quadratic is tried first because the cubic's trend
+//!   extrapolates back to the last fused sample far less surely, which
+//!   would weaken the continuity test below (a step of about twice the
+//!   size would pass from a streak of 6 samples).
 //! - A streak is **samples seen in a row**: a gap in the aid's samples
 //!   longer than its timeout (an outage) starts a new streak, as at the
-//!   start of a run. Nothing says how the error went while the aid was not
-//!   there, and fitting across the gap judges the INS's free drift during
-//!   the outage instead of the aid.
+//!   start of a run, with no anchor (the last fused sample is then older
+//!   than the timeout, see below). Nothing says how the error went while
+//!   the aid was not there, and fitting across the gap judges the INS's
+//!   free drift during the outage instead of the aid.
 //! - **continuity with the last fused sample**: the post-fit residual of the
 //!   aid's last fused sample (relative to the state the streak's innovations
 //!   are also relative to) must lie on the streak's fitted trend extrapolated
@@ -121,7 +127,10 @@ pub struct StreakVerdict {
     /// Duration (s) and rejected samples.
     pub duration_s: f64,
     pub samples: u32,
-    /// Residual χ² per degree of freedom of the cubic fit, and its bound.
+    /// The fit's degree: 2 (a quadratic), or 3 when the quadratic could
+    /// not explain the streak.
+    pub degree: u8,
+    /// Residual χ² per degree of freedom of that fit, and its bound.
     pub consistency: f64,
     pub consistency_bound: f64,
     /// χ² of the step from the last fused sample to the trend (None without
@@ -141,6 +150,16 @@ impl StreakVerdict {
     pub fn healthy(&self) -> bool {
         self.consistency <= self.consistency_bound && self.step.is_none_or(|s| s <= self.step_bound)
     }
+}
+
+/// A polynomial fit of a streak: its degree, residual χ²/ν and bound, the
+/// triangular factor (identity beyond its coefficients) and coefficients.
+struct Fit {
+    degree: u8,
+    consistency: f64,
+    bound: f64,
+    r: Matrix4<f64>,
+    coef: [Vector4<f64>; 3],
 }
 
 /// Upper 99.9 % quantile of χ²(ν)/ν by the Wilson–Hilferty approximation.
@@ -186,7 +205,7 @@ impl Streak {
 
     /// A sample rejected at the gate, with its NIS and the diagonal of S.
     /// A gap longer than `max_gap_ns` since the streak's last sample (the
-    /// aid's timeout) starts a new streak; the anchor stays.
+    /// aid's timeout) starts a new streak without an anchor.
     pub(super) fn rejected<const M: usize>(
         &mut self,
         t_ns: u64,
@@ -200,10 +219,7 @@ impl Streak {
             return;
         };
         if self.n > 0 && t_ns.saturating_sub(self.last_ns) > max_gap_ns {
-            *self = Streak {
-                anchor: self.anchor,
-                ..Streak::default()
-            };
+            *self = Streak::default();
         }
         if self.n == 0 {
             self.start_ns = t_ns;
@@ -254,6 +270,77 @@ impl Streak {
         }
     }
 
+    /// The least-squares polynomial of `params` coefficients (3: a
+    /// quadratic, 4: a cubic) from the QR factorization: the quadratic's is
+    /// the leading 3×3 block of the cubic's (the columns are nested), and
+    /// its residual adds the rotated Δy's fourth component. None when the
+    /// times cannot fix it (fewer distinct times than coefficients: R's
+    /// diagonal, against each column's norm, is then at rounding level) or
+    /// a NaN.
+    fn fit(&self, params: usize) -> Option<Fit> {
+        let r = Matrix4::from_fn(|i, j| {
+            if i >= params || j >= params {
+                if i == j { 1.0 } else { 0.0 }
+            } else if j >= i {
+                self.qr[i][j]
+            } else {
+                0.0
+            }
+        });
+        for k in 0..params {
+            // (Written so that a NaN refuses too.)
+            let independent = r[(k, k)] * r[(k, k)] > 1e-12 * self.col_sq[k];
+            if !independent {
+                return None;
+            }
+        }
+        let mut resid = 0.0;
+        let mut coef = [Vector4::zeros(); 3];
+        for (i, c) in coef.iter_mut().enumerate().take(self.dof) {
+            let qty = Vector4::from_fn(|k, _| if k < params { self.qr[k][4 + i] } else { 0.0 });
+            *c = r.solve_upper_triangular(&qty)?;
+            resid += self.rss[i];
+            if params == 3 {
+                resid += self.qr[3][4 + i] * self.qr[3][4 + i];
+            }
+        }
+        let nu = (self.dof * (self.n as usize - params)) as f64;
+        Some(Fit {
+            degree: (params - 1) as u8,
+            consistency: resid / nu,
+            bound: chi2_999_per_dof(nu),
+            r,
+            coef,
+        })
+    }
+
+    /// The continuity test's χ² of the anchor against `fit`'s trend
+    /// extrapolated back to it (None without an anchor within
+    /// `anchor_max_ns` of the streak's start).
+    fn step(&self, fit: &Fit, anchor_max_ns: u64) -> Option<f64> {
+        let (ta, ya) = self.anchor?;
+        if self.start_ns.saturating_sub(ta) > anchor_max_ns {
+            return None;
+        }
+        let t = -(self.start_ns.saturating_sub(ta) as f64 * 1e-9);
+        let cubic = if fit.degree == 3 { t * t * t } else { 0.0 };
+        let basis = Vector4::new(1.0, t, t * t, cubic);
+        // bᵀ (RᵀR)⁻¹ b = |R⁻ᵀ b|².
+        let var_fit = fit
+            .r
+            .transpose()
+            .solve_lower_triangular(&basis)?
+            .norm_squared();
+        let chi2: f64 = ya
+            .iter()
+            .zip(&self.y0)
+            .zip(&fit.coef)
+            .take(self.dof)
+            .map(|((ya, y0), c)| (ya - (y0 + c.dot(&basis))).powi(2))
+            .sum();
+        Some(chi2 / (1.0 + var_fit))
+    }
+
     /// The tests of the module documentation, for a streak that has lasted
     /// until `now_ns`; `gate` is the aid's χ² gate and `anchor_max_ns` the
     /// longest time from the anchor to the streak's start that still counts
@@ -267,45 +354,23 @@ impl Streak {
         if self.n < 6 || self.dof == 0 {
             return None;
         }
-        // Samples at fewer than four distinct times (or all but a few at
-        // one time) cannot fix a cubic: R's diagonal against each column's
-        // norm (1 minus that column's squared correlation with the earlier
-        // ones) says so.
-        let r = Matrix4::from_fn(|i, j| if j >= i { self.qr[i][j] } else { 0.0 });
-        for k in 0..4 {
-            // (Written so that a NaN refuses too.)
-            let independent = r[(k, k)] * r[(k, k)] > 1e-12 * self.col_sq[k];
-            if !independent {
-                return None;
-            }
-        }
-        let resid: f64 = self.rss.iter().take(self.dof).sum();
-        let mut coef = [Vector4::zeros(); 3];
-        for (i, c) in coef.iter_mut().enumerate().take(self.dof) {
-            let qty = Vector4::from_fn(|k, _| self.qr[k][4 + i]);
-            *c = r.solve_upper_triangular(&qty)?;
-        }
-        let nu = (self.dof * (self.n as usize - 4)) as f64;
-        let step = self.anchor.and_then(|(ta, ya)| {
-            if self.start_ns.saturating_sub(ta) > anchor_max_ns {
-                return None;
-            }
-            let t = -(self.start_ns.saturating_sub(ta) as f64 * 1e-9);
-            let basis = Vector4::new(1.0, t, t * t, t * t * t);
-            // bᵀ (RᵀR)⁻¹ b = |R⁻ᵀ b|².
-            let var_fit = r.transpose().solve_lower_triangular(&basis)?.norm_squared();
-            let mut chi2 = 0.0;
-            for i in 0..self.dof {
-                let trend = self.y0[i] + coef[i].dot(&basis);
-                chi2 += (ya[i] - trend).powi(2);
-            }
-            Some(chi2 / (1.0 + var_fit))
-        });
+        // The quadratic first; the cubic only when the quadratic cannot
+        // explain the streak: its trend extrapolates back to the anchor
+        // far less surely (from 6 samples over 5 s, 1 s back: a variance of
+        // 13 against 3.2), so it would let a step of twice the size pass.
+        let quadratic = self.fit(3)?;
+        let fit = if quadratic.consistency <= quadratic.bound {
+            quadratic
+        } else {
+            self.fit(4)?
+        };
+        let step = self.step(&fit, anchor_max_ns);
         Some(StreakVerdict {
             duration_s: self.duration_ns(now_ns) as f64 * 1e-9,
             samples: self.n,
-            consistency: resid / nu,
-            consistency_bound: chi2_999_per_dof(nu),
+            degree: fit.degree,
+            consistency: fit.consistency,
+            consistency_bound: fit.bound,
             step,
             step_bound: gate,
             inflation: (self.nis / (f64::from(self.n) * self.dof as f64)).max(1.0),
@@ -440,13 +505,14 @@ mod tests {
             }
             let y0 = ys[0];
             let dy: Vec<f64> = ys.iter().map(|y| y - y0).collect();
-            let want = lsq_residual(&ts, &dy, 3) / f64::from(n - 4);
-            let v = s.verdict(u64::MAX, 10.8, 0).expect("verdict");
-            assert!(
-                (v.consistency - want).abs() <= 1e-9 * want,
-                "n {n}: streak {} against least squares {want}",
-                v.consistency
-            );
+            for params in [3, 4] {
+                let want = lsq_residual(&ts, &dy, params - 1) / f64::from(n - params as u32);
+                let got = s.fit(params).expect("fit").consistency;
+                assert!(
+                    (got - want).abs() <= 1e-9 * want,
+                    "n {n}, {params} coefficients: streak {got} against least squares {want}"
+                );
+            }
         }
     }
 
@@ -509,9 +575,69 @@ mod tests {
                 "quadratic residual χ²/ν {quadratic}"
             );
             passed += usize::from(v.healthy());
+            assert_eq!(v.degree, 3, "the quadratic explained a cubic drift");
         }
         assert!(passed >= 190, "the cubic drift passed {passed}/200");
         assert!(!run(true, &mut rng).0.healthy());
+    }
+
+    /// The continuity test keeps its power on the shortest streak: a CNS
+    /// at 1 Hz (2 components), rejected for 5 s (6 samples) after a fused
+    /// sample 1 s before, on a quadratic drift. The quadratic explains the
+    /// drift, so the trend extrapolates back with its own variance, far
+    /// below the cubic's: a step of 10 σ is refused in 181 of 200 runs
+    /// (≥ 170 asserted), where the cubic's trend would refuse it in 35
+    /// (≤ 100 asserted); the same streak without the step passes in 200
+    /// (≥ 190 asserted).
+    #[test]
+    fn a_short_streak_entered_by_a_10_sigma_step_is_refused() {
+        let mut rng = rand_chacha::ChaCha20Rng::seed_from_u64(17);
+        let r = SMatrix::<f64, 2, 2>::identity();
+        let h = SMatrix::<f64, 2, 15>::zeros();
+        let dx = SVector::<f64, 15>::zeros();
+        let trend = |t: f64| SVector::<f64, 2>::new(3.0 * t + 0.5 * t * t, -2.0 * t);
+        let ns = |t: f64| (t * 1e9) as u64 + 1_000_000_000;
+        let mut cubic_refused = 0;
+        let mut run = |step: f64, cubic_refused: &mut usize| {
+            let noise = |rng: &mut rand_chacha::ChaCha20Rng| {
+                SVector::<f64, 2>::new(StandardNormal.sample(rng), StandardNormal.sample(rng))
+            };
+            let mut s = Streak::default();
+            s.fused(ns(0.0), &(trend(0.0) + noise(&mut rng)), &h, &r, &dx);
+            for k in 1..=6 {
+                let t = f64::from(k);
+                let z = trend(t) + noise(&mut rng) + SVector::<f64, 2>::new(step, 0.0);
+                s.rejected(
+                    ns(t),
+                    &z,
+                    &r,
+                    400.0,
+                    &SVector::<f64, 2>::new(2.0, 2.0),
+                    3_000_000_000,
+                );
+            }
+            let cubic = s.fit(4).expect("cubic");
+            let step_cubic = s.step(&cubic, 3_000_000_000).expect("step");
+            *cubic_refused += usize::from(step_cubic > 13.816);
+            s.verdict(ns(6.0), 13.816, 3_000_000_000).expect("verdict")
+        };
+        let (mut refused, mut passed) = (0, 0);
+        for _ in 0..200 {
+            let v = run(10.0, &mut cubic_refused);
+            assert!(v.step.is_some());
+            refused += usize::from(!v.healthy());
+            let v = run(0.0, &mut 0);
+            passed += usize::from(v.healthy());
+        }
+        eprintln!(
+            "a 10 σ step into a 6-sample streak: refused {refused}/200 (the cubic's trend alone: {cubic_refused}/200); the drift alone passed {passed}/200"
+        );
+        assert!(refused >= 170, "a 10 σ step refused in {refused}/200");
+        assert!(
+            cubic_refused <= 100,
+            "the cubic's trend refused {cubic_refused}/200"
+        );
+        assert!(passed >= 190, "the drift alone passed {passed}/200");
     }
 
     /// An outage longer than the aid's timeout starts a new streak: its
