@@ -20,7 +20,7 @@ fn scratch(tag: &str) -> PathBuf {
 /// real daemon or another test.
 fn isolated(args: &[&std::ffi::OsStr]) -> Output {
     let cfg = polarnav_ipc::TransportConfig::isolated("ubxcli");
-    Command::new(BIN)
+    let out = Command::new(BIN)
         .args(args)
         .arg("--prefix")
         .arg(&cfg.prefix)
@@ -29,8 +29,10 @@ fn isolated(args: &[&std::ffi::OsStr]) -> Output {
             cfg.iox_prefix.clone().expect("isolated"),
         )
         .env("POLARNAV_IOX_ROOT", cfg.iox_root.clone().expect("isolated"))
-        .output()
-        .expect("run gnss-ubx")
+        .output();
+    // Its iceoryx2 root and shared-memory files go with it.
+    polarnav_ipc::remove_isolated(&cfg);
+    out.expect("run gnss-ubx")
 }
 
 fn check(path: &Path) -> (i32, String) {

@@ -20,11 +20,12 @@ fn run(bin: &str, dir: &Path, name: &str, text: &str, check: bool) -> (i32, Stri
     let path = dir.join(name);
     std::fs::write(&path, text).expect("settings");
     let mut c = Command::new(bin);
+    // Isolated from any real daemon: a test prefix and iceoryx2 root,
+    // removed after the run.
+    let cfg = polarnav_ipc::TransportConfig::isolated("navbad");
     if check {
         c.arg("--check-config").arg(&path);
     } else {
-        // Isolated from any real daemon: a test prefix and iceoryx2 root.
-        let cfg = polarnav_ipc::TransportConfig::isolated("navbad");
         c.arg("--config")
             .arg(&path)
             .arg("--prefix")
@@ -35,7 +36,9 @@ fn run(bin: &str, dir: &Path, name: &str, text: &str, check: bool) -> (i32, Stri
             )
             .env("POLARNAV_IOX_ROOT", cfg.iox_root.clone().expect("isolated"));
     }
-    let out = c.output().expect("run bridge");
+    let out = c.output();
+    polarnav_ipc::remove_isolated(&cfg);
+    let out = out.expect("run bridge");
     (
         out.status.code().unwrap_or(-1),
         String::from_utf8_lossy(&out.stderr).into_owned(),
