@@ -232,3 +232,28 @@ pub fn view_port(env: &Env, log: &str) -> u16 {
         .and_then(|p| p.parse().ok())
         .unwrap_or_else(|| panic!("no port in {line:?}"))
 }
+
+/// The newest status seen within `deadline` that satisfies `pred`.
+pub fn status_until(
+    env: &Env,
+    deadline: Duration,
+    pred: impl Fn(&msgs::Status) -> bool,
+) -> msgs::Status {
+    let node = polarnav_ipc::node(&env.cfg, "test_monitor").expect("node");
+    let sub = polarnav_ipc::TopicSubscriber::<msgs::Status>::new(
+        &node,
+        &env.cfg,
+        msgs::service::Topic::Status,
+    )
+    .expect("status");
+    let t0 = Instant::now();
+    let mut last = None;
+    while t0.elapsed() < deadline {
+        sub.drain(|s| last = Some(s)).expect("drain");
+        if let Some(s) = last.filter(&pred) {
+            return s;
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    panic!("no status satisfying the condition within {deadline:?}; last: {last:?}");
+}
