@@ -218,6 +218,8 @@ fn a_socket_passed_by_systemd_is_used_instead_of_udp_bind() {
     )
     .expect("settings");
     let cfg = polarnav_ipc::TransportConfig::isolated("navsock");
+    // Its iceoryx2 root and shared-memory files go also when the test fails.
+    let _cleanup = polarnav_ipc::IsolatedCleanup(cfg.clone());
     let mut child = Command::new(tool)
         .args(["-d", "-l", &format!("127.0.0.1:{listen_port}"), MAVLINK])
         .arg("--config")
@@ -263,7 +265,6 @@ fn a_socket_passed_by_systemd_is_used_instead_of_udp_bind() {
     );
     assert!(err.contains("UDP socket that systemd opened"), "{err}");
     assert!(status.success(), "{status}: {err}");
-    polarnav_ipc::remove_isolated(&cfg);
 }
 
 fn which(name: &str) -> Result<std::path::PathBuf, ()> {

@@ -28,6 +28,8 @@ fn f32_half_ulp(x: f64) -> f64 {
 #[allow(clippy::float_cmp)] // the exact poles and antimeridian are published exactly
 fn gps_input_equals_the_solution_over_both_poles_and_the_antimeridian() {
     let cfg = TransportConfig::isolated("navmav");
+    // Its iceoryx2 root and shared-memory files go also when the test fails.
+    let _cleanup = polarnav_ipc::IsolatedCleanup(cfg.clone());
     let dir = scratch("mavlink");
     let rx = Receiver::start("mavlink", dir.join("decoded.jsonl"), None);
     let config = dir.join("nav-mavlink.toml");
@@ -316,7 +318,6 @@ udp_target = "127.0.0.1:{}"
         counters.len() >= 3,
         "the anchor moved at each jump: {counters:?}"
     );
-    polarnav_ipc::remove_isolated(&cfg);
 }
 
 fn solution_pose(lat_deg: f64, lon_deg: f64) -> Pose {

@@ -31,6 +31,8 @@ fn course_deg(s: &msgs::Solution) -> f64 {
 #[allow(clippy::float_cmp)] // the exact poles and antimeridian are published exactly
 fn sentences_equal_the_solution_over_both_poles_and_the_antimeridian() {
     let cfg = TransportConfig::isolated("navnmea");
+    // Its iceoryx2 root and shared-memory files go also when the test fails.
+    let _cleanup = polarnav_ipc::IsolatedCleanup(cfg.clone());
     let dir = scratch("nmea");
     let rx = Receiver::start("nmea", dir.join("decoded.jsonl"), None);
     let config = dir.join("nav-nmea.toml");
@@ -196,12 +198,13 @@ udp_target = "127.0.0.1:{}"
     println!("daemon stopped: GGA quality 0 after {said:.3} s");
     assert!(said <= 1.0, "{said}");
     assert!(after.iter().all(|(t, q)| *t <= stop_at + 1.0 || *q == 0));
-    polarnav_ipc::remove_isolated(&cfg);
 }
 
 #[test]
 fn a_serial_device_that_goes_away_is_reported_and_reconnected() {
     let cfg = TransportConfig::isolated("navnmeaser");
+    // Its iceoryx2 root and shared-memory files go also when the test fails.
+    let _cleanup = polarnav_ipc::IsolatedCleanup(cfg.clone());
     let dir = scratch("nmea-serial");
     let link = dir.join("ttyNMEA");
     let mut rx = Receiver::start("nmea", dir.join("decoded.jsonl"), Some(&link));
@@ -268,5 +271,4 @@ serial_baud = 115200
         stderr.contains("is back"),
         "the return is reported: {stderr}"
     );
-    polarnav_ipc::remove_isolated(&cfg);
 }

@@ -654,6 +654,19 @@ pub fn remove_isolated(cfg: &TransportConfig) {
     }
 }
 
+/// Calls [`remove_isolated`] when dropped, also when a test panics. Bind it
+/// right after the configuration and before any node of it
+/// (`let _cleanup = IsolatedCleanup(cfg.clone());`): locals are dropped in
+/// the reverse order of their binding, so it runs after every node is gone.
+#[derive(Debug)]
+pub struct IsolatedCleanup(pub TransportConfig);
+
+impl Drop for IsolatedCleanup {
+    fn drop(&mut self) {
+        remove_isolated(&self.0);
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -702,6 +715,33 @@ mod tests {
             })
             .unwrap_or(0);
         assert_eq!(left, 0, "shared memory left behind");
+    }
+
+    /// A test that fails leaves nothing behind either: the guard removes
+    /// the root and the shared memory while the panic unwinds.
+    #[test]
+    fn isolated_cleanup_removes_root_and_shared_memory_when_a_test_panics() {
+        let cfg = TransportConfig::isolated("cleanup");
+        let prefix = cfg.iox_prefix.clone().expect("isolated prefix");
+        let root = cfg.iox_root.clone().expect("isolated root");
+        let in_shm = || {
+            std::fs::read_dir("/dev/shm").map_or(0, |d| {
+                d.flatten()
+                    .filter(|e| e.file_name().to_string_lossy().starts_with(&prefix))
+                    .count()
+            })
+        };
+        let failed = std::panic::catch_unwind(|| {
+            let _cleanup = IsolatedCleanup(cfg.clone());
+            let node = node(&cfg, "cleanup").expect("node");
+            let _publ =
+                TopicPublisher::<Solution>::new(&node, &cfg, Topic::Solution).expect("publisher");
+            assert!(root.exists() && in_shm() > 0, "nothing was created");
+            panic!("the test fails here");
+        });
+        assert!(failed.is_err());
+        assert!(!root.exists(), "{} left behind", root.display());
+        assert_eq!(in_shm(), 0, "shared memory left behind");
     }
 
     #[test]
