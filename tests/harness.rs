@@ -201,11 +201,17 @@ pub fn short_log(dir: &Path, seconds: f64) -> PathBuf {
     short_log_of(dir, seconds, "config/scenarios/transpolar.toml")
 }
 
-/// The first `seconds` of `scenario` (which must say `duration_s = 4480.0`).
+/// The first `seconds` of `scenario`, simulated into `dir`: a transpolar
+/// scenario's `duration_s = 4480.0` set to `seconds`, or a scenario of
+/// `[[segment]]`s cut after the segment that reaches `seconds` (the last
+/// tables of its file). Panics when neither applies, rather than simulate
+/// the whole flight unseen.
 pub fn short_log_of(dir: &Path, seconds: f64, scenario: &str) -> PathBuf {
-    let text = std::fs::read_to_string(crate::repo(scenario))
-        .expect("scenario")
-        .replace("duration_s = 4480.0", &format!("duration_s = {seconds}"));
+    let text = shortened(
+        &std::fs::read_to_string(crate::repo(scenario)).expect("scenario"),
+        seconds,
+    )
+    .unwrap_or_else(|| panic!("{scenario}: cannot be cut to its first {seconds} s"));
     let s = Scenario::parse(&text, "short").expect("scenario");
     let log = dir.join("flight.navlog");
     simulate(
@@ -216,6 +222,36 @@ pub fn short_log_of(dir: &Path, seconds: f64, scenario: &str) -> PathBuf {
     )
     .expect("simulate");
     log
+}
+
+/// A scenario's text flown for its first `seconds` (see [`short_log_of`]).
+fn shortened(text: &str, seconds: f64) -> Option<String> {
+    const TRANSPOLAR: &str = "duration_s = 4480.0";
+    if text.contains(TRANSPOLAR) {
+        return Some(text.replace(TRANSPOLAR, &format!("duration_s = {seconds}")));
+    }
+    const SEGMENT: &str = "\n[[segment]]\n";
+    let first = text.find(SEGMENT)?;
+    let mut flown = 0.0;
+    let mut at = first;
+    while flown < seconds {
+        let next = text[at + 1..].find(SEGMENT).map(|i| at + 1 + i);
+        let block = &text[at..next.unwrap_or(text.len())];
+        flown += block
+            .lines()
+            .find_map(|l| l.trim().strip_prefix("duration_s = "))?
+            .parse::<f64>()
+            .ok()?;
+        match next {
+            Some(n) => at = n,
+            None => return (flown >= seconds).then(|| text.to_owned()),
+        }
+    }
+    // Only segments may be cut away, never another table after them.
+    let rest = &text[at..];
+    rest.lines()
+        .all(|l| !l.starts_with('[') || l == "[[segment]]")
+        .then(|| text[..at + 1].to_owned())
 }
 
 /// The port a `sensor-replay view` listens on, from its start line.
@@ -256,4 +292,25 @@ pub fn status_until(
         std::thread::sleep(Duration::from_millis(50));
     }
     panic!("no status satisfying the condition within {deadline:?}; last: {last:?}");
+}
+
+#[cfg(test)]
+mod tests {
+    use super::shortened;
+
+    #[test]
+    fn a_scenario_is_cut_after_the_segment_that_reaches_the_time() {
+        let text = "name = \"x\"\n[start]\nh_m = 1.0\n\n[[segment]]\nkind = \"cruise\"\nduration_s = 60.0\n\n[[segment]]\nkind = \"turn\"\nduration_s = 30.0\n\n[[segment]]\nkind = \"cruise\"\nduration_s = 90.0\n";
+        let cut = |s: f64| shortened(text, s).map(|t| t.matches("[[segment]]").count());
+        assert_eq!(cut(60.0), Some(1));
+        assert_eq!(cut(61.0), Some(2));
+        assert_eq!(cut(90.0), Some(2));
+        assert_eq!(cut(180.0), Some(3));
+        assert_eq!(cut(181.0), None, "longer than the flight");
+        // A table after the segments is never cut away.
+        assert_eq!(shortened(&format!("{text}[faults]\n"), 60.0), None);
+        assert!(shortened("name = \"x\"\n", 60.0).is_none());
+        let transpolar = shortened("a\nduration_s = 4480.0\n", 60.0).expect("cut");
+        assert!(transpolar.contains("duration_s = 60\n"), "{transpolar}");
+    }
 }
