@@ -18,9 +18,58 @@ use msgs::navlog::TruthBias;
 use polarnav::solution_csv::Row;
 
 use crate::eval::Epoch;
-use crate::plots::{self, ARCMIN, MAX_POINTS, Switch};
 use crate::solution_file::{Aids, UpdatesOnDisk};
 use crate::spill::{Sealed, Spill, kth_smallest, total_order_key};
+
+/// The figures' units: radians to arcminutes, rad/s to °/h, m/s² to µg.
+pub(crate) const ARCMIN: f64 = 60.0 * 180.0 / std::f64::consts::PI;
+pub(crate) const DEG_PER_H: f64 = 180.0 / std::f64::consts::PI * 3600.0;
+pub(crate) const MICRO_G: f64 = 1e6 / 9.80665;
+/// At most this many points per curve (decimated by a fixed step).
+pub(crate) const MAX_POINTS: usize = 5000;
+
+/// A frame switch of the solution.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Switch {
+    pub t_s: f64,
+    pub lat_deg: f64,
+    pub r_e_m: [f64; 3],
+    /// e.g. `g→G 88.0°N`.
+    pub label: String,
+}
+
+/// The frame changes between consecutive rows.
+pub fn switches(rows: &[Row]) -> Vec<Switch> {
+    rows.windows(2)
+        .filter(|w| w[0].frame != w[1].frame)
+        .map(|w| Switch {
+            t_s: w[1].t_s,
+            lat_deg: w[1].lat_deg,
+            r_e_m: w[1].r_e_m,
+            label: format!(
+                "{}→{} {:.1}°{}",
+                w[0].frame,
+                w[1].frame,
+                w[1].lat_deg.abs(),
+                if w[1].lat_deg >= 0.0 { 'N' } else { 'S' }
+            ),
+        })
+        .collect()
+}
+
+/// The row of each epoch's time (rows and epochs both time-ordered).
+pub(crate) fn rows_at<'a>(rows: &'a [Row], epochs: &[Epoch]) -> Vec<Option<&'a Row>> {
+    let mut k = 0;
+    epochs
+        .iter()
+        .map(|e| {
+            while k + 1 < rows.len() && rows[k].t_s < e.t_s - 1e-7 {
+                k += 1;
+            }
+            rows.get(k).filter(|r| (r.t_s - e.t_s).abs() < 1e-6)
+        })
+        .collect()
+}
 
 /// The step `plots` takes through a sequence of `n` points.
 pub(crate) fn step_of(n: u64) -> u64 {
@@ -320,7 +369,7 @@ impl FigureFeed {
             && let Some(p) = &run.last_row
             && p.frame != r.frame
         {
-            self.switches.extend(plots::switches(&[*p, *r]));
+            self.switches.extend(switches(&[*p, *r]));
         }
         run.last_row = Some(*r);
         Ok(())
@@ -593,12 +642,12 @@ impl<'a> TruthInside<'a> {
 /// Biases in the figures' units: gyro °/h, accelerometer µg.
 fn bias_units(b: &[f64; 6]) -> [f64; 6] {
     [
-        b[0] * plots::DEG_PER_H,
-        b[1] * plots::DEG_PER_H,
-        b[2] * plots::DEG_PER_H,
-        b[3] * plots::MICRO_G,
-        b[4] * plots::MICRO_G,
-        b[5] * plots::MICRO_G,
+        b[0] * DEG_PER_H,
+        b[1] * DEG_PER_H,
+        b[2] * DEG_PER_H,
+        b[3] * MICRO_G,
+        b[4] * MICRO_G,
+        b[5] * MICRO_G,
     ]
 }
 
@@ -661,7 +710,7 @@ pub fn feed_from_memory(
             feed.epoch(k, e)?;
         }
         if k == 0 {
-            for (e, r) in epochs.iter().zip(plots::rows_at(rows, epochs)) {
+            for (e, r) in epochs.iter().zip(rows_at(rows, epochs)) {
                 if let Some(r) = r {
                     feed.band(e.t_s, &sigma_components(r))?;
                 }
@@ -832,7 +881,7 @@ mod tests {
         let d = feed.finish(None).expect("finish");
 
         // The error figures of the first run.
-        let at = plots::rows_at(&rows[0], &ep[0]);
+        let at = rows_at(&rows[0], &ep[0]);
         for (c, e) in d.errors.iter().enumerate() {
             let err: Vec<(f64, f64)> = ep[0]
                 .iter()
@@ -960,13 +1009,13 @@ mod tests {
                 .filter_map(|r| {
                     let (e, sigma) = if k < 3 {
                         (
-                            r.gyro_bias_rps[k] * plots::DEG_PER_H,
-                            r.sigma_gyro_bias_rps.map(|s| s[k] * plots::DEG_PER_H),
+                            r.gyro_bias_rps[k] * DEG_PER_H,
+                            r.sigma_gyro_bias_rps.map(|s| s[k] * DEG_PER_H),
                         )
                     } else {
                         (
-                            r.accel_bias_mps2[k - 3] * plots::MICRO_G,
-                            r.sigma_accel_bias_mps2.map(|s| s[k - 3] * plots::MICRO_G),
+                            r.accel_bias_mps2[k - 3] * MICRO_G,
+                            r.sigma_accel_bias_mps2.map(|s| s[k - 3] * MICRO_G),
                         )
                     };
                     sigma.map(|s| (r.t_s, e - 3.0 * s, e + 3.0 * s))
@@ -984,9 +1033,9 @@ mod tests {
                 .iter()
                 .map(|b| {
                     let x = if k < 3 {
-                        b.gyro_bias_rps[k] * plots::DEG_PER_H
+                        b.gyro_bias_rps[k] * DEG_PER_H
                     } else {
-                        b.accel_bias_mps2[k - 3] * plots::MICRO_G
+                        b.accel_bias_mps2[k - 3] * MICRO_G
                     };
                     (b.t_ns as f64 * 1e-9, x)
                 })
@@ -1023,23 +1072,17 @@ mod tests {
         for (i, r) in rows[0].iter().step_by(step).enumerate() {
             let (t, b) = d.bias_rows[i];
             assert_eq!(t.to_bits(), r.t_s.to_bits());
-            assert_eq!(
-                b[1].to_bits(),
-                (r.gyro_bias_rps[1] * plots::DEG_PER_H).to_bits()
-            );
-            assert_eq!(
-                b[3].to_bits(),
-                (r.accel_bias_mps2[0] * plots::MICRO_G).to_bits()
-            );
+            assert_eq!(b[1].to_bits(), (r.gyro_bias_rps[1] * DEG_PER_H).to_bits());
+            assert_eq!(b[3].to_bits(), (r.accel_bias_mps2[0] * MICRO_G).to_bits());
         }
         for k in 0..6 {
             let v: Vec<(f64, f64)> = truth_bias
                 .iter()
                 .map(|b| {
                     let x = if k < 3 {
-                        b.gyro_bias_rps[k] * plots::DEG_PER_H
+                        b.gyro_bias_rps[k] * DEG_PER_H
                     } else {
-                        b.accel_bias_mps2[k - 3] * plots::MICRO_G
+                        b.accel_bias_mps2[k - 3] * MICRO_G
                     };
                     (b.t_ns as f64 * 1e-9, x)
                 })
@@ -1064,7 +1107,7 @@ mod tests {
             })
             .fold(1.0, f64::max);
         assert_eq!(d.t_max.to_bits(), t_max.to_bits());
-        assert_eq!(d.switches, plots::switches(&rows[0]));
+        assert_eq!(d.switches, switches(&rows[0]));
         assert_eq!(d.switches.len(), 2);
     }
 }

@@ -16,7 +16,7 @@ use plotters::coord::Shift;
 use plotters::prelude::*;
 
 use crate::eval::Epoch;
-use crate::figures::{self, FigureData, FigureFeed};
+use crate::figures::{self, FigureData, FigureFeed, MAX_POINTS, Switch};
 use crate::solution_file::{AidPoint, Aids, UpdatesOnDisk, aids_to_disk, for_each_update};
 use polarnav::solution_csv::Row;
 
@@ -110,9 +110,6 @@ pub(crate) const GREEN: RGBColor = RGBColor(0, 140, 60);
 pub(crate) const RED_: RGBColor = RGBColor(200, 30, 30);
 pub(crate) const GREY: RGBColor = RGBColor(110, 110, 110);
 pub(crate) const AXIS_COLORS: [RGBColor; 3] = [BLUE, ORANGE, GREEN];
-pub(crate) const ARCMIN: f64 = 60.0 * 180.0 / std::f64::consts::PI;
-pub(crate) const DEG_PER_H: f64 = 180.0 / std::f64::consts::PI * 3600.0;
-pub(crate) const MICRO_G: f64 = 1e6 / 9.80665;
 /// Width of the legend strip right of the panels (px).
 const LEGEND_W: u32 = 290;
 /// Height of each run's distance panel below the track's map (px).
@@ -122,8 +119,6 @@ const TRACK_PANEL_PX: u32 = 240;
 /// coincide at the map's scale show as nested rims.
 const TRUTH_TRACK_W: u32 = 10;
 const COMPARE_TRACK_W: u32 = 6;
-/// At most this many points per curve (decimated by a fixed step).
-pub(crate) const MAX_POINTS: usize = 5000;
 
 /// The figures `write_all` can produce, in order.
 pub const FIGURES: [&str; 8] = [
@@ -232,35 +227,6 @@ fn draw<DB: DrawingBackend>(
         _ => track(&root, inp, sw),
     }?;
     root.present().map_err(s)
-}
-
-/// A frame switch of the solution.
-#[derive(Debug, Clone, PartialEq)]
-pub struct Switch {
-    pub t_s: f64,
-    pub lat_deg: f64,
-    pub r_e_m: [f64; 3],
-    /// e.g. `g→G 88.0°N`.
-    pub label: String,
-}
-
-/// The frame changes between consecutive rows.
-pub fn switches(rows: &[Row]) -> Vec<Switch> {
-    rows.windows(2)
-        .filter(|w| w[0].frame != w[1].frame)
-        .map(|w| Switch {
-            t_s: w[1].t_s,
-            lat_deg: w[1].lat_deg,
-            r_e_m: w[1].r_e_m,
-            label: format!(
-                "{}→{} {:.1}°{}",
-                w[0].frame,
-                w[1].frame,
-                w[1].lat_deg.abs(),
-                if w[1].lat_deg >= 0.0 { 'N' } else { 'S' }
-            ),
-        })
-        .collect()
 }
 
 /// Tick labels with as many decimals as the axis span needs (never cut:
@@ -660,20 +626,6 @@ pub(crate) fn layout<DB: DrawingBackend>(
     let (w, _) = root.dim_in_pixel();
     let (main, side) = root.split_horizontally(w.saturating_sub(LEGEND_W));
     Ok((main, side))
-}
-
-/// The row of each epoch's time (rows and epochs both time-ordered).
-pub(crate) fn rows_at<'a>(rows: &'a [Row], epochs: &[Epoch]) -> Vec<Option<&'a Row>> {
-    let mut k = 0;
-    epochs
-        .iter()
-        .map(|e| {
-            while k + 1 < rows.len() && rows[k].t_s < e.t_s - 1e-7 {
-                k += 1;
-            }
-            rows.get(k).filter(|r| (r.t_s - e.t_s).abs() < 1e-6)
-        })
-        .collect()
 }
 
 pub(crate) fn switch_notes(sw: &[Switch]) -> Vec<String> {

@@ -25,10 +25,10 @@ use polarnav::solution_csv::Row;
 use crate::chi2;
 use crate::envelope::Envelope;
 use crate::eval;
+use crate::figures::{self, ARCMIN, DEG_PER_H, MICRO_G, Switch};
 use crate::logfile::LogContents;
 use crate::plots::{
-    self, ARCMIN, AXIS_COLORS, BLUE, DEG_PER_H, Figure, Format, GREY, MICRO_G, Mark, Panel, RED_,
-    Switch, legend, time_panel,
+    self, AXIS_COLORS, BLUE, Figure, Format, GREY, Mark, Panel, RED_, legend, time_panel,
 };
 use crate::solution_file::{
     self, AID_WORDS, AidPoint, AidSink, Aids, CsvRows, UpdatesOnDisk, aids_to_disk,
@@ -856,7 +856,7 @@ impl Pass {
         self.health.push(t, &h);
         if let Some(p) = prev {
             if p.frame != r.frame && self.switches.len() < EVENTS_MAX {
-                self.switches.extend(plots::switches(&[*p, *r]));
+                self.switches.extend(figures::switches(&[*p, *r]));
             }
             if r.reset_count > p.reset_count && self.resets.len() < EVENTS_MAX {
                 self.resets.push(t);
