@@ -379,8 +379,8 @@ fn a_reset_to_gnss_lands_on_the_fix_in_the_geographic_frame() {
         // σ 0.7 m), and in the outages only falls from the ratio it enters
         // them with: the scenario's receiver error has a Gauss–Markov part
         // (1.5 m, 300 s) that a fix's white R cannot describe, so the filter
-        // averages it as if it were white. With white fixes of the same σ
-        // the same flight's worst is 2.8 σ (and below 0.7 σ in the outages).
+        // averages it as if it were white. With that part set to 0 the same
+        // flight's worst is 2.8 σ (and below 0.7 σ in the outages).
         assert!(
             wrong.worst_sigma_after_reset <= 1.25 * right.worst_sigma,
             "after the reset {:.2} σ, the right preset {:.2} σ",
