@@ -203,9 +203,9 @@ pub fn short_log(dir: &Path, seconds: f64) -> PathBuf {
 
 /// The first `seconds` of `scenario`, simulated into `dir`: a transpolar
 /// scenario's `duration_s = 4480.0` set to `seconds`, or a scenario of
-/// `[[segment]]`s cut after the segment that reaches `seconds` (the last
-/// tables of its file). Panics when neither applies, rather than simulate
-/// the whole flight unseen.
+/// `[[segment]]`s (the last tables of its file) cut after the segment that
+/// reaches `seconds`, so at least `seconds` long. Panics when neither
+/// applies, rather than simulate the whole flight unseen.
 pub fn short_log_of(dir: &Path, seconds: f64, scenario: &str) -> PathBuf {
     let text = shortened(
         &std::fs::read_to_string(crate::repo(scenario)).expect("scenario"),
@@ -226,6 +226,10 @@ pub fn short_log_of(dir: &Path, seconds: f64, scenario: &str) -> PathBuf {
 
 /// A scenario's text flown for its first `seconds` (see [`short_log_of`]).
 fn shortened(text: &str, seconds: f64) -> Option<String> {
+    assert!(
+        seconds.is_finite() && seconds > 0.0,
+        "a flight of {seconds} s"
+    );
     const TRANSPOLAR: &str = "duration_s = 4480.0";
     if text.contains(TRANSPOLAR) {
         return Some(text.replace(TRANSPOLAR, &format!("duration_s = {seconds}")));
@@ -250,6 +254,7 @@ fn shortened(text: &str, seconds: f64) -> Option<String> {
     // Only segments may be cut away, never another table after them.
     let rest = &text[at..];
     rest.lines()
+        .map(str::trim_start)
         .all(|l| !l.starts_with('[') || l == "[[segment]]")
         .then(|| text[..at + 1].to_owned())
 }
@@ -309,6 +314,7 @@ mod tests {
         assert_eq!(cut(181.0), None, "longer than the flight");
         // A table after the segments is never cut away.
         assert_eq!(shortened(&format!("{text}[faults]\n"), 60.0), None);
+        assert_eq!(shortened(&format!("{text}  [faults]\n"), 60.0), None);
         assert!(shortened("name = \"x\"\n", 60.0).is_none());
         let transpolar = shortened("a\nduration_s = 4480.0\n", 60.0).expect("cut");
         assert!(transpolar.contains("duration_s = 60\n"), "{transpolar}");

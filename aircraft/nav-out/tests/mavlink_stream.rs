@@ -6,7 +6,8 @@
 mod common;
 
 use std::collections::HashMap;
-use std::time::Duration;
+use std::path::Path;
+use std::time::{Duration, Instant};
 
 use common::*;
 use nav_out::geo;
@@ -318,6 +319,52 @@ udp_target = "127.0.0.1:{}"
         counters.len() >= 3,
         "the anchor moved at each jump: {counters:?}"
     );
+}
+
+/// A test that fails between starting its bridge and stopping it leaves
+/// neither the bridge nor the decoder running, nor the bridge's iceoryx2
+/// root: the bridge and the decoder are killed as the panic drops them,
+/// and `IsolatedCleanup`, bound first, removes the files after them.
+#[test]
+fn a_failing_test_leaves_no_bridge_decoder_or_iceoryx2_root_behind() {
+    let cfg = TransportConfig::isolated("navmavfail");
+    let root = cfg.iox_root.clone().expect("isolated root");
+    let dir = scratch("mavlink-fail");
+    let alive = |pid: u32| Path::new(&format!("/proc/{pid}")).exists();
+    let pids = std::sync::Mutex::new(Vec::new());
+    let failed = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        let _cleanup = polarnav_ipc::IsolatedCleanup(cfg.clone());
+        let rx = Receiver::start("mavlink", dir.join("decoded.jsonl"), None);
+        let config = dir.join("nav-mavlink.toml");
+        std::fs::write(
+            &config,
+            format!(
+                "[output]\ntransport = \"udp\"\nudp_target = \"127.0.0.1:{}\"\n",
+                rx.port
+            ),
+        )
+        .expect("settings");
+        let bridge = spawn_bridge(env!("CARGO_BIN_EXE_nav-mavlink"), &config, &cfg);
+        let bridge_pid = bridge.id().expect("running");
+        pids.lock().expect("pids").extend([bridge_pid, rx.id()]);
+        // Running, with its iceoryx2 root made.
+        let deadline = Instant::now() + Duration::from_secs(20);
+        while !root.exists() && Instant::now() < deadline {
+            std::thread::sleep(Duration::from_millis(20));
+        }
+        assert!(
+            root.exists() && alive(bridge_pid),
+            "the bridge did not start"
+        );
+        panic!("the test fails here, its bridge running");
+    }));
+    assert!(failed.is_err());
+    let pids = pids.into_inner().expect("pids");
+    assert_eq!(pids.len(), 2);
+    for pid in pids {
+        assert!(!alive(pid), "process {pid} left running");
+    }
+    assert!(!root.exists(), "{} left behind", root.display());
 }
 
 fn solution_pose(lat_deg: f64, lon_deg: f64) -> Pose {

@@ -109,6 +109,11 @@ impl Receiver {
         }
     }
 
+    /// The decoder's process id.
+    pub fn id(&self) -> u32 {
+        self.child.id()
+    }
+
     /// Sends a command line to the decoder (CYCLE).
     pub fn say(&mut self, line: &str) {
         let s = self.stdin.as_mut().expect("decoder stdin");
@@ -135,6 +140,16 @@ impl Receiver {
             .collect();
         let summary = msgs.pop().expect("summary")["summary"].clone();
         (msgs, summary)
+    }
+}
+
+/// A test that fails before [`Receiver::finish`] leaves no decoder behind.
+impl Drop for Receiver {
+    fn drop(&mut self) {
+        if matches!(self.child.try_wait(), Ok(None)) {
+            let _ = self.child.kill();
+            let _ = self.child.wait();
+        }
     }
 }
 
@@ -408,9 +423,31 @@ impl FakeDaemon {
     }
 }
 
+/// A bridge process, killed when dropped unless [`terminate`] stopped it:
+/// a test that fails before it stops its bridge leaves no process behind
+/// (its iceoryx2 root and shared memory go with `IsolatedCleanup`, bound
+/// before the bridge and so dropped after it).
+pub struct Bridge(Option<Child>);
+
+impl Drop for Bridge {
+    fn drop(&mut self) {
+        if let Some(mut c) = self.0.take() {
+            let _ = c.kill();
+            let _ = c.wait();
+        }
+    }
+}
+
+impl Bridge {
+    /// The process id (while it runs).
+    pub fn id(&self) -> Option<u32> {
+        self.0.as_ref().map(Child::id)
+    }
+}
+
 /// A bridge binary running with its settings file and iceoryx2 isolation.
-pub fn spawn_bridge(bin: &str, config: &Path, cfg: &TransportConfig) -> Child {
-    Command::new(bin)
+pub fn spawn_bridge(bin: &str, config: &Path, cfg: &TransportConfig) -> Bridge {
+    let child = Command::new(bin)
         .arg("--config")
         .arg(config)
         .arg("--prefix")
@@ -427,11 +464,13 @@ pub fn spawn_bridge(bin: &str, config: &Path, cfg: &TransportConfig) -> Child {
         .stdout(Stdio::null())
         .stderr(Stdio::piped())
         .spawn()
-        .expect("bridge")
+        .expect("bridge");
+    Bridge(Some(child))
 }
 
 /// SIGTERM, then the exit status and standard error (with a deadline).
-pub fn terminate(mut child: Child) -> (std::process::ExitStatus, String) {
+pub fn terminate(mut bridge: Bridge) -> (std::process::ExitStatus, String) {
+    let mut child = bridge.0.take().expect("a running bridge");
     let _ = Command::new("kill")
         .args(["-TERM", &child.id().to_string()])
         .status();
