@@ -145,6 +145,25 @@ impl Env {
             .map(Proc)
             .expect("play")
     }
+
+    /// The daemon, a recorder into `recorded.navlog` and a replay of
+    /// `log_file` at `speed`, started in that order; returns once the replay
+    /// has ended with status 0 (within 120 s), with the daemon and the
+    /// recorder still running, and the recording's path.
+    pub fn replay_recorded(&self, log_file: &Path, speed: &str) -> (Proc, Proc, PathBuf) {
+        let daemon = self.start_daemon("daemon", None);
+        let rec_path = self.dir.join("recorded.navlog");
+        let recorder = self.start_recorder(&rec_path);
+        let mut play = self.start_play("play", log_file, speed);
+        assert_eq!(
+            wait(&mut play, Duration::from_secs(120)),
+            Some(0),
+            "{}: play of {} failed",
+            self.cfg.prefix,
+            log_file.display()
+        );
+        (daemon, recorder, rec_path)
+    }
 }
 
 /// A child process that is killed when dropped, so a failing test leaves

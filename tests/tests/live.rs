@@ -1491,15 +1491,7 @@ fn paper_sim_live_equals_batch_bit_for_bit_and_the_recording_reproduces_it() {
     )
     .expect("config");
 
-    let mut daemon = env.start_daemon("daemon", None);
-    let rec_path = env.dir.join("recorded.navlog");
-    let mut recorder = env.start_recorder(&rec_path);
-    let mut play = env.start_play("play", &log, "15");
-    assert_eq!(
-        wait(&mut play, Duration::from_secs(120)),
-        Some(0),
-        "play failed"
-    );
+    let (mut daemon, mut recorder, rec_path) = env.replay_recorded(&log, "15");
     assert_eq!(terminate(&mut daemon, Duration::from_secs(20)), Some(0));
     assert_eq!(terminate(&mut recorder, Duration::from_secs(20)), Some(0));
 

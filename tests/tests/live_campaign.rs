@@ -10,7 +10,7 @@ use std::time::Duration;
 use msgs::navlog::Record;
 use polarnav::solution_csv;
 use polarnav_sim::scenario::Scenario;
-use polarnav_tests::harness::{Env, status_until, terminate, wait};
+use polarnav_tests::harness::{Env, status_until, terminate};
 use polarnav_tests::repo;
 
 /// The fault campaign through the live daemon: every fault scenario replayed
@@ -70,16 +70,7 @@ fn fault_scenario_live(f: &Path) -> (String, String, bool) {
     let env = Env::new(&format!("fc_{}", r.name.replace('-', "_")));
     let log = env.dir.join("faulted.navlog");
     std::fs::write(&log, &r.faulted_log).expect("log");
-    let mut daemon = env.start_daemon("daemon", None);
-    let rec_path = env.dir.join("recorded.navlog");
-    let mut recorder = env.start_recorder(&rec_path);
-    let mut play = env.start_play("play", &log, "50");
-    assert_eq!(
-        wait(&mut play, Duration::from_secs(120)),
-        Some(0),
-        "{}: play failed",
-        r.name
-    );
+    let (mut daemon, mut recorder, rec_path) = env.replay_recorded(&log, "50");
     // The daemon's status once every published sample is accounted for
     // (status goes out at 1 Hz, also while the IMU is silent).
     let (s, _) = Scenario::load(f).expect("scenario");
