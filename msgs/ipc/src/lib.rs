@@ -219,10 +219,18 @@ pub fn qos(topic: Topic) -> Qos {
         },
         // The daemon's output: a stalled consumer loses its oldest
         // solutions (seen as sequence gaps), it never holds up the daemon.
-        // Twice the input buffer: a daemon that catches up on a full input
-        // buffer publishes that many solutions at once.
+        // Four input buffers, so that a recorder (which also takes the IMU,
+        // and so holds up a replay through its full IMU buffer) loses none
+        // however its drains fall: between two of its drains the daemon can
+        // integrate what it had not yet integrated at the first — the cycle
+        // it is working on and its full IMU buffer, two input buffers — and
+        // what the replay publishes meanwhile, at most the recorder's IMU
+        // buffer before and after the recorder's own IMU drain, two more.
+        // Each integrated sample emits one solution. Two input buffers lost
+        // the oldest solution when an IMU stall's backlog of four went out
+        // at once (`an_imu_stalled_mid_flight_while_aids_arrive_changes_no_solution`).
         Topic::Solution => Qos {
-            buffer: samples_for(2.0 * INPUT_BUFFER_S, MAX_IMU_RATE_HZ),
+            buffer: samples_for(4.0 * INPUT_BUFFER_S, MAX_IMU_RATE_HZ),
             history: 0,
             safe_overflow: true,
         },
@@ -833,6 +841,85 @@ mod tests {
                 cycles: 42,
                 ..Default::default()
             },
+        );
+    }
+
+    /// Most solutions the daemon emits between two solution drains of a
+    /// recorder, in a model of the catch-up after an IMU stall: a replay
+    /// with a backlog publishes while neither IMU subscriber's buffer is
+    /// full (it waits, `Delivery::Wait`); the daemon drains its whole IMU
+    /// buffer into its cycle and integrates it sample by sample, each
+    /// emitting one solution; the recorder drains its IMU, then its
+    /// solutions, as two steps (anything may happen between them). Which of them moves next is drawn with
+    /// weights drawn per run from 1 to 2^15 (log-uniform: a recorder that
+    /// sleeps long, a daemon slow or fast), 4 000 held samples per run.
+    fn most_solutions_between_recorder_drains(imu_buffer: usize, runs: u64) -> usize {
+        let mut worst = 0;
+        for run in 0..runs {
+            let mut x = 0x9e37_79b9_7f4a_7c15u64 ^ (run + 1);
+            let mut draw = |n: u64| {
+                x ^= x << 13;
+                x ^= x >> 7;
+                x ^= x << 17;
+                x % n
+            };
+            let weights = [1 << draw(16), 1 << draw(16), 1 << draw(16)];
+            let total: u64 = weights.iter().sum();
+            let (mut backlog, mut daemon_buf, mut cycle, mut recorder_imu) = (4000usize, 0, 0, 0);
+            let (mut since_drain, mut imu_next) = (0usize, true);
+            while backlog > 0 || daemon_buf > 0 || cycle > 0 {
+                let mut pick = draw(total);
+                let mut who = 0;
+                while pick >= weights[who] {
+                    pick -= weights[who];
+                    who += 1;
+                }
+                match who {
+                    0 if backlog > 0 && daemon_buf < imu_buffer && recorder_imu < imu_buffer => {
+                        backlog -= 1;
+                        daemon_buf += 1;
+                        recorder_imu += 1;
+                    }
+                    1 if cycle > 0 => {
+                        cycle -= 1;
+                        since_drain += 1;
+                        worst = worst.max(since_drain);
+                    }
+                    1 => cycle = std::mem::take(&mut daemon_buf),
+                    // One recorder cycle: its IMU, then its solutions.
+                    2 if imu_next => {
+                        recorder_imu = 0;
+                        imu_next = false;
+                    }
+                    2 => {
+                        since_drain = 0;
+                        imu_next = true;
+                    }
+                    _ => {}
+                }
+            }
+        }
+        worst
+    }
+
+    /// The solution buffer holds what the daemon can emit between two
+    /// drains of a recorder that holds up a replay (the derivation at
+    /// [`qos`]), checked against the model above; the model also finds
+    /// the loss that two input buffers had (seen once in the live stall
+    /// test as one solution lost).
+    #[test]
+    fn solution_buffer_holds_a_stall_backlog_between_two_recorder_drains() {
+        let imu = qos(Topic::Imu).buffer;
+        let worst = most_solutions_between_recorder_drains(imu, 300);
+        assert!(
+            worst <= qos(Topic::Solution).buffer,
+            "{worst} solutions between two drains, buffer {}",
+            qos(Topic::Solution).buffer
+        );
+        eprintln!("most solutions between two recorder drains: {worst} (input buffer {imu})");
+        assert!(
+            worst > 2 * imu,
+            "the model never exceeded two input buffers: {worst}"
         );
     }
 }
