@@ -370,56 +370,56 @@ fn covariance_usable(p: &Mat15) -> bool {
         && positive_definite(p)
 }
 
-/// Cholesky factorization of the correlation matrix D^-½ P D^-½ (so that
-/// states in rad² and m² weigh alike): every pivot must stay above 1e-12.
-/// On the stack, about 600 flops. Column by column (left-looking): the
-/// dot products of the rows below the pivot with its row are formed
-/// together, each summed in column order from −0.0 as `Iterator::sum`
-/// does, so every entry is the one of the row-by-row form it replaced
-/// (test `pivots_are_the_row_by_row_factorizations`), in far fewer
-/// instructions.
+/// Is P positive definite? See [`correlation_pivots`].
 fn positive_definite(p: &Mat15) -> bool {
-    correlation_cholesky(p).is_some()
+    correlation_pivots(p).is_some()
 }
 
-/// The columns of the Cholesky factor L of D^-½ P D^-½ (`[k][i]` = L_ik,
-/// rows padded to 16), or `None` when a pivot is not above 1e-12 (see
-/// [`positive_definite`]). Every column is computed over all 16 rows, so
-/// that each step is a fixed run of two-lane multiplies and adds: the rows
-/// above the diagonal come out as values no result reads (a row i ≥ j of
-/// column j reads only rows ≥ j of earlier columns).
-fn correlation_cholesky(p: &Mat15) -> Option<[[f64; 16]; 15]> {
+/// The pivots of P's correlation matrix D^-½ P D^-½ (so that states in rad²
+/// and m² weigh alike) factored as L·diag(pivots)·Lᵀ by symmetric Gaussian
+/// elimination, or `None` when one is not above 1e-12. The pivots are the
+/// squares of the Cholesky factor's diagonal, so this is the Cholesky test
+/// without its square roots and divisions: on the stack, about 1100 flops
+/// over the lower triangle, one reciprocal per pivot on the chain, each
+/// elimination step a run of independent multiply-adds (the left-looking
+/// Cholesky it replaced waited on a square root, a division and a growing
+/// dot product per column: 3 % of `batch --every 1` at 45° N, test
+/// `pivots_are_the_squared_cholesky_diagonal`).
+fn correlation_pivots(p: &Mat15) -> Option<[f64; 15]> {
     const N: usize = 15;
-    let mut d = [0.0; 16];
-    for (i, x) in d.iter_mut().take(N).enumerate() {
+    let mut d = [0.0; N];
+    for (i, x) in d.iter_mut().enumerate() {
         *x = 1.0 / p[(i, i)].sqrt();
     }
-    let mut lt = [[0.0f64; 16]; N];
-    for j in 0..N {
-        // dot[i] = Σ_{k<j} L_ik L_jk (dot[j]: the pivot's), in k order.
-        let mut dot = [-0.0f64; 16];
-        for col in &lt[..j] {
-            let ljk = col[j];
-            for (x, lik) in dot.iter_mut().zip(col) {
-                *x += lik * ljk;
-            }
+    // The correlation matrix's lower triangle by columns (`a[k][i]`: row
+    // i ≥ k of column k).
+    let mut a = [[0.0f64; N]; N];
+    let s = p.as_slice();
+    for (k, col) in a.iter_mut().enumerate() {
+        for i in k..N {
+            col[i] = s[k * N + i] * d[i] * d[k];
         }
-        let pivot = 1.0 - dot[j];
+    }
+    let mut pivots = [0.0; N];
+    for j in 0..N {
+        let pivot = a[j][j];
         // NaN fails too.
         if pivot.partial_cmp(&1e-12) != Some(std::cmp::Ordering::Greater) {
             return None;
         }
-        let ljj = pivot.sqrt();
-        let mut pj = [0.0f64; 16];
-        pj[..N].copy_from_slice(&p.as_slice()[j * N..(j + 1) * N]);
-        let dj = d[j];
-        let col = &mut lt[j];
-        for (((x, pij), di), doti) in col.iter_mut().zip(&pj).zip(&d).zip(&dot) {
-            *x = (pij * di * dj - doti) / ljj;
+        pivots[j] = pivot;
+        let inv = 1.0 / pivot;
+        let (done, rest) = a.split_at_mut(j + 1);
+        let cj = &done[j];
+        // Column k > j, rows i ≥ k: a_ik −= a_kj a_ij / a_jj.
+        for (k, ck) in (j + 1..N).zip(rest.iter_mut()) {
+            let f = cj[k] * inv;
+            for (x, y) in ck[k..].iter_mut().zip(&cj[k..]) {
+                *x -= f * y;
+            }
         }
-        col[j] = ljj;
     }
-    Some(lt)
+    Some(pivots)
 }
 
 /// Initial 1-σ of the biases in SI units (from `[filter]`).
@@ -544,8 +544,9 @@ fn initial_covariance(
 mod tests {
     use super::*;
 
-    /// The row-by-row factorization `positive_definite` had before, kept
-    /// here as the reference: its pivots and entries.
+    /// A Cholesky factorization of the correlation matrix, row by row with
+    /// square roots (the form the check had first): the reference for
+    /// [`correlation_pivots`], an independent formulation of the same test.
     fn row_by_row(p: &Mat15) -> Option<[[f64; 15]; 15]> {
         let mut d = [0.0; 15];
         for (i, x) in d.iter_mut().enumerate() {
@@ -567,12 +568,14 @@ mod tests {
         Some(l)
     }
 
-    /// The column-by-column factorization decides as the row-by-row one
-    /// did on covariances near and past the edge of positive definiteness
-    /// (a correlation pushed towards ±1 until a pivot falls under 1e-12),
-    /// and its entries are the row-by-row ones bit for bit.
+    /// The elimination decides as the row-by-row Cholesky does on
+    /// covariances near and past the edge of positive definiteness (a
+    /// correlation pushed towards ±1 until a pivot falls under 1e-12), and
+    /// its pivots are the squares of the Cholesky diagonal within 1e-13
+    /// (absolute, on the correlation scale of 1: two roundings of a sum of
+    /// 15 products; the threshold is 1e-12).
     #[test]
-    fn pivots_are_the_row_by_row_factorizations() {
+    fn pivots_are_the_squared_cholesky_diagonal() {
         let mut s = 7u64;
         let mut next = || {
             s = s
@@ -580,7 +583,7 @@ mod tests {
                 .wrapping_add(1442695040888963407);
             (s >> 11) as f64 / (1u64 << 53) as f64 - 0.5
         };
-        let (mut pd, mut not_pd) = (0, 0);
+        let (mut pd, mut not_pd, mut near_edge) = (0, 0, f64::INFINITY);
         for case in 0..400 {
             let a = Mat15::from_fn(|_, _| next());
             let mut p = a * a.transpose() + Mat15::identity() * 1e-3;
@@ -600,29 +603,91 @@ mod tests {
                 p[(j, i)] = c;
             }
             let reference = row_by_row(&p);
-            let columns = correlation_cholesky(&p);
+            let pivots = correlation_pivots(&p);
             assert_eq!(positive_definite(&p), reference.is_some(), "case {case}");
-            assert_eq!(columns.is_some(), reference.is_some(), "case {case}");
-            match (reference, columns) {
-                (Some(l), Some(lt)) => {
+            assert_eq!(pivots.is_some(), reference.is_some(), "case {case}");
+            match (reference, pivots) {
+                (Some(l), Some(piv)) => {
                     pd += 1;
-                    for ii in 0..15 {
-                        for jj in 0..=ii {
-                            assert_eq!(
-                                lt[jj][ii].to_bits(),
-                                l[ii][jj].to_bits(),
-                                "case {case}: L[{ii}][{jj}]"
-                            );
-                        }
+                    for k in 0..15 {
+                        let want = l[k][k] * l[k][k];
+                        assert!(
+                            (piv[k] - want).abs() <= 1e-13,
+                            "case {case}: pivot {k} {} against {want}",
+                            piv[k]
+                        );
+                        near_edge = near_edge.min(piv[k]);
                     }
                 }
                 _ => not_pd += 1,
             }
         }
-        // Both outcomes occur.
         assert!(
             pd > 150 && not_pd > 50,
-            "{pd} positive definite, {not_pd} not"
+            "{pd} positive definite, {not_pd} not, smallest pivot {near_edge:e}"
+        );
+        // At the edge itself: correlation matrices Q Λ Qᵀ (Q orthonormal
+        // from a random matrix's QR) with one eigenvalue λ = ±1e-6 down to
+        // ±1e-18, so that the deciding pivot closes in on the threshold
+        // from both sides: the decisions agree down to 1e-10 of it.
+        let (mut edge_pd, mut edge_not, mut straddle) = (0, 0, 0);
+        let mut nearest_fail = f64::NEG_INFINITY;
+        for case in 0..300 {
+            let q = Mat15::from_fn(|_, _| next()).qr().q();
+            let lambda = 10f64.powf(-6.0 - 12.0 * (case as f64 / 299.0))
+                * if case % 2 == 0 { 1.0 } else { -1.0 };
+            let mut eig = SVector::<f64, 15>::repeat(1.0);
+            eig[case % 15] = lambda;
+            let c = q * Mat15::from_diagonal(&eig) * q.transpose();
+            let scale = SVector::<f64, 15>::from_fn(|i, _| 10f64.powi((i as i32 % 5) * 2 - 4));
+            let p = Mat15::from_fn(|i, j| c[(i, j)] * scale[i] * scale[j]);
+            // The reference's deciding pivot: its smallest, or the first
+            // that fails.
+            let mut d = [0.0; 15];
+            for (i, x) in d.iter_mut().enumerate() {
+                *x = 1.0 / p[(i, i)].sqrt();
+            }
+            let mut l = [[0.0f64; 15]; 15];
+            let mut deciding = f64::INFINITY;
+            for j in 0..15 {
+                let pivot = 1.0 - l[j][..j].iter().map(|x| x * x).sum::<f64>();
+                deciding = deciding.min(pivot);
+                if pivot <= 1e-12 {
+                    break;
+                }
+                l[j][j] = pivot.sqrt();
+                for i in j + 1..15 {
+                    let dot: f64 = l[i][..j].iter().zip(&l[j][..j]).map(|(a, b)| a * b).sum();
+                    l[i][j] = (p[(i, j)] * d[i] * d[j] - dot) / l[j][j];
+                }
+            }
+            // Within 1e-10 of zero rounding decides: for a matrix singular
+            // to working precision (|λ| ≤ 1e-12 against entries of 1) the
+            // deciding pivot is rounding, of either sign (seen: −7e-13 by
+            // the reference, above 1e-12 by the elimination, at λ = 3e-17).
+            if deciding.abs() <= 1e-10 {
+                straddle += 1;
+                continue;
+            }
+            assert_eq!(
+                positive_definite(&p),
+                deciding > 1e-12,
+                "edge case {case}: λ {lambda:e}, deciding pivot {deciding:e}"
+            );
+            if deciding > 1e-12 {
+                edge_pd += 1;
+                near_edge = near_edge.min(deciding);
+            } else {
+                edge_not += 1;
+                nearest_fail = nearest_fail.max(deciding);
+            }
+        }
+        assert!(
+            edge_pd > 30 && edge_not > 30 && near_edge < 1e-8 && nearest_fail > -1e-8,
+            "at the edge: {edge_pd} positive definite (smallest pivot {near_edge:e}), {edge_not} not (largest failing pivot {nearest_fail:e}), {straddle} decided by rounding"
+        );
+        eprintln!(
+            "at the edge: {edge_pd} positive definite (smallest pivot {near_edge:e}), {edge_not} not (largest failing pivot {nearest_fail:e}), {straddle} decided by rounding"
         );
     }
 
