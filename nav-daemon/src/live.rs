@@ -227,8 +227,9 @@ pub struct LiveReport {
 
 /// Preallocated capacity of the per-cycle input buffer (a cycle normally
 /// sees one IMU sample; 45 ms stalls at 1 kHz leave ~45). It exceeds the sum
-/// of the subscriber buffers, so the buffer never grows and nothing drained
-/// is dropped.
+/// of the subscriber buffers, which bound what one cycle drains (a drain
+/// takes at most one buffer's worth), so the buffer never grows and nothing
+/// drained is dropped (test `capacity_holds_one_drain_of_every_input`).
 const CAPACITY: usize = 1024;
 
 struct Ports {
@@ -739,5 +740,26 @@ impl LoopState {
             }
         }
         s
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::CAPACITY;
+    use msgs::service::Topic;
+    use polarnav_ipc::qos;
+
+    #[test]
+    fn capacity_holds_one_drain_of_every_input() {
+        let inputs = qos(Topic::Imu).buffer
+            + qos(Topic::Init).buffer
+            + msgs::AidKind::ALL
+                .iter()
+                .map(|k| qos(Topic::Aid(*k)).buffer)
+                .sum::<usize>();
+        assert!(
+            inputs <= CAPACITY,
+            "{inputs} inputs per cycle, capacity {CAPACITY}"
+        );
     }
 }

@@ -535,17 +535,7 @@ impl<T: Debug + ZeroCopySend + Copy + 'static> TopicSubscriber<T> {
     /// shared memory), at most one buffer's worth per call (see
     /// [`Self::drain_with_origin`]).
     pub fn drain(&self, mut f: impl FnMut(T)) -> Result<usize, TransportError> {
-        let mut n = 0;
-        while n < self.per_drain
-            && let Some(sample) = self
-                .subscriber
-                .receive()
-                .map_err(|e| iox("receive", &self.name, e))?
-        {
-            f(*sample.payload());
-            n += 1;
-        }
-        Ok(n)
+        self.drain_with_origin(|_, x| f(x))
     }
 }
 
@@ -853,6 +843,32 @@ mod tests {
                 ..Default::default()
             },
         );
+    }
+
+    /// A drain stops after one buffer's worth while its publisher keeps
+    /// sending: here every sample taken makes the publisher send another,
+    /// which an unbounded drain would take for as long as it goes on (the
+    /// publisher stops after 1000, so a failure ends).
+    #[test]
+    fn a_drain_takes_at_most_one_buffer_while_its_publisher_keeps_sending() {
+        let cfg = TransportConfig::isolated("drainbound");
+        let _cleanup = IsolatedCleanup(cfg.clone());
+        let node = node(&cfg, "drainbound").expect("node");
+        let sub = TopicSubscriber::<Status>::new(&node, &cfg, Topic::Status).expect("subscriber");
+        let publ = TopicPublisher::<Status>::new(&node, &cfg, Topic::Status).expect("publisher");
+        publ.publish(&Status::default()).expect("publish");
+        let mut sent = 1;
+        let taken = sub
+            .drain(|_| {
+                if sent < 1000 {
+                    publ.publish(&Status::default()).expect("publish");
+                    sent += 1;
+                }
+            })
+            .expect("drain");
+        assert_eq!(taken, qos(Topic::Status).buffer, "{sent} sent");
+        // The rest is there for the next drain.
+        assert!(sub.drain(|_| {}).expect("drain") > 0);
     }
 
     /// The most solutions waiting in a recorder's buffer at any moment, in

@@ -379,8 +379,9 @@ fn positive_definite(p: &Mat15) -> bool {
 /// and m² weigh alike) factored as L·diag(pivots)·Lᵀ by symmetric Gaussian
 /// elimination, or `None` when one is not above 1e-12. The pivots are the
 /// squares of the Cholesky factor's diagonal, so this is the Cholesky test
-/// without its square roots and divisions: on the stack, about 1100 flops
-/// over the lower triangle, one reciprocal per pivot on the chain, each
+/// without a square root and divisions on each column's chain: on the
+/// stack, about 1100 flops over the lower triangle, one reciprocal per
+/// pivot on the chain, each
 /// elimination step a run of independent multiply-adds (the left-looking
 /// Cholesky it replaced waited on a square root, a division and a growing
 /// dot product per column: 3 % of `batch --every 1` at 45° N, test
@@ -547,16 +548,20 @@ mod tests {
     /// A Cholesky factorization of the correlation matrix, row by row with
     /// square roots (the form the check had first): the reference for
     /// [`correlation_pivots`], an independent formulation of the same test.
-    fn row_by_row(p: &Mat15) -> Option<[[f64; 15]; 15]> {
+    /// Its factor when every pivot is above 1e-12, and the deciding pivot:
+    /// the smallest, or the first that fails.
+    fn row_by_row(p: &Mat15) -> (Option<[[f64; 15]; 15]>, f64) {
         let mut d = [0.0; 15];
         for (i, x) in d.iter_mut().enumerate() {
             *x = 1.0 / p[(i, i)].sqrt();
         }
         let mut l = [[0.0f64; 15]; 15];
+        let mut deciding = f64::INFINITY;
         for j in 0..15 {
             let pivot = 1.0 - l[j][..j].iter().map(|x| x * x).sum::<f64>();
+            deciding = deciding.min(pivot);
             if pivot.partial_cmp(&1e-12) != Some(std::cmp::Ordering::Greater) {
-                return None;
+                return (None, pivot);
             }
             let ljj = pivot.sqrt();
             l[j][j] = ljj;
@@ -565,7 +570,7 @@ mod tests {
                 l[i][j] = (p[(i, j)] * d[i] * d[j] - dot) / ljj;
             }
         }
-        Some(l)
+        (Some(l), deciding)
     }
 
     /// The elimination decides as the row-by-row Cholesky does on
@@ -602,7 +607,7 @@ mod tests {
                 p[(i, j)] = c;
                 p[(j, i)] = c;
             }
-            let reference = row_by_row(&p);
+            let (reference, _) = row_by_row(&p);
             let pivots = correlation_pivots(&p);
             assert_eq!(positive_definite(&p), reference.is_some(), "case {case}");
             assert_eq!(pivots.is_some(), reference.is_some(), "case {case}");
@@ -641,26 +646,7 @@ mod tests {
             let c = q * Mat15::from_diagonal(&eig) * q.transpose();
             let scale = SVector::<f64, 15>::from_fn(|i, _| 10f64.powi((i as i32 % 5) * 2 - 4));
             let p = Mat15::from_fn(|i, j| c[(i, j)] * scale[i] * scale[j]);
-            // The reference's deciding pivot: its smallest, or the first
-            // that fails.
-            let mut d = [0.0; 15];
-            for (i, x) in d.iter_mut().enumerate() {
-                *x = 1.0 / p[(i, i)].sqrt();
-            }
-            let mut l = [[0.0f64; 15]; 15];
-            let mut deciding = f64::INFINITY;
-            for j in 0..15 {
-                let pivot = 1.0 - l[j][..j].iter().map(|x| x * x).sum::<f64>();
-                deciding = deciding.min(pivot);
-                if pivot <= 1e-12 {
-                    break;
-                }
-                l[j][j] = pivot.sqrt();
-                for i in j + 1..15 {
-                    let dot: f64 = l[i][..j].iter().zip(&l[j][..j]).map(|(a, b)| a * b).sum();
-                    l[i][j] = (p[(i, j)] * d[i] * d[j] - dot) / l[j][j];
-                }
-            }
+            let (_, deciding) = row_by_row(&p);
             // Within 1e-10 of zero rounding decides: for a matrix singular
             // to working precision (|λ| ≤ 1e-12 against entries of 1) the
             // deciding pivot is rounding, of either sign (seen: −7e-13 by
