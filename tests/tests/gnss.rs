@@ -43,10 +43,14 @@ fn without_integrity(scenario: &str) -> NavigatorConfig {
 }
 
 /// GNSS/INS as the peers build it (PX4's EKF2, ArduPilot, KF-GINS): the
-/// receiver and the barometer, GNSS gated by its own innovations only and
-/// the state reset to it when it has been rejected for a while.
+/// receiver and the barometer, GNSS gated by its own innovations only,
+/// its error taken as white (no consider parameters), and the state
+/// reset to it when it has been rejected for a while.
 fn as_the_peers(scenario: &str) -> NavigatorConfig {
-    let c = without_integrity(scenario);
+    let mut c = without_integrity(scenario);
+    let g = &mut c.aid_settings.own.gnss;
+    g.correlated_sigma_h_m = 0.0;
+    g.correlated_sigma_v_m = 0.0;
     NavigatorConfig {
         aids: polarnav::settings::AidSet::NONE
             .with(AidKind::Gnss, true)
@@ -250,18 +254,13 @@ fn meaconing_is_excluded_at_its_first_epoch() {
     assert!(worst < 100.0, "{worst} m");
 }
 
-/// The pole window of tests/consistency.rs with GNSS (5 Hz, white errors
-/// of 1 m / 2 m and 0.05 m/s, lever arm 1.5 m ahead and 0.8 m up) and no
-/// CNS, 600 s through the exact pole, 30 seeds: the average NEES of
-/// position, velocity and attitude inside the 95 % χ² band. (The receiver's
-/// error is white here: the filter models it as white, and a correlated
-/// error the filter cannot know of would make any filter's NEES too high.)
-#[test]
-fn thirty_seed_average_nees_with_gnss_and_no_cns_over_the_exact_pole() {
-    const RUNS: u64 = 30;
-    const LO: f64 = 65.647 / 30.0;
-    const HI: f64 = 118.136 / 30.0;
-    let text = r#"
+/// 600 s through the exact North Pole with GNSS (5 Hz, white errors of
+/// 1 m / 2 m and 0.05 m/s, lever arm 1.5 m ahead and 0.8 m up, and a
+/// Gauss–Markov error of `gm_h` / `gm_v` m, 300 s) and no CNS: the pole
+/// window of tests/consistency.rs, seeds 700 + `seeds`.
+fn pole_gnss_runs(gm_h: f64, gm_v: f64, cfg: &NavigatorConfig, seeds: u64) -> Vec<Run> {
+    let text = format!(
+        r#"
 name = "pole-gnss"
 description = "600 s through the exact North Pole with GNSS and no CNS"
 [start]
@@ -288,8 +287,9 @@ sigma_m = 10.0
 rate_hz = 5.0
 sigma_h_m = 1.0
 sigma_v_m = 2.0
-gm_sigma_h_m = 0.0
-gm_sigma_v_m = 0.0
+gm_sigma_h_m = {gm_h:?}
+gm_sigma_v_m = {gm_v:?}
+gm_tau_s = 300.0
 sigma_vel_mps = 0.05
 lever_arm_b_m = [0.0, 1.5, 0.8]
 [init_error]
@@ -302,18 +302,14 @@ heading_arcmin = 3.0
 [[segment]]
 kind = "cruise"
 duration_s = 600.0
-"#;
-    // The receiver's white error is its own floor: R is what it is.
-    let mut cfg = NavigatorConfig::default();
-    cfg.aid_settings.own.gnss.lever_arm_b_m = [0.0, 1.5, 0.8];
-    cfg.aid_settings.own.gnss.sigma_floor_h_m = 1.0;
-    cfg.aid_settings.own.gnss.sigma_floor_v_m = 2.0;
+"#
+    );
+    let text = &text;
     let runs: Vec<Run> = std::thread::scope(|scope| {
         let handles: Vec<_> = (0..2u64)
             .map(|k| {
-                let cfg = &cfg;
                 scope.spawn(move || {
-                    (0..RUNS)
+                    (0..seeds)
                         .filter(|s| s % 2 == k)
                         .map(|seed| run(&simulate_records(text, 700 + seed), cfg, None))
                         .collect::<Vec<_>>()
@@ -336,8 +332,6 @@ duration_s = 600.0
         })
         .fold(0.0, f64::max);
     assert!(closest > 89.99, "closest {closest}°");
-    let per_seed: Vec<Vec<[f64; 3]>> = runs.iter().map(nees).collect();
-    let epochs = per_seed[0].len();
     let (mut h, mut n) = (0.0, 0usize);
     for r in &runs {
         for (s, t) in r.snaps.iter().zip(&r.truth) {
@@ -346,23 +340,100 @@ duration_s = 600.0
         }
     }
     eprintln!(
-        "GNSS, no CNS, over the exact pole ({closest:.4}°): horizontal RMSE {:.2} m over 30 seeds",
+        "GNSS (Gauss–Markov {gm_h} m / {gm_v} m), no CNS, over the exact pole ({closest:.4}°): \
+         horizontal RMSE {:.2} m over {seeds} seeds",
         (h / n as f64).sqrt()
     );
-    for (i, name) in ["position", "velocity", "attitude"].iter().enumerate() {
-        let mean = (0..epochs)
-            .map(|k| per_seed.iter().map(|r| r[k][i]).sum::<f64>() / RUNS as f64)
+    runs
+}
+
+/// The average over seeds and epochs of the position, velocity and
+/// attitude NEES.
+fn average_nees(runs: &[Run]) -> [f64; 3] {
+    let per_seed: Vec<Vec<[f64; 3]>> = runs.iter().map(nees).collect();
+    let epochs = per_seed[0].len();
+    let mut out = [0.0; 3];
+    for (i, o) in out.iter_mut().enumerate() {
+        *o = (0..epochs)
+            .map(|k| per_seed.iter().map(|r| r[k][i]).sum::<f64>() / runs.len() as f64)
             .sum::<f64>()
             / epochs as f64;
-        eprintln!("GNSS, no CNS: {name} average NEES {mean:.3} (band [{LO:.3}, {HI:.3}])");
+    }
+    out
+}
+
+/// The 95 % band of the average NEES of 3 states over 30 seeds.
+const NEES_BAND_30: (f64, f64) = (65.647 / 30.0, 118.136 / 30.0);
+
+fn assert_in_band(what: &str, mean: [f64; 3]) {
+    let (lo, hi) = NEES_BAND_30;
+    for (i, name) in ["position", "velocity", "attitude"].iter().enumerate() {
+        eprintln!(
+            "{what}: {name} average NEES {:.3} (band [{lo:.3}, {hi:.3}])",
+            mean[i]
+        );
         assert!(
-            (LO..=HI).contains(&mean),
-            "{name} average NEES {mean} outside [{LO}, {HI}]"
+            (lo..=hi).contains(&mean[i]),
+            "{what}: {name} average NEES {} outside [{lo}, {hi}]",
+            mean[i]
         );
     }
+}
+
+/// With white receiver errors, 30 seeds: the average NEES of position,
+/// velocity and attitude inside the 95 % χ² band.
+#[test]
+fn thirty_seed_average_nees_with_gnss_and_no_cns_over_the_exact_pole() {
+    // The receiver's white error is its own floor: R is what it is.
+    let mut cfg = NavigatorConfig::default();
+    cfg.aid_settings.own.gnss.lever_arm_b_m = [0.0, 1.5, 0.8];
+    cfg.aid_settings.own.gnss.sigma_floor_h_m = 1.0;
+    cfg.aid_settings.own.gnss.sigma_floor_v_m = 2.0;
+    let runs = pole_gnss_runs(0.0, 0.0, &cfg, 30);
+    assert_in_band("GNSS, no CNS", average_nees(&runs));
     for r in &runs {
         assert!(r.decisions(Verdict::Exclude).is_empty());
     }
+}
+
+/// The receiver as a real one is: a Gauss–Markov error of 1.5 m / 3 m
+/// (300 s) beside the white one, its accuracy estimates their sum. With
+/// the navigator told of the correlated share (`correlated_sigma_h_m`,
+/// `_v_m`, `_tau_s`: consider parameters), 30 seeds: the average NEES
+/// inside the 95 % band. Told nothing (R white, as every peer fuses a
+/// receiver), 10 of the same seeds: the position's average NEES far above
+/// the band, printed beside (the test can fail).
+#[test]
+fn thirty_seed_average_nees_with_a_correlated_receiver_error_over_the_exact_pole() {
+    let mut cfg = NavigatorConfig::default();
+    let g = &mut cfg.aid_settings.own.gnss;
+    g.lever_arm_b_m = [0.0, 1.5, 0.8];
+    g.sigma_floor_h_m = 1.0;
+    g.sigma_floor_v_m = 2.0;
+    let mut white = cfg.clone();
+    let g = &mut cfg.aid_settings.own.gnss;
+    g.correlated_sigma_h_m = 1.5;
+    g.correlated_sigma_v_m = 3.0;
+    g.correlated_tau_s = 300.0;
+    let runs = pole_gnss_runs(1.5, 3.0, &cfg, 30);
+    let considered = average_nees(&runs);
+    for r in &runs {
+        assert!(r.decisions(Verdict::Exclude).is_empty());
+    }
+    // R white: the receiver's estimate (hypot(1, 1.5) m) raised to the floor.
+    white.aid_settings.own.gnss.sigma_floor_h_m = 1.0;
+    let told_nothing = average_nees(&pole_gnss_runs(1.5, 3.0, &white, 10));
+    eprintln!(
+        "correlated receiver error: position average NEES {:.3} with the consider parameters, \
+         {:.3} fused as white (10 seeds)",
+        considered[0], told_nothing[0]
+    );
+    assert_in_band("GNSS with a Gauss–Markov error, considered", considered);
+    assert!(
+        told_nothing[0] > 2.0 * NEES_BAND_30.1,
+        "fused as white: position NEES {}",
+        told_nothing[0]
+    );
 }
 
 /// Jamming for 30 min over the pole (`jam-pole`): the receiver's accuracy

@@ -148,9 +148,12 @@ fn gnss_live_equals_batch_across_an_exclusion_and_a_readmission() {
         "gnss",
         scenario.to_str().expect("path"),
         &Load {
-            // The daemon's own settings carry the antenna's lever arm, as
-            // on an aircraft; batch takes it from the log's header too.
-            config: "\n[aids.gnss]\nreadmit_after_s = 10.0\nlever_arm_b_m = [0.0, 1.5, 0.8]\n",
+            // The daemon's own settings carry the antenna's lever arm and
+            // the receiver's correlated error, as on an aircraft; batch
+            // takes them from the log's header too.
+            config: "\n[aids.gnss]\nreadmit_after_s = 10.0\nlever_arm_b_m = [0.0, 1.5, 0.8]\n\
+                     correlated_sigma_h_m = 1.5\ncorrelated_sigma_v_m = 3.0\n\
+                     correlated_tau_s = 300.0\n",
             ..Load::default()
         },
     );
@@ -206,7 +209,9 @@ fn mems_aircraft_live_equals_batch_with_the_heading_aids_and_the_flight_state() 
         "config/scenarios/mems-aircraft.toml",
         &Load {
             config: "\n[filter]\npreset = \"mems\"\n\n[live]\nimu_rate_hz = 100.0\n\n\
-                     [aids.gnss]\nlever_arm_b_m = [0.0, 0.0, 0.5]\nintegrity = false\n\n\
+                     [aids.gnss]\nlever_arm_b_m = [0.0, 0.0, 0.5]\nintegrity = false\n\
+                     correlated_sigma_h_m = 1.5\ncorrelated_sigma_v_m = 3.0\n\
+                     correlated_tau_s = 300.0\n\n\
                      [aids.baseline]\nprimary_antenna_b_m = [0.0, -0.5, 0.3]\n\
                      secondary_antenna_b_m = [0.0, 1.0, 0.3]\nsigma_floor_m = 0.003\n\n\
                      [aids.mag]\nepoch_utc = \"2026-06-01T00:00:00Z\"\n\

@@ -307,7 +307,7 @@ fn a_persistent_step_fault_is_rejected_throughout_and_never_resets() {
 /// A reset to GNSS in the geographic frame, whose position error states are
 /// radians of latitude and longitude while the fix is in metres: the reset
 /// widens the prior in the measurement's units, and a fix without velocity
-/// leaves the velocity to κ. (Before, it added Hᵀ Λ H, (6.4·10⁶ m/rad)⁴ too
+/// leaves the velocity to κ and to the streak's rate. (Before, it added Hᵀ Λ H, (6.4·10⁶ m/rad)⁴ too
 /// much, and moved the position of the real car record's first reset by
 /// 4.3 km towards a fix 31 m away; the velocity of a fix without one was
 /// held at its collapsed σ.) Paper 003's aircraft flown with the
@@ -375,14 +375,13 @@ fn a_reset_to_gnss_lands_on_the_fix_in_the_geographic_frame() {
             wrong.after_reset_m
         );
         // As consistent after the reset as the filter with the right model.
-        // That one reaches 6.4 σ while GNSS is fused (668 s: 4.4 m against
-        // σ 0.7 m), and in the outages only falls from the ratio it enters
-        // them with: the scenario's receiver error has a Gauss–Markov part
-        // (1.5 m, 300 s) that a fix's white R cannot describe, so the filter
-        // averages it as if it were white. With that part set to 0 the same
-        // flight's worst is 2.8 σ (and below 0.7 σ in the outages); its mean
-        // position NEES 3.56 against 31.7 (README, "What the solution's σ
-        // means with GNSS", with the commands that measure both).
+        // The scenario declares its receiver's Gauss–Markov error (1.5 m /
+        // 3 m, 300 s) as `correlated_sigma_*`, so that one stays within
+        // 2.3–2.6 σ over its whole flight (fused as white it reached 6.4 σ
+        // while GNSS was fused, which hid 4–5 σ after a reset here). A fix
+        // without velocity leaves the velocity to the streak's rate
+        // (README, "Recovery"): without that, 18.7 m at σ 3.8 m 14 s after
+        // the first reset and a second reset.
         assert!(
             wrong.worst_sigma_after_reset <= 1.25 * right.worst_sigma,
             "after the reset {:.2} σ, the right preset {:.2} σ",

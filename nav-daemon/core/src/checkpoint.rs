@@ -2,10 +2,11 @@
 //! biases, so that a restarted daemon resumes instead of starting cold.
 //!
 //! Format (little-endian, fixed length [`ENCODED_LEN`]): magic
-//! `PNCKPT02`, the fields of [`Checkpoint`] in declaration order, CRC-32 of
-//! everything before it. A `PNCKPT01` file (without the magnetometer's
-//! consider parameter, [`ENCODED_LEN_V1`] bytes) still reads, with the
-//! parameter zero. Files are replaced atomically: written to a
+//! `PNCKPT03`, the fields of [`Checkpoint`] in declaration order, CRC-32 of
+//! everything before it. A `PNCKPT02` file (without the GNSS receiver's
+//! consider parameters, [`ENCODED_LEN_V2`] bytes) and a `PNCKPT01` file
+//! (without the magnetometer's either, [`ENCODED_LEN_V1`] bytes) still
+//! read, with the parameters they lack zero. Files are replaced atomically: written to a
 //! temporary file beside the target, fsynced, renamed over it, and the
 //! directory fsynced, so a crash leaves either the old or the new checkpoint.
 //! [`Checkpoint::load`] also refuses an intact file whose content is
@@ -15,16 +16,21 @@ use std::io::Write;
 use std::path::Path;
 
 /// Magic and format version.
-pub const MAGIC: &[u8; 8] = b"PNCKPT02";
+pub const MAGIC: &[u8; 8] = b"PNCKPT03";
+/// Magic of the second format (the magnetometer's consider parameter only).
+pub const MAGIC_V2: &[u8; 8] = b"PNCKPT02";
 /// Magic of the first format (no consider parameter).
 pub const MAGIC_V1: &[u8; 8] = b"PNCKPT01";
 
 const N_F64_V1: usize = 3 + 3 + 4 + 225 + 3 + 3 + 7 + 4;
-const N_F64: usize = N_F64_V1 + 15 + 1;
+const N_F64_V2: usize = N_F64_V1 + 15 + 1;
+const N_F64: usize = N_F64_V2 + 45 + 3 + 1;
 /// Encoded size in bytes.
 pub const ENCODED_LEN: usize = 8 + 8 + 8 + 4 + 4 + 4 + 4 + N_F64 * 8 + 4;
+/// Encoded size of a `PNCKPT02` file.
+pub const ENCODED_LEN_V2: usize = ENCODED_LEN - (N_F64 - N_F64_V2) * 8;
 /// Encoded size of a `PNCKPT01` file.
-pub const ENCODED_LEN_V1: usize = ENCODED_LEN - 16 * 8;
+pub const ENCODED_LEN_V1: usize = ENCODED_LEN - (N_F64 - N_F64_V1) * 8;
 
 /// The navigator state a checkpoint carries.
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -55,6 +61,13 @@ pub struct Checkpoint {
     /// navigator carries none (and in a `PNCKPT01` file).
     pub consider: [f64; 15],
     pub consider_var: f64,
+    /// The GNSS receiver's correlated position error b as three consider
+    /// parameters: cov(δx, b) in `frame` (row-major 15 × 3), b's
+    /// variances per axis (m²) and its correlation time (s); all zero when
+    /// the navigator carries none (and in older files).
+    pub gnss_consider: [f64; 45],
+    pub gnss_consider_var: [f64; 3],
+    pub gnss_consider_tau_s: f64,
 }
 
 /// Why a checkpoint could not be read.
@@ -125,6 +138,9 @@ impl Checkpoint {
             .chain(&self.pending_cov)
             .chain(&self.consider)
             .chain(std::iter::once(&self.consider_var))
+            .chain(&self.gnss_consider)
+            .chain(&self.gnss_consider_var)
+            .chain(std::iter::once(&self.gnss_consider_tau_s))
         {
             put(&x.to_le_bytes());
         }
@@ -140,6 +156,7 @@ impl Checkpoint {
         };
         let (len, n_f64) = match bytes.get(..8) {
             Some(m) if m == MAGIC => (ENCODED_LEN, N_F64),
+            Some(m) if m == MAGIC_V2 => (ENCODED_LEN_V2, N_F64_V2),
             Some(m) if m == MAGIC_V1 => (ENCODED_LEN_V1, N_F64_V1),
             _ => return Err(bad("wrong magic or version".into())),
         };
@@ -152,7 +169,7 @@ impl Checkpoint {
         }
         let u64_at = |o: usize| u64::from_le_bytes(bytes[o..o + 8].try_into().expect("8 bytes"));
         let u32_at = |o: usize| u32::from_le_bytes(bytes[o..o + 4].try_into().expect("4 bytes"));
-        // A PNCKPT01 file's missing consider parameter reads as zero.
+        // An older file's missing consider parameters read as zero.
         let mut f = [0.0; N_F64];
         for (k, x) in f.iter_mut().take(n_f64).enumerate() {
             *x = f64::from_bits(u64_at(40 + 8 * k));
@@ -180,6 +197,9 @@ impl Checkpoint {
             pending_cov: [0.0; 4],
             consider: [0.0; 15],
             consider_var: 0.0,
+            gnss_consider: [0.0; 45],
+            gnss_consider_var: [0.0; 3],
+            gnss_consider_tau_s: 0.0,
         };
         let mut rest = &f[..];
         for dst in [
@@ -193,6 +213,9 @@ impl Checkpoint {
             &mut c.pending_cov[..],
             &mut c.consider[..],
             std::slice::from_mut(&mut c.consider_var),
+            &mut c.gnss_consider[..],
+            &mut c.gnss_consider_var[..],
+            std::slice::from_mut(&mut c.gnss_consider_tau_s),
         ] {
             let (head, tail) = rest.split_at(dst.len());
             dst.copy_from_slice(head);
@@ -215,9 +238,15 @@ impl Checkpoint {
                 detail,
             })
         };
-        let fields: [(&str, &[f64]); 10] = [
+        let fields: [(&str, &[f64]); 13] = [
             ("consider", &self.consider),
             ("consider_var", std::slice::from_ref(&self.consider_var)),
+            ("gnss_consider", &self.gnss_consider),
+            ("gnss_consider_var", &self.gnss_consider_var),
+            (
+                "gnss_consider_tau_s",
+                std::slice::from_ref(&self.gnss_consider_tau_s),
+            ),
             ("r_e_m", &self.r_e_m),
             ("v_e_mps", &self.v_e_mps),
             ("q_b_e", &self.q_b_e),
@@ -286,6 +315,7 @@ impl Checkpoint {
         }
         self.validate_covariance()
             .and_then(|()| self.validate_consider())
+            .and_then(|()| self.validate_gnss_consider())
             .or_else(bad)
     }
 
@@ -320,6 +350,64 @@ impl Checkpoint {
         } else {
             Err(format!(
                 "consider is not consistent with p: cᵀ P⁻¹ c = {explained:e} exceeds consider_var = {a:e}"
+            ))
+        }
+    }
+
+    /// The GNSS receiver's parameters: b's variances in
+    /// [0, [`bounds::MAX_VARIANCE`]]; with them zero, no covariance and no
+    /// correlation time; otherwise a correlation time in
+    /// [1, [`crate::bounds::MAX_FLIGHT_S`]] s and the augmented covariance
+    /// [[P, C], [Cᵀ, B]] positive semi-definite (the eigenvalues of
+    /// B − Cᵀ P⁻¹ C not below −1e-9 of B's largest). Called after P is
+    /// known positive definite.
+    fn validate_gnss_consider(&self) -> Result<(), String> {
+        use bounds::MAX_VARIANCE;
+        use nalgebra::{Matrix3, SMatrix};
+        let b = self.gnss_consider_var;
+        if let Some((k, v)) = b
+            .iter()
+            .enumerate()
+            .find(|(_, v)| !(0.0..=MAX_VARIANCE).contains(*v))
+        {
+            return Err(format!(
+                "gnss_consider_var[{k}] = {v} is not a variance in [0, {MAX_VARIANCE:e}]"
+            ));
+        }
+        if b.iter().all(|v| *v == 0.0) {
+            if let Some((k, x)) = self
+                .gnss_consider
+                .iter()
+                .enumerate()
+                .find(|(_, x)| **x != 0.0)
+            {
+                return Err(format!(
+                    "gnss_consider[{k}] = {x} with gnss_consider_var 0 (a covariance with nothing)"
+                ));
+            }
+            return Ok(());
+        }
+        let tau = self.gnss_consider_tau_s;
+        let max_tau = crate::bounds::MAX_FLIGHT_S;
+        if !(1.0..=max_tau).contains(&tau) {
+            return Err(format!(
+                "gnss_consider_tau_s = {tau} s outside [1, {max_tau:e}] s"
+            ));
+        }
+        let p = SMatrix::<f64, 15, 15>::from_row_slice(&self.p);
+        let c = SMatrix::<f64, 15, 3>::from_row_slice(&self.gnss_consider);
+        let left = p
+            .cholesky()
+            .map(|l| Matrix3::from_diagonal(&b.into()) - c.transpose() * l.solve(&c));
+        let largest = b.iter().copied().fold(0.0, f64::max);
+        let smallest = left
+            .map(|m| m.symmetric_eigenvalues().min())
+            .unwrap_or(f64::NEG_INFINITY);
+        if smallest.is_finite() && smallest >= -1e-9 * largest {
+            Ok(())
+        } else {
+            Err(format!(
+                "gnss_consider is not consistent with p: B − Cᵀ P⁻¹ C has the eigenvalue {smallest:e}"
             ))
         }
     }
@@ -467,6 +555,16 @@ mod tests {
                 c
             },
             consider_var: 16e-6,
+            // The east position error 70 % explained by a receiver error
+            // of 1.5 m (σ) horizontally, 3 m vertically.
+            gnss_consider: {
+                let mut c = [0.0; 45];
+                c[3 * idx::DP] = 0.7 * sd[idx::DP] * 1.5;
+                c[3 * (idx::DP + 2) + 2] = 0.5 * sd[idx::DP + 2] * 3.0;
+                c
+            },
+            gnss_consider_var: [2.25, 2.25, 9.0],
+            gnss_consider_tau_s: 300.0,
         }
     }
 
@@ -586,6 +684,23 @@ mod tests {
                 c.consider[idx::PHI + 2] =
                     -1.5 * (c.p[16 * (idx::PHI + 2)] * c.consider_var).sqrt();
             }),
+            ("gnss_consider[4]", |c| c.gnss_consider[4] = f64::INFINITY),
+            ("gnss_consider_var[2]", |c| c.gnss_consider_var[2] = -1.0),
+            ("gnss_consider_var[0]", |c| c.gnss_consider_var[0] = 1e300),
+            ("gnss_consider_tau_s", |c| c.gnss_consider_tau_s = f64::NAN),
+            ("gnss_consider_tau_s = 0", |c| c.gnss_consider_tau_s = 0.0),
+            ("gnss_consider_tau_s = 1000000000000000000 s", |c| {
+                c.gnss_consider_tau_s = 1e18
+            }),
+            ("gnss_consider[0] = 1 with gnss_consider_var 0", |c| {
+                c.gnss_consider = [0.0; 45];
+                c.gnss_consider[0] = 1.0;
+                c.gnss_consider_var = [0.0; 3];
+            }),
+            ("gnss_consider is not consistent with p", |c| {
+                // A correlation of 1.2 between the east error and b's east.
+                c.gnss_consider[3 * idx::DP] = 1.2 * (c.p[16 * idx::DP] * 2.25).sqrt();
+            }),
         ];
         for (k, (field, defect)) in defects.iter().enumerate() {
             let mut c = sample();
@@ -637,6 +752,19 @@ mod tests {
         let _ = std::fs::remove_file(&path);
     }
 
+    /// `c` written in an older format: `magic`, the header and the first
+    /// `n_f64` numbers of the current encoding, its own CRC (`c` must have
+    /// zero in the fields that format lacks).
+    fn older_format(c: &Checkpoint, magic: &[u8; 8], n_f64: usize) -> Vec<u8> {
+        let mut cur = [0u8; ENCODED_LEN];
+        c.encode(&mut cur);
+        let mut old = magic.to_vec();
+        old.extend_from_slice(&cur[8..40 + 8 * n_f64]);
+        let crc = crc32fast::hash(&old);
+        old.extend_from_slice(&crc.to_le_bytes());
+        old
+    }
+
     /// A `PNCKPT01` file (written here field by field in the first
     /// format: no consider parameter, its magic) reads with every field
     /// and the parameter zero, and validates; its truncations and a flipped
@@ -646,13 +774,12 @@ mod tests {
         let mut c = sample();
         c.consider = [0.0; 15];
         c.consider_var = 0.0;
+        c.gnss_consider = [0.0; 45];
+        c.gnss_consider_var = [0.0; 3];
+        c.gnss_consider_tau_s = 0.0;
         let mut cur = [0u8; ENCODED_LEN];
         c.encode(&mut cur);
-        let mut old = Vec::with_capacity(ENCODED_LEN_V1);
-        old.extend_from_slice(MAGIC_V1);
-        old.extend_from_slice(&cur[8..40 + 8 * N_F64_V1]);
-        let crc = crc32fast::hash(&old);
-        old.extend_from_slice(&crc.to_le_bytes());
+        let old = older_format(&c, MAGIC_V1, N_F64_V1);
         assert_eq!(old.len(), ENCODED_LEN_V1);
         let back = Checkpoint::decode(&old, "v1").expect("a PNCKPT01 file");
         assert_eq!(back, c);
@@ -673,6 +800,34 @@ mod tests {
         let mut wrong = cur.to_vec();
         wrong[..8].copy_from_slice(MAGIC_V1);
         assert!(Checkpoint::decode(&wrong, "v2").is_err());
+    }
+
+    /// A `PNCKPT02` file (the magnetometer's parameter, not the
+    /// receiver's) reads with every field and the receiver's parameters
+    /// zero, and validates; truncated, or with the other formats' magic,
+    /// it is refused.
+    #[test]
+    fn a_second_format_checkpoint_reads_with_no_gnss_consider_parameters() {
+        let mut c = sample();
+        c.gnss_consider = [0.0; 45];
+        c.gnss_consider_var = [0.0; 3];
+        c.gnss_consider_tau_s = 0.0;
+        let old = older_format(&c, MAGIC_V2, N_F64_V2);
+        assert_eq!(old.len(), ENCODED_LEN_V2);
+        let back = Checkpoint::decode(&old, "v2").expect("a PNCKPT02 file");
+        assert_eq!(back, c);
+        back.validate().expect("valid");
+        for len in 0..ENCODED_LEN_V2 {
+            assert!(
+                Checkpoint::decode(&old[..len], "v2").is_err(),
+                "{len} bytes"
+            );
+        }
+        for magic in [MAGIC, MAGIC_V1] {
+            let mut wrong = old.clone();
+            wrong[..8].copy_from_slice(magic);
+            assert!(Checkpoint::decode(&wrong, "v2").is_err());
+        }
     }
 
     #[test]

@@ -32,7 +32,12 @@
 //! R: position diag(σ_h², σ_h², σ_v²) in the local level axes, which g and
 //! G share up to a turn about up (so R is the same in either), velocity
 //! σ_s² I, each σ the receiver's estimate raised to a floor from the
-//! settings. A fix below 3D, one whose accuracy estimates exceed the
+//! settings. With a correlated share in the settings (`correlated_sigma_h_m`,
+//! `correlated_sigma_v_m`, `correlated_tau_s`: the receiver's error that
+//! wanders over minutes) the floors apply to the white share, R is the
+//! whole, and the measurement declares the correlated share
+//! ([`Correlated`]) for the navigator to carry as consider parameters.
+//! A fix below 3D, one whose accuracy estimates exceed the
 //! settings' bounds or whose PDOP exceeds the DOP gate (paper 003 §4.1) is
 //! refused, each counted by its cause.
 
@@ -41,10 +46,10 @@ use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 use serde::{Deserialize, Serialize};
 
 use super::{
-    Aid, AidError, Context, Measured, Measurement, OwnSettings, ecef_per_position_error,
-    frame_rotation_per_position_error,
+    Aid, AidError, Context, Correlated, Measured, Measurement, OwnSettings,
+    ecef_per_position_error, frame_rotation_per_position_error,
 };
-use crate::bounds::{Bound, SettingsError};
+use crate::bounds::{Bound, MAX_FLIGHT_S, SettingsError};
 use crate::earth::{self, Geodetic};
 use crate::error_model::idx;
 use crate::frames::{self, skew};
@@ -83,6 +88,17 @@ pub struct GnssSettings {
     pub max_s_acc_mps: f64,
     /// The DOP gate: a fix with a larger PDOP is refused.
     pub max_pdop: f64,
+    /// The share of the receiver's error that is correlated in time
+    /// (multipath, atmosphere, orbits: it wanders over minutes), 1-σ
+    /// horizontal per axis and vertical (m), as a first-order
+    /// Gauss–Markov process of correlation time `correlated_tau_s`. The
+    /// navigator carries it as consider parameters, so repeated fixes do
+    /// not average it away and the solution's σ stays at least what it
+    /// leaves; the receiver's estimates are the whole error, this share
+    /// included. 0 (the default): each fix's error is white.
+    pub correlated_sigma_h_m: f64,
+    pub correlated_sigma_v_m: f64,
+    pub correlated_tau_s: f64,
     /// Test each fix against the autonomous solution before it is fused
     /// (`crate::integrity`); off, GNSS is fused whenever its own χ² gate
     /// passes it, and a spoofer that drags slowly is followed.
@@ -110,6 +126,9 @@ impl Default for GnssSettings {
             max_v_acc_m: 100.0,
             max_s_acc_mps: 5.0,
             max_pdop: 10.0,
+            correlated_sigma_h_m: 0.0,
+            correlated_sigma_v_m: 0.0,
+            correlated_tau_s: 300.0,
             integrity: IntegritySettings::default().integrity,
             integrity_false_alarm: IntegritySettings::default().integrity_false_alarm,
             integrity_alert_limit_m: IntegritySettings::default().integrity_alert_limit_m,
@@ -182,7 +201,32 @@ impl OwnSettings for GnssSettings {
             below: "a PDOP is at least 1: every fix would be refused",
             above: "a PDOP beyond 100 is no geometry: the gate would refuse nothing",
         }
-        .check(origin, &format!("{table}.max_pdop"), self.max_pdop)
+        .check(origin, &format!("{table}.max_pdop"), self.max_pdop)?;
+        for (key, v) in [
+            ("correlated_sigma_h_m", self.correlated_sigma_h_m),
+            ("correlated_sigma_v_m", self.correlated_sigma_v_m),
+        ] {
+            Bound {
+                lo: 0.0,
+                hi: 1e3,
+                unit: "m",
+                below: "a σ is not negative (0: the receiver's error is white)",
+                above: "a correlated error beyond a kilometre makes GNSS worthless",
+            }
+            .check(origin, &format!("{table}.{key}"), v)?;
+        }
+        Bound {
+            lo: 1.0,
+            hi: MAX_FLIGHT_S,
+            unit: "s",
+            below: "an error correlated for less than a second is white at any receiver's rate",
+            above: "a correlation time beyond any flight is a constant error: give a long one",
+        }
+        .check(
+            origin,
+            &format!("{table}.correlated_tau_s"),
+            self.correlated_tau_s,
+        )
     }
 }
 
@@ -302,11 +346,10 @@ pub fn measurement(
     z.fixed_rows_mut::<3>(3)
         .copy_from(&(c_e_n * (v_ant - v_gnss)));
 
-    let sh = s.h_acc_m.max(g.sigma_floor_h_m);
-    let sv = s.v_acc_m.max(g.sigma_floor_v_m);
     let ss = s.s_acc_mps.max(g.sigma_floor_vel_mps);
+    let (var_h, var_v) = position_var(s, g);
     let mut r = SMatrix::<f64, 6, 6>::zeros();
-    for (k, var) in [sh * sh, sh * sh, sv * sv, ss * ss, ss * ss, ss * ss]
+    for (k, var) in [var_h, var_h, var_v, ss * ss, ss * ss, ss * ss]
         .into_iter()
         .enumerate()
     {
@@ -315,16 +358,49 @@ pub fn measurement(
     Ok(Measurement { z, h, r })
 }
 
+/// The position's variances of R, horizontal per axis and vertical: the
+/// receiver's estimates, their white share (what is left of them beyond
+/// the correlated share of the settings) raised to the floors. Without a
+/// correlated share, the estimate raised to its floor.
+fn position_var(s: &GnssFix, g: &GnssSettings) -> (f64, f64) {
+    let var = |acc: f64, floor: f64, correlated: f64| {
+        if correlated == 0.0 {
+            let sd = acc.max(floor);
+            sd * sd
+        } else {
+            let c2 = correlated * correlated;
+            (acc * acc - c2).max(floor * floor) + c2
+        }
+    };
+    (
+        var(s.h_acc_m, g.sigma_floor_h_m, g.correlated_sigma_h_m),
+        var(s.v_acc_m, g.sigma_floor_v_m, g.correlated_sigma_v_m),
+    )
+}
+
+/// The receiver's correlated error as the settings give it (`None`: white).
+fn correlated(g: &GnssSettings) -> Option<Correlated> {
+    let (h, v) = (g.correlated_sigma_h_m, g.correlated_sigma_v_m);
+    (h > 0.0 || v > 0.0).then(|| Correlated {
+        var: Vector3::new(h * h, h * h, v * v),
+        tau_s: g.correlated_tau_s,
+    })
+}
+
 impl Aid for GnssFix {
     type Settings = GnssSettings;
     /// Position and velocity.
     const OBSERVED: &'static [usize] = &[idx::DP, idx::DV];
     fn measure(&self, nav: &AnyNav, ctx: &Context, g: &GnssSettings) -> Result<Measured, AidError> {
         let m = measurement(nav, self, &ctx.omega_ib_b, g)?;
-        Ok(if self.has_velocity() {
+        let measured = if self.has_velocity() {
             Measured::from(m)
         } else {
             Measured::from(position_only(&m))
+        };
+        Ok(Measured {
+            correlated: correlated(g),
+            ..measured
         })
     }
 }
@@ -455,6 +531,48 @@ mod tests {
     }
 
     /// The noise model: the receiver's σ, each raised to its floor.
+    /// With a correlated share the receiver's estimate is the whole error:
+    /// R stays the estimate where the white share it leaves is above its
+    /// floor, the white share is raised to the floor where not, and the
+    /// measurement declares the share (variances per axis, τ); without one
+    /// it declares none and R is the estimate raised to the floor.
+    #[test]
+    fn a_correlated_share_splits_r_and_is_declared() {
+        let mut g = settings();
+        g.correlated_sigma_h_m = 1.5;
+        g.correlated_sigma_v_m = 3.0;
+        g.correlated_tau_s = 120.0;
+        let t = truth(FrameKind::Geographic, 45.0, 20.0);
+        let mut fix = fix_of(&t, &Vector3::from(g.lever_arm_b_m), &Vector3::zeros());
+        fix.h_acc_m = 2.5;
+        fix.v_acc_m = 5.0;
+        let ctx = Context {
+            omega_ib_b: Vector3::zeros(),
+        };
+        let out = fix.measure(&t, &ctx, &g).expect("fix");
+        let AnyMeasurement::D6(m) = out.m else {
+            panic!("position and velocity")
+        };
+        // 2.5² = 1.5² + 2²: a white 2 m, above the 0.5 m floor.
+        assert!((m.r[(0, 0)] - 6.25).abs() < 1e-12 && (m.r[(1, 1)] - 6.25).abs() < 1e-12);
+        assert!((m.r[(2, 2)] - 25.0).abs() < 1e-12);
+        let c = out.correlated.expect("declared");
+        assert_eq!(c.var, Vector3::new(2.25, 2.25, 9.0));
+        assert_eq!(c.tau_s.to_bits(), 120.0f64.to_bits());
+        // An estimate below the correlated share: the white share at its
+        // floor (0.5 m, 1 m), R = floor² + share².
+        fix.h_acc_m = 1.0;
+        fix.v_acc_m = 1.0;
+        let AnyMeasurement::D6(m) = fix.measure(&t, &ctx, &g).expect("fix").m else {
+            panic!("position and velocity")
+        };
+        assert!((m.r[(0, 0)] - (0.25 + 2.25)).abs() < 1e-12);
+        assert!((m.r[(2, 2)] - (1.0 + 9.0)).abs() < 1e-12);
+        // Without a share: nothing declared.
+        let out = fix.measure(&t, &ctx, &settings()).expect("fix");
+        assert_eq!(out.correlated, None);
+    }
+
     #[test]
     fn r_is_the_receivers_accuracy_raised_to_the_floors() {
         let g = settings();
@@ -626,6 +744,34 @@ mod tests {
                     ..Default::default()
                 },
                 "aids.gnss.max_s_acc_mps",
+            ),
+            (
+                GnssSettings {
+                    correlated_sigma_h_m: -1e-300,
+                    ..Default::default()
+                },
+                "aids.gnss.correlated_sigma_h_m",
+            ),
+            (
+                GnssSettings {
+                    correlated_sigma_v_m: f64::INFINITY,
+                    ..Default::default()
+                },
+                "aids.gnss.correlated_sigma_v_m",
+            ),
+            (
+                GnssSettings {
+                    correlated_tau_s: 1e-10,
+                    ..Default::default()
+                },
+                "aids.gnss.correlated_tau_s",
+            ),
+            (
+                GnssSettings {
+                    correlated_tau_s: 1e18,
+                    ..Default::default()
+                },
+                "aids.gnss.correlated_tau_s",
             ),
         ] {
             let e = bad.validate("t", "aids.gnss").expect_err(key);

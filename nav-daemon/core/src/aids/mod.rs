@@ -140,6 +140,25 @@ pub struct Measured {
     /// ([`crate::filter::update_considering`]), so that repeated samples
     /// cannot average it away. One aid declares one (the magnetometer).
     pub persistent_var: f64,
+    /// The part of R of the first three components (a position in the
+    /// navigation frame's axes) that is an error correlated in time
+    /// rather than noise: a receiver's multipath, atmosphere and orbits.
+    /// The navigator carries its covariance with the states as consider
+    /// parameters ([`crate::filter::update_considering_block`]), decaying
+    /// with its correlation time. `None` for white measurements; one aid
+    /// declares one (GNSS, when its settings give the receiver's
+    /// correlated σ).
+    pub correlated: Option<Correlated>,
+}
+
+/// A first-order Gauss–Markov error of a measured position: its stationary
+/// variance per axis of the navigation frame (east or grid x, north or
+/// grid y, up; m², the two horizontal ones equal, so that the frame's turn
+/// about up at a switch leaves it unchanged) and its correlation time (s).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Correlated {
+    pub var: Vector3<f64>,
+    pub tau_s: f64,
 }
 
 impl From<Measurement<1>> for Measured {
@@ -148,6 +167,7 @@ impl From<Measurement<1>> for Measured {
             m: AnyMeasurement::D1(m),
             excluded_body: None,
             persistent_var: 0.0,
+            correlated: None,
         }
     }
 }
@@ -157,6 +177,7 @@ impl From<Measurement<2>> for Measured {
             m: AnyMeasurement::D2(m),
             excluded_body: None,
             persistent_var: 0.0,
+            correlated: None,
         }
     }
 }
@@ -166,6 +187,7 @@ impl From<Measurement<3>> for Measured {
             m: AnyMeasurement::D3(m),
             excluded_body: None,
             persistent_var: 0.0,
+            correlated: None,
         }
     }
 }
@@ -175,6 +197,7 @@ impl From<Measurement<6>> for Measured {
             m: AnyMeasurement::D6(m),
             excluded_body: None,
             persistent_var: 0.0,
+            correlated: None,
         }
     }
 }

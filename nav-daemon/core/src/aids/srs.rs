@@ -251,6 +251,7 @@ impl Aid for SrsSample {
             m: AnyMeasurement::D3(m),
             excluded_body: sol.excluded_body,
             persistent_var: 0.0,
+            correlated: None,
         })
     }
 }

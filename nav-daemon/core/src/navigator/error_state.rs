@@ -7,7 +7,7 @@
 use msgs::InitState;
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 
-use crate::aids::Measurement;
+use crate::aids::{Correlated, Measurement};
 use crate::earth;
 use crate::error_model::{Mat15, idx};
 use crate::filter::{self, ProcessNoise, UpdateOutcome};
@@ -64,6 +64,20 @@ pub(super) struct ErrorState {
     /// persistent error, which the first magnetometer sample writes into
     /// `consider` before it is fused.
     pub(super) consider_from_alignment: bool,
+    /// cov(δx, b) of the GNSS receiver's correlated position error b (a
+    /// Gauss–Markov process in the navigation frame's axes,
+    /// [`crate::aids::Correlated`]), carried as three consider parameters
+    /// beside the magnetometer's: propagated with Φ and decayed by
+    /// e^(−Δt/τ), turned with the axes at a frame switch, updated by every
+    /// aid's update, kept by a checkpoint, zero until the first fix that
+    /// declares the share and after a repair. While it is zero and no fix
+    /// declares one, the updates are those without it.
+    pub(super) gnss_c: SMatrix<f64, 15, 3>,
+    /// b's stationary variances per axis (m²; 0 while `gnss_c` is zero):
+    /// the largest any fix declared (as the magnetometer's).
+    pub(super) gnss_b: Vector3<f64>,
+    /// b's correlation time (s).
+    pub(super) gnss_tau_s: f64,
 }
 
 impl ErrorState {
@@ -94,6 +108,9 @@ impl ErrorState {
             consider_var: 0.0,
             consider_from_alignment: init.init_method()
                 == Some(msgs::InitMethod::AidHeading(msgs::AidKind::Mag)),
+            gnss_c: SMatrix::zeros(),
+            gnss_b: Vector3::zeros(),
+            gnss_tau_s: f64::INFINITY,
         }
     }
 
@@ -169,6 +186,10 @@ impl ErrorState {
         if self.consider != SVector::<f64, 15>::zeros() {
             self.consider = phi * self.consider;
         }
+        if self.gnss_c != SMatrix::<f64, 15, 3>::zeros() {
+            // cov(Φ δx, ρ b + w) = Φ C ρ: the receiver's error forgets.
+            self.gnss_c = phi * self.gnss_c * (-self.acc_dt / self.gnss_tau_s).exp();
+        }
         // The bias estimates decay by their Gauss–Markov share between
         // updates; a turn-on part beyond the wander stays
         // ([`ProcessNoise::bias_decay`]; constant biases when τ = ∞).
@@ -220,6 +241,8 @@ impl ErrorState {
         self.consider = SVector::zeros();
         self.consider_var = 0.0;
         self.consider_from_alignment = false;
+        self.gnss_c = SMatrix::zeros();
+        self.gnss_b = Vector3::zeros();
         self.tape_break();
         self.repairs += 1;
     }
@@ -233,6 +256,18 @@ impl ErrorState {
         self.p = phi * self.p * phi.transpose();
         filter::symmetrize(&mut self.p);
         self.consider = phi * self.consider;
+        if self.gnss_c != SMatrix::<f64, 15, 3>::zeros() {
+            // b's axes are the frame's: g and G differ by the grid angle's
+            // turn about up, which leaves b's variances (equal
+            // horizontally) as they are and turns its covariance with δx.
+            let geo = before.geodetic();
+            let c_g_grid = frames::c_g_grid(frames::grid_angle(geo.lat_rad, geo.lon_rad));
+            let turn = match to {
+                FrameKind::Grid => c_g_grid,
+                FrameKind::Geographic => c_g_grid.transpose(),
+            };
+            self.gnss_c = phi * self.gnss_c * turn.transpose();
+        }
     }
 
     /// The covariance of an unknown manoeuvre over a coasted gap of `t` s:
@@ -268,19 +303,30 @@ impl ErrorState {
     /// persistent error (0 for every other aid): such a sample is fused
     /// with the consider parameter, and so is every sample while the
     /// parameter is not zero ([`filter::update_considering`]).
+    /// `correlated` is the share of a position's R that is the GNSS
+    /// receiver's correlated error: while it or its covariance `gnss_c` is
+    /// there, every sample is fused with all four consider parameters
+    /// ([`filter::update_considering_block`]).
     pub(super) fn update<const M: usize>(
         &mut self,
         m: &Measurement<M>,
         gate: f64,
         persistent_var: f64,
+        correlated: Option<&Correlated>,
     ) -> Option<UpdateOutcome<M>> {
         let before = (
             self.p,
             self.consider,
             self.consider_var,
             self.consider_from_alignment,
+            self.gnss_c,
+            self.gnss_b,
+            self.gnss_tau_s,
         );
-        let out = if persistent_var > 0.0 || self.consider != SVector::<f64, 15>::zeros() {
+        // A correlated share enters a position's three components.
+        let correlated = correlated.filter(|_| M >= 3);
+        let gnss = correlated.is_some() || self.gnss_c != SMatrix::<f64, 15, 3>::zeros();
+        let out = if persistent_var > 0.0 || self.consider != SVector::<f64, 15>::zeros() || gnss {
             let u = SVector::<f64, M>::repeat(if persistent_var > 0.0 { 1.0 } else { 0.0 });
             let mut r = m.r;
             if persistent_var > 0.0 {
@@ -291,29 +337,82 @@ impl ErrorState {
                 r += u * u.transpose() * (a - persistent_var);
                 self.consider_var = a;
             }
-            filter::update_considering(
-                &mut self.p,
-                &mut self.consider,
-                &m.z,
-                &m.h,
-                &r,
-                &u,
-                self.consider_var,
-                gate,
-            )
+            if gnss {
+                self.update_with_gnss_consider(m, &r, &u, correlated, gate)
+            } else {
+                filter::update_considering(
+                    &mut self.p,
+                    &mut self.consider,
+                    &m.z,
+                    &m.h,
+                    &r,
+                    &u,
+                    self.consider_var,
+                    gate,
+                )
+            }
         } else {
             filter::update(&mut self.p, &m.z, &m.h, &m.r, gate)
         }
         .filter(|o| o.dx.iter().all(|x| x.is_finite()) && o.test_ratio.is_finite())
-        .filter(|_| covariance_usable(&self.p) && self.consider.iter().all(|x| x.is_finite()));
+        .filter(|_| {
+            covariance_usable(&self.p)
+                && self.consider.iter().all(|x| x.is_finite())
+                && self.gnss_c.iter().all(|x| x.is_finite())
+        });
         if out.is_none() {
             (
                 self.p,
                 self.consider,
                 self.consider_var,
                 self.consider_from_alignment,
+                self.gnss_c,
+                self.gnss_b,
+                self.gnss_tau_s,
             ) = before;
         }
+        out
+    }
+
+    /// The update with the magnetometer's parameter and the receiver's
+    /// three together (`u` and `r` as [`Self::update`] made them for the
+    /// magnetometer's). A sample that declares a smaller share than b
+    /// already has is fused with b's (its R raised by the difference), as
+    /// the magnetometer's.
+    fn update_with_gnss_consider<const M: usize>(
+        &mut self,
+        m: &Measurement<M>,
+        r: &SMatrix<f64, M, M>,
+        u: &SVector<f64, M>,
+        correlated: Option<&Correlated>,
+        gate: f64,
+    ) -> Option<UpdateOutcome<M>> {
+        let mut r = *r;
+        let mut ug = SMatrix::<f64, M, 3>::zeros();
+        if let Some(c) = correlated {
+            let b = self.gnss_b.sup(&c.var);
+            for i in 0..3 {
+                ug[(i, i)] = 1.0;
+                r[(i, i)] += b[i] - c.var[i];
+            }
+            self.gnss_b = b;
+            self.gnss_tau_s = c.tau_s;
+        }
+        let mut cb = SMatrix::<f64, 15, 4>::zeros();
+        cb.column_mut(0).copy_from(&self.consider);
+        cb.fixed_view_mut::<15, 3>(0, 1).copy_from(&self.gnss_c);
+        let mut ub = SMatrix::<f64, M, 4>::zeros();
+        ub.column_mut(0).copy_from(u);
+        ub.fixed_view_mut::<M, 3>(0, 1).copy_from(&ug);
+        let mut ab = SMatrix::<f64, 4, 4>::zeros();
+        ab[(0, 0)] = self.consider_var;
+        for i in 0..3 {
+            ab[(1 + i, 1 + i)] = self.gnss_b[i];
+        }
+        let out =
+            filter::update_considering_block(&mut self.p, &mut cb, &m.z, &m.h, &r, &ub, &ab, gate);
+        self.consider = cb.column(0).into_owned();
+        self.gnss_c = cb.fixed_view::<15, 3>(0, 1).into_owned();
         out
     }
 
@@ -778,6 +877,179 @@ mod tests {
 
     /// The σ of the consider tests' start: metres, decimetres per second,
     /// a milliradian of tilt and 20 mrad of heading.
+    /// A navigator at `lat_deg` that has fused one GNSS fix (near its own
+    /// antenna) declaring a correlated share (1.5 m / 3 m, τ 300 s) of its
+    /// 2 m / 3.5 m accuracy; the receiver's settings, the fix and its
+    /// measurement.
+    fn with_gnss_consider(
+        lat_deg: f64,
+        lon_deg: f64,
+    ) -> (
+        crate::navigator::Navigator,
+        crate::aids::gnss::GnssSettings,
+        msgs::GnssFix,
+        crate::aids::Measured,
+    ) {
+        use crate::navigator::{Navigator, NavigatorConfig};
+        let geo = earth::Geodetic::from_deg(lat_deg, lon_deg, 18_000.0);
+        let c_g_e = frames::c_e_g(geo.lat_rad, geo.lon_rad).transpose();
+        let q = frames::quat_from_dcm(&c_g_e).into_inner();
+        let init = InitState {
+            t_ns: 1_000_000_000,
+            r_e_m: earth::geodetic_to_ecef(&geo).into(),
+            v_e_mps: (c_g_e * Vector3::new(30.0, 240.0, 1.0)).into(),
+            q_b_e: [q.w, q.i, q.j, q.k],
+            ..heading_held_init()
+        };
+        let nav = Navigator::new(&init, &NavigatorConfig::default());
+        let g = crate::aids::gnss::GnssSettings {
+            lever_arm_b_m: [0.3, 1.5, 0.8],
+            correlated_sigma_h_m: 1.5,
+            correlated_sigma_v_m: 3.0,
+            correlated_tau_s: 300.0,
+            ..Default::default()
+        };
+        let ff = nav.nominal.nav().frame_free();
+        let c_b_e = ff.q_b_e.to_rotation_matrix().into_inner();
+        let l_b = Vector3::from(g.lever_arm_b_m);
+        let omega_eb_b = -c_b_e.transpose() * earth::omega_ie_e();
+        let r = ff.r_e + c_b_e * l_b;
+        let v = ff.v_e + c_b_e * omega_eb_b.cross(&l_b);
+        let fg = earth::ecef_to_geodetic(&r);
+        let enu = frames::c_e_g(fg.lat_rad, fg.lon_rad) * v;
+        let fix = msgs::GnssFix {
+            t_ns: 1_000_000_000,
+            lat_rad: fg.lat_rad + 1e-7,
+            lon_rad: fg.lon_rad,
+            height_m: fg.h_m - 2.0,
+            vel_ned_mps: [enu.y, enu.x + 0.05, -enu.z],
+            h_acc_m: 2.0,
+            v_acc_m: 3.5,
+            s_acc_mps: 0.1,
+            pdop: 1.5,
+            fix_type: msgs::gnss::fix_type::FIX_3D,
+            flags: msgs::gnss::fix_flags::FIX_OK,
+            num_sv: 12,
+            ..Default::default()
+        };
+        let mut nav = nav;
+        let ctx = crate::aids::Context {
+            omega_ib_b: Vector3::zeros(),
+        };
+        let measured = crate::aids::Aid::measure(&fix, nav.nominal.nav(), &ctx, &g).expect("fix");
+        let crate::aids::AnyMeasurement::D6(m) = measured.m else {
+            panic!("position and velocity")
+        };
+        assert!(
+            nav.err
+                .update(&m, f64::INFINITY, 0.0, measured.correlated.as_ref())
+                .is_some_and(|o| o.fused)
+        );
+        assert!(nav.err.gnss_c.amax() > 0.0);
+        (nav, g, fix, measured)
+    }
+
+    /// The innovation covariance of `fix`'s position with the consider
+    /// parameters (H P Hᵀ + H C Uᵀ + U Cᵀ Hᵀ + R, R the whole), in the
+    /// axes of the navigator's frame.
+    fn position_s(
+        nav: &crate::navigator::Navigator,
+        fix: &msgs::GnssFix,
+        g: &crate::aids::gnss::GnssSettings,
+    ) -> Matrix3<f64> {
+        let m = crate::aids::gnss::measurement(nav.nominal.nav(), fix, &Vector3::zeros(), g)
+            .expect("fix");
+        let h3 = m.h.fixed_rows::<3>(0).into_owned();
+        let hc = h3 * nav.err.gnss_c;
+        h3 * nav.err.p * h3.transpose()
+            + hc
+            + hc.transpose()
+            + m.r.fixed_view::<3, 3>(0, 0).into_owned()
+    }
+
+    /// At a frame switch the receiver's parameters turn with the axes: the
+    /// innovation covariance of the same fix, formed after the switch from
+    /// P, C and H in the new frame, is the one formed before it turned by
+    /// the grid angle (an independent route: the measurement model of each
+    /// frame, not the conversion), G → g and back. Without the turn of C it
+    /// is not (the check can fail: at 88° N, 40° E the grid angle is about
+    /// 40°).
+    #[test]
+    fn a_frame_switch_turns_the_receivers_parameters_with_the_axes() {
+        let (mut nav, g, fix, _) = with_gnss_consider(88.0, 40.0);
+        let geo = nav.nominal.geo();
+        let c_g_grid = frames::c_g_grid(frames::grid_angle(geo.lat_rad, geo.lon_rad));
+        let first = nav.nominal.nav().kind();
+        for to in [
+            FrameKind::Geographic,
+            FrameKind::Grid,
+            FrameKind::Geographic,
+            FrameKind::Grid,
+        ] {
+            let from = nav.nominal.nav().kind();
+            if to == from {
+                continue;
+            }
+            let s_from = position_s(&nav, &fix, &g);
+            let turn = if to == FrameKind::Grid {
+                c_g_grid
+            } else {
+                c_g_grid.transpose()
+            };
+            let unturned = {
+                let mut n = nav.clone();
+                let before = *n.nominal.nav();
+                n.nominal.convert(to);
+                let phi = phi_to(to, &before);
+                n.err.p = phi * n.err.p * phi.transpose();
+                n.err.gnss_c = phi * n.err.gnss_c;
+                position_s(&n, &fix, &g)
+            };
+            nav.switch_frame(to, geo.lat_rad);
+            assert_eq!(nav.nominal.nav().kind(), to);
+            let s_to = position_s(&nav, &fix, &g);
+            let expected = turn * s_from * turn.transpose();
+            let err = (s_to - expected).amax() / expected.amax();
+            let err_unturned = (unturned - expected).amax() / expected.amax();
+            println!(
+                "{from:?} to {to:?}: S against S before turned: {err:.2e} relative \
+                 (without C's turn {err_unturned:.2e})"
+            );
+            assert!(err < 1e-9, "{err}");
+            assert!(err_unturned > 1e-2, "{err_unturned}");
+        }
+        assert_eq!(nav.nominal.nav().kind(), first);
+    }
+
+    /// A checkpoint keeps the receiver's parameters: the resumed navigator's
+    /// C, B and τ are those it had, bit for bit, and so is what the next
+    /// propagation and fix make of them.
+    #[test]
+    fn a_checkpoint_keeps_the_receivers_parameters() {
+        use crate::navigator::{Navigator, NavigatorConfig};
+        let (mut nav, _, _, measured) = with_gnss_consider(60.0, 10.0);
+        let crate::aids::AnyMeasurement::D6(m) = measured.m else {
+            panic!("position and velocity")
+        };
+        let c = measured.correlated.as_ref();
+        let ckpt = nav.checkpoint();
+        ckpt.validate().expect("a valid checkpoint");
+        let mut resumed = Navigator::from_checkpoint(&ckpt, &NavigatorConfig::default());
+        assert_eq!(resumed.err.gnss_c, nav.err.gnss_c);
+        assert_eq!(resumed.err.gnss_b, nav.err.gnss_b);
+        assert_eq!(
+            resumed.err.gnss_tau_s.to_bits(),
+            nav.err.gnss_tau_s.to_bits()
+        );
+        for n in [&mut nav, &mut resumed] {
+            n.err.acc_dt = 0.1;
+            n.err.propagate(&n.nominal);
+            n.err.update(&m, f64::INFINITY, 0.0, c).expect("update");
+        }
+        assert_eq!(resumed.err.p, nav.err.p);
+        assert_eq!(resumed.err.gnss_c, nav.err.gnss_c);
+    }
+
     fn heading_held_init() -> InitState {
         InitState {
             sigma_pos_h_m: 5.0,
@@ -829,7 +1101,7 @@ mod tests {
                 h,
                 r: SMatrix::<f64, 1, 1>::new(a + 1e-6),
             };
-            let out = e.update(&m, f64::INFINITY, a);
+            let out = e.update(&m, f64::INFINITY, a, None);
             assert!(
                 out.is_some_and(|o| o.fused),
                 "sample {k} (a = {a:e}) not fused"
@@ -886,7 +1158,7 @@ mod tests {
         };
         assert!(
             nav.err
-                .update(&m, f64::INFINITY, 1e-5)
+                .update(&m, f64::INFINITY, 1e-5, None)
                 .is_some_and(|o| o.fused)
         );
         assert!(nav.err.consider.amax() > 0.0);
@@ -897,8 +1169,13 @@ mod tests {
             nav.err.consider_var.to_bits()
         );
         assert_eq!(resumed.err.p, nav.err.p);
-        nav.err.update(&m, f64::INFINITY, 1e-5).expect("update");
-        resumed.err.update(&m, f64::INFINITY, 1e-5).expect("update");
+        nav.err
+            .update(&m, f64::INFINITY, 1e-5, None)
+            .expect("update");
+        resumed
+            .err
+            .update(&m, f64::INFINITY, 1e-5, None)
+            .expect("update");
         assert_eq!(resumed.err.p, nav.err.p);
         assert_eq!(resumed.err.consider, nav.err.consider);
     }

@@ -4,10 +4,12 @@
 //! measurement models are `crate::aids`.
 
 use msgs::{AidKind, AidSample, PerAid};
-use nalgebra::{Matrix6, SVector, Vector3};
+use nalgebra::{Matrix3, Matrix6, SVector, Vector3};
 
 use crate::aids::control::AidControl;
-use crate::aids::{Aid, AidError, AnyMeasurement, Context, Measured, Measurement, OwnOf};
+use crate::aids::{
+    Aid, AidError, AnyMeasurement, Context, Correlated, Measured, Measurement, OwnOf,
+};
 use crate::error_model::{Mat15, idx};
 use crate::filter;
 use crate::mech::AnyNav;
@@ -98,6 +100,63 @@ fn observed_widening<const M: usize>(
         g.view_mut((0, 3 * b), (M, 3))
             .copy_from(&m.h.fixed_view::<M, 3>(0, o));
     }
+    let x = right_inverse(g)?;
+    let s = m.h * p * m.h.transpose() + m.r;
+    let mut lambda = Matrix6::<f64>::zeros();
+    for i in 0..M {
+        lambda[(i, i)] = 1e4 * (m.z[i] * m.z[i] + s[(i, i)]);
+    }
+    let w = x * lambda * x.transpose();
+    w.iter().all(|x| x.is_finite()).then_some(w)
+}
+
+/// For a reset to an aid that observes a position and not the velocity (a
+/// fix without velocity, CNS, baro): the velocity's widening that allows
+/// the velocity error the streak measured. The rate of a position's
+/// innovation is that of the position error, ż = G_v δv with G_v =
+/// H_p F_pv (H_p the measurement's position columns, F_pv the position
+/// rate per velocity error); the streak's trend gives ż at its newest
+/// sample as ρ in whitened units (ż = L ρ, R = L Lᵀ) with variance
+/// σ_ρ² per component (cov ż = R σ_ρ²). The velocity's prior grows by
+/// X (ż żᵀ + R σ_ρ²) Xᵀ, X a right inverse of G_v as for the observed
+/// blocks: its second moment along what the aid sees of the velocity is
+/// then at least the streak's estimate of it. Without this the velocity
+/// keeps the wrong model's σ (scaled by κ only) and the reset position
+/// drifts away from the next fixes. Only the streak's first three
+/// components are tracked (all of such an aid's). None when not finite.
+fn rate_widening<const M: usize>(
+    m: &Measurement<M>,
+    f_pv: &Matrix3<f64>,
+    verdict: &StreakVerdict,
+) -> Option<Matrix3<f64>> {
+    let k = M.min(3);
+    let mut g = Matrix6::<f64>::zeros();
+    let g_v = m.h.fixed_view::<M, 3>(0, idx::DP) * f_pv;
+    g.view_mut((0, 0), (k, 3))
+        .copy_from(&g_v.view((0, 0), (k, 3)));
+    let x = right_inverse(g)?;
+    let l = m.r.cholesky()?.l();
+    let mut rho = SVector::<f64, M>::zeros();
+    for i in 0..k {
+        rho[i] = verdict.rate[i];
+    }
+    let z_dot = l * rho;
+    let mut lambda = Matrix6::<f64>::zeros();
+    for i in 0..k {
+        for j in 0..k {
+            lambda[(i, j)] = z_dot[i] * z_dot[j] + m.r[(i, j)] * verdict.rate_var;
+        }
+    }
+    let w = (x * lambda * x.transpose())
+        .fixed_view::<3, 3>(0, 0)
+        .into_owned();
+    w.iter().all(|x| x.is_finite()).then_some(w)
+}
+
+/// X = Gᵀ (G Gᵀ)⁺ for the rows of `g` (a measurement's components, padded
+/// with zero rows), with G's rows scaled to unit norm first (see
+/// [`observed_widening`]). None when G is zero or not finite.
+fn right_inverse(mut g: Matrix6<f64>) -> Option<Matrix6<f64>> {
     let mut s_inv = SVector::<f64, 6>::zeros();
     for (i, mut row) in g.row_iter_mut().enumerate() {
         let norm = row.norm();
@@ -118,14 +177,7 @@ fn observed_widening<const M: usize>(
             n_plus += v * v.transpose() / l;
         }
     }
-    let x = g.transpose() * n_plus * Matrix6::from_diagonal(&s_inv);
-    let s = m.h * p * m.h.transpose() + m.r;
-    let mut lambda = Matrix6::<f64>::zeros();
-    for i in 0..M {
-        lambda[(i, i)] = 1e4 * (m.z[i] * m.z[i] + s[(i, i)]);
-    }
-    let w = x * lambda * x.transpose();
-    w.iter().all(|x| x.is_finite()).then_some(w)
+    Some(g.transpose() * n_plus * Matrix6::from_diagonal(&s_inv))
 }
 
 impl Navigator {
@@ -178,9 +230,10 @@ impl Navigator {
         t_ns: u64,
         m: &Measurement<M>,
         persistent_var: f64,
+        correlated: Option<&Correlated>,
     ) -> AidOutcome {
         let gate = self.aids.controls[which].gate;
-        let Some(out) = self.err.update(m, gate, persistent_var) else {
+        let Some(out) = self.err.update(m, gate, persistent_var, correlated) else {
             self.aids.controls[which].rejected_invalid();
             return AidOutcome {
                 gated: false,
@@ -211,7 +264,7 @@ impl Navigator {
                 &out.innovation_var,
                 max_gap_ns,
             );
-            self.maybe_reset(which, t_ns, m, persistent_var);
+            self.maybe_reset(which, t_ns, m, persistent_var, correlated);
         }
         AidOutcome {
             gated: true,
@@ -242,6 +295,7 @@ impl Navigator {
         t_ns: u64,
         m: &Measurement<M>,
         persistent_var: f64,
+        correlated: Option<&Correlated>,
     ) {
         let after = self.aids.reset_after_ns;
         let streak = &self.aids.streaks[which];
@@ -255,7 +309,7 @@ impl Navigator {
         if !verdict.healthy() {
             return;
         }
-        self.reset_to_aid(which, t_ns, m, &verdict, persistent_var);
+        self.reset_to_aid(which, t_ns, m, &verdict, persistent_var, correlated);
     }
 
     /// Resets the states the aid observes to its measurement `m` with its σ:
@@ -285,6 +339,7 @@ impl Navigator {
         m: &Measurement<M>,
         verdict: &StreakVerdict,
         persistent_var: f64,
+        correlated: Option<&Correlated>,
     ) {
         // σ at most 10⁴ times what P said: beyond, the state is unknown anyway.
         const KAPPA_MAX: f64 = 1e8;
@@ -301,6 +356,17 @@ impl Navigator {
         // to reset to without it.
         let Some(widening) = observed_widening(m, &before, observed) else {
             return;
+        };
+        // A position without the velocity: the velocity error the streak saw.
+        let velocity_widening = if observed.contains(&idx::DP) && !observed.contains(&idx::DV) {
+            let f = self.nominal.nav().error_dynamics(&Vector3::zeros());
+            let f_pv = f.fixed_view::<3, 3>(idx::DP, idx::DV).into_owned();
+            let Some(w) = rate_widening(m, &f_pv, verdict) else {
+                return;
+            };
+            Some(w)
+        } else {
+            None
         };
         // The smoother carries nothing back across a reset.
         self.err.tape_break();
@@ -321,9 +387,12 @@ impl Navigator {
         // The states' errors scaled by D: so is their covariance with the
         // magnetometer's persistent error (raising a diagonal below keeps
         // the augmented covariance positive semi-definite).
-        let consider_before = self.err.consider;
+        let consider_before = (self.err.consider, self.err.gnss_c);
         for i in 0..15 {
             self.err.consider[i] *= d[i];
+            for j in 0..3 {
+                self.err.gnss_c[(i, j)] *= d[i];
+            }
         }
         // Raising a diagonal element adds a positive semi-definite matrix:
         // P stays positive definite, and the bias states' correlations with
@@ -340,11 +409,18 @@ impl Navigator {
                 block += widening.fixed_view::<3, 3>(3 * a, 3 * b);
             }
         }
+        if let Some(w) = velocity_widening {
+            let mut block = p.fixed_view_mut::<3, 3>(idx::DV, idx::DV);
+            block += w;
+        }
         filter::symmetrize(&mut p);
         self.err.p = p;
-        let Some(out) = self.err.update(m, f64::INFINITY, persistent_var) else {
+        let Some(out) = self
+            .err
+            .update(m, f64::INFINITY, persistent_var, correlated)
+        else {
             self.err.p = before;
-            self.err.consider = consider_before;
+            (self.err.consider, self.err.gnss_c) = consider_before;
             return;
         };
         self.feed_back(t_ns, &out.dx);
@@ -431,6 +507,7 @@ impl Navigator {
             m,
             excluded_body,
             persistent_var,
+            correlated,
         } = match measured {
             Ok(m) => m,
             Err(e) => {
@@ -450,10 +527,10 @@ impl Navigator {
             });
         }
         let mut out = match &m {
-            AnyMeasurement::D1(m) => self.fuse(which, t_ns, m, persistent_var),
-            AnyMeasurement::D2(m) => self.fuse(which, t_ns, m, persistent_var),
-            AnyMeasurement::D3(m) => self.fuse(which, t_ns, m, persistent_var),
-            AnyMeasurement::D6(m) => self.fuse(which, t_ns, m, persistent_var),
+            AnyMeasurement::D1(m) => self.fuse(which, t_ns, m, persistent_var, correlated.as_ref()),
+            AnyMeasurement::D2(m) => self.fuse(which, t_ns, m, persistent_var, correlated.as_ref()),
+            AnyMeasurement::D3(m) => self.fuse(which, t_ns, m, persistent_var, correlated.as_ref()),
+            AnyMeasurement::D6(m) => self.fuse(which, t_ns, m, persistent_var, correlated.as_ref()),
         };
         out.excluded_body = excluded_body;
         if excluded_body.is_some() {
@@ -483,6 +560,86 @@ mod tests {
         }
     }
 
+    /// A position without the velocity (a fix in metres of a latitude and
+    /// longitude in radians, in g): the velocity's prior grows so that the
+    /// velocity as the aid sees it (G_v = H_p F_pv, here the identity up
+    /// to rounding, computed from the frame's own F) has the second
+    /// moment the streak measured: G_v W G_vᵀ = ż żᵀ + R σ_ρ² with
+    /// ż = L ρ, against the quantities written out (1e-9). A baro (one
+    /// component, up) widens the vertical velocity only.
+    #[test]
+    fn a_position_reset_widens_the_velocity_by_the_streaks_rate() {
+        use crate::earth::{Geodetic, geodetic_to_ecef};
+        use crate::mech::FrameKind;
+        let geo = Geodetic::from_deg(45.0, 7.0, 1000.0);
+        let nav = AnyNav::from_frame_free(
+            FrameKind::Geographic,
+            &geodetic_to_ecef(&geo),
+            &Vector3::new(10.0, -40.0, 3.0),
+            &nalgebra::UnitQuaternion::identity(),
+        );
+        let f = nav.error_dynamics(&Vector3::zeros());
+        let f_pv = f.fixed_view::<3, 3>(idx::DP, idx::DV).into_owned();
+        let (rm, rn) = crate::earth::radii(geo.lat_rad);
+        let mut h = SMatrix::<f64, 3, 15>::zeros();
+        // East, north, up metres of (δL, δλ, δh).
+        h.fixed_view_mut::<3, 3>(0, idx::DP)
+            .copy_from(&Matrix3::new(
+                0.0,
+                (rn + geo.h_m) * geo.lat_rad.cos(),
+                0.0,
+                rm + geo.h_m,
+                0.0,
+                0.0,
+                0.0,
+                0.0,
+                1.0,
+            ));
+        let r = SMatrix::<f64, 3, 3>::from_diagonal(&Vector3::new(2.25, 2.25, 9.0));
+        let verdict = StreakVerdict {
+            duration_s: 5.0,
+            samples: 6,
+            degree: 2,
+            consistency: 1.0,
+            consistency_bound: 3.0,
+            step: None,
+            step_bound: 16.0,
+            inflation: 30.0,
+            covariance_inflation: 10.0,
+            rate: [0.8, -0.5, 0.1],
+            rate_var: 0.04,
+        };
+        let m = Measurement {
+            z: SVector::<f64, 3>::new(30.0, -10.0, 5.0),
+            h,
+            r,
+        };
+        let w = rate_widening(&m, &f_pv, &verdict).expect("widening");
+        let g_v = h.fixed_view::<3, 3>(0, idx::DP) * f_pv;
+        println!("G_v = {g_v:.6}");
+        assert!((g_v - Matrix3::identity()).amax() < 1e-3, "{g_v}");
+        let sd = Vector3::new(1.5, 1.5, 3.0);
+        let z_dot = Vector3::new(0.8 * sd[0], -0.5 * sd[1], 0.1 * sd[2]);
+        let want = z_dot * z_dot.transpose() + r * 0.04;
+        let seen = g_v * w * g_v.transpose();
+        assert!(
+            (seen - want).amax() <= 1e-9 * want.amax(),
+            "{seen} vs {want}"
+        );
+        // Baro: the vertical velocity only.
+        let mut hb = SMatrix::<f64, 1, 15>::zeros();
+        hb[(0, idx::DP + 2)] = 1.0;
+        let mb = Measurement {
+            z: SVector::<f64, 1>::new(20.0),
+            h: hb,
+            r: SMatrix::<f64, 1, 1>::new(100.0),
+        };
+        let wb = rate_widening(&mb, &f_pv, &verdict).expect("widening");
+        let vertical = 0.8f64.powi(2) * 100.0 + 100.0 * 0.04;
+        assert!((wb[(2, 2)] - vertical).abs() <= 1e-9 * vertical);
+        assert!(wb.fixed_view::<2, 2>(0, 0).amax() <= 1e-9 * vertical);
+    }
+
     /// The widening is the pseudo-inverse's: against the right inverse
     /// Gᵀ(G Gᵀ)⁻¹ for a full-rank G in mixed units (a GNSS-like position
     /// in metres of radians, 6.4·10⁶ m/rad), and for a rank-2 G (a
@@ -494,7 +651,7 @@ mod tests {
         // Full rank, position block in rad → m.
         let mut h = SMatrix::<f64, 3, 15>::zeros();
         h.fixed_view_mut::<3, 3>(0, idx::DP)
-            .copy_from(&nalgebra::Matrix3::new(
+            .copy_from(&Matrix3::new(
                 6.37e6, 0.0, 0.0, 0.0, 4.9e6, 0.0, 0.0, 0.0, 1.0,
             ));
         h[(0, idx::PHI + 1)] = 0.3;
@@ -507,7 +664,7 @@ mod tests {
         let g = h.fixed_view::<3, 3>(0, idx::DP).into_owned();
         let right = g.transpose() * (g * g.transpose()).try_inverse().expect("inverse");
         let s = h * p * h.transpose() + m.r;
-        let lambda = nalgebra::Matrix3::from_fn(|i, j| {
+        let lambda = Matrix3::from_fn(|i, j| {
             if i == j {
                 1e4 * (m.z[i] * m.z[i] + s[(i, i)])
             } else {

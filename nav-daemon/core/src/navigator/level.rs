@@ -126,7 +126,7 @@ impl Navigator {
             self.level.counters.precise += 1;
             return;
         }
-        let Some(out) = self.err.update(&m, LEVEL_GATE, 0.0) else {
+        let Some(out) = self.err.update(&m, LEVEL_GATE, 0.0, None) else {
             self.level.counters.invalid += 1;
             return;
         };

@@ -437,6 +437,22 @@ impl Navigator {
             accel_bias_mps2: self.err.accel_bias.into(),
             consider: self.err.consider.into(),
             consider_var: self.err.consider_var,
+            gnss_consider: {
+                let mut c = [0.0; 45];
+                for i in 0..15 {
+                    for j in 0..3 {
+                        c[3 * i + j] = self.err.gnss_c[(i, j)];
+                    }
+                }
+                c
+            },
+            gnss_consider_var: self.err.gnss_b.into(),
+            // 0 while there is none (a checkpoint holds finite numbers).
+            gnss_consider_tau_s: if self.err.gnss_b == Vector3::zeros() {
+                0.0
+            } else {
+                self.err.gnss_tau_s
+            },
             prev_inc,
             pending_cov: [
                 self.err.acc_dt,
@@ -478,6 +494,13 @@ impl Navigator {
         n.err.accel_bias = Vector3::from(c.accel_bias_mps2);
         n.err.consider = c.consider.into();
         n.err.consider_var = c.consider_var;
+        n.err.gnss_c = nalgebra::SMatrix::<f64, 15, 3>::from_row_slice(&c.gnss_consider);
+        n.err.gnss_b = Vector3::from(c.gnss_consider_var);
+        n.err.gnss_tau_s = if n.err.gnss_b == Vector3::zeros() {
+            f64::INFINITY
+        } else {
+            c.gnss_consider_tau_s
+        };
         let i = c.prev_inc;
         n.prev_inc = (i[6] > 0.0).then(|| Increment {
             d_theta: Vector3::new(i[0], i[1], i[2]),
