@@ -355,15 +355,18 @@ impl Checkpoint {
     }
 
     /// The GNSS receiver's parameters: b's variances in
-    /// [0, [`bounds::MAX_VARIANCE`]]; with them zero, no covariance and no
+    /// [0, [`bounds::MAX_VARIANCE`]], the two horizontal ones equal (a
+    /// frame switch turns b about up); with them zero, no covariance and no
     /// correlation time; otherwise a correlation time in
-    /// [1, [`crate::bounds::MAX_FLIGHT_S`]] s and the augmented covariance
-    /// [[P, C], [Cᵀ, B]] positive semi-definite (the eigenvalues of
-    /// B − Cᵀ P⁻¹ C not below −1e-9 of B's largest). Called after P is
-    /// known positive definite.
+    /// [1, [`crate::bounds::MAX_FLIGHT_S`]] s and the covariance augmented
+    /// with both parameter blocks, [[P, c, C], [cᵀ, a, 0], [Cᵀ, 0, B]],
+    /// positive semi-definite (the eigenvalues of diag(a, B) − Xᵀ P⁻¹ X,
+    /// X = [c C], not below −1e-9 of the largest variance): the two blocks
+    /// each consistent with P can still not be jointly. Called after P is
+    /// known positive definite and the magnetometer's block checked.
     fn validate_gnss_consider(&self) -> Result<(), String> {
         use bounds::MAX_VARIANCE;
-        use nalgebra::{Matrix3, SMatrix};
+        use nalgebra::{Matrix4, SMatrix, Vector4};
         let b = self.gnss_consider_var;
         if let Some((k, v)) = b
             .iter()
@@ -372,6 +375,14 @@ impl Checkpoint {
         {
             return Err(format!(
                 "gnss_consider_var[{k}] = {v} is not a variance in [0, {MAX_VARIANCE:e}]"
+            ));
+        }
+        // Exactly equal: the navigator writes one value to both.
+        if b[0].to_bits() != b[1].to_bits() {
+            return Err(format!(
+                "gnss_consider_var[0] = {} and gnss_consider_var[1] = {} differ (the horizontal \
+                 variances must be equal)",
+                b[0], b[1]
             ));
         }
         if b.iter().all(|v| *v == 0.0) {
@@ -395,11 +406,13 @@ impl Checkpoint {
             ));
         }
         let p = SMatrix::<f64, 15, 15>::from_row_slice(&self.p);
-        let c = SMatrix::<f64, 15, 3>::from_row_slice(&self.gnss_consider);
-        let left = p
-            .cholesky()
-            .map(|l| Matrix3::from_diagonal(&b.into()) - c.transpose() * l.solve(&c));
-        let largest = b.iter().copied().fold(0.0, f64::max);
+        let mut x = SMatrix::<f64, 15, 4>::zeros();
+        x.column_mut(0).copy_from_slice(&self.consider);
+        x.fixed_view_mut::<15, 3>(0, 1)
+            .copy_from(&SMatrix::<f64, 15, 3>::from_row_slice(&self.gnss_consider));
+        let a = Matrix4::from_diagonal(&Vector4::new(self.consider_var, b[0], b[1], b[2]));
+        let left = p.cholesky().map(|l| a - x.transpose() * l.solve(&x));
+        let largest = b.iter().copied().fold(self.consider_var, f64::max);
         let smallest = left
             .map(|m| m.symmetric_eigenvalues().min())
             .unwrap_or(f64::NEG_INFINITY);
@@ -407,7 +420,7 @@ impl Checkpoint {
             Ok(())
         } else {
             Err(format!(
-                "gnss_consider is not consistent with p: B − Cᵀ P⁻¹ C has the eigenvalue {smallest:e}"
+                "gnss_consider is not consistent with p and consider: diag(a, B) − Xᵀ P⁻¹ X has the eigenvalue {smallest:e}"
             ))
         }
     }
@@ -696,6 +709,18 @@ mod tests {
                 c.gnss_consider = [0.0; 45];
                 c.gnss_consider[0] = 1.0;
                 c.gnss_consider_var = [0.0; 3];
+            }),
+            (
+                "gnss_consider_var[0] = 2.25 and gnss_consider_var[1] = 3",
+                |c| c.gnss_consider_var[1] = 3.0,
+            ),
+            ("gnss_consider is not consistent with p and consider", |c| {
+                // Each block alone consistent with P, not the two together:
+                // both explain most of the same heading error.
+                let k = 16 * (idx::PHI + 2);
+                c.consider[idx::PHI + 2] = -0.8 * (c.p[k] * c.consider_var).sqrt();
+                c.gnss_consider = [0.0; 45];
+                c.gnss_consider[3 * (idx::PHI + 2)] = 0.8 * (c.p[k] * 2.25).sqrt();
             }),
             ("gnss_consider is not consistent with p", |c| {
                 // A correlation of 1.2 between the east error and b's east.

@@ -212,6 +212,10 @@ pub struct UpdateOutcome<const M: usize> {
     pub innovation: SVector<f64, M>,
     /// Diagonal of S.
     pub innovation_var: SVector<f64, M>,
+    /// Diagonal of H P Hᵀ, the filter's own part of S (what the reset's
+    /// κ compares the innovations' excess with; S also holds R and, with
+    /// consider parameters, their covariance with the states).
+    pub state_var: SVector<f64, M>,
     /// Normalized innovation squared yᵀ S⁻¹ y.
     pub nis: f64,
     /// NIS divided by the gate threshold (≤ 1 passes).
@@ -227,12 +231,14 @@ pub struct UpdateOutcome<const M: usize> {
 fn gated_out<const M: usize>(
     z: &SVector<f64, M>,
     innovation_var: SVector<f64, M>,
+    state_var: SVector<f64, M>,
     nis: f64,
     test_ratio: f64,
 ) -> Option<UpdateOutcome<M>> {
     (!(nis.is_finite() && test_ratio <= 1.0)).then(|| UpdateOutcome {
         innovation: *z,
         innovation_var,
+        state_var,
         nis,
         test_ratio,
         dx: SVector::zeros(),
@@ -251,13 +257,15 @@ pub fn update<const M: usize>(
     gate: f64,
 ) -> Option<UpdateOutcome<M>> {
     let pht = *p * h.transpose();
-    let s = h * pht + r;
+    let hph = h * pht;
+    let s = hph + r;
     let chol = s.cholesky()?;
     let s_inv_z = chol.solve(z);
     let nis = z.dot(&s_inv_z);
     let test_ratio = nis / gate;
     let innovation_var = s.diagonal();
-    if let Some(rejected) = gated_out(z, innovation_var, nis, test_ratio) {
+    let state_var = hph.diagonal();
+    if let Some(rejected) = gated_out(z, innovation_var, state_var, nis, test_ratio) {
         return Some(rejected);
     }
     // K = P Hᵀ S⁻¹ (through the Cholesky factor: S is symmetric).
@@ -272,6 +280,7 @@ pub fn update<const M: usize>(
     Some(UpdateOutcome {
         innovation: *z,
         innovation_var,
+        state_var,
         nis,
         test_ratio,
         dx,
@@ -339,12 +348,14 @@ pub fn update_considering_block<const M: usize, const K: usize>(
 ) -> Option<UpdateOutcome<M>> {
     let pht = *p * h.transpose();
     let hc = h * *c;
-    let s = h * pht + hc * u.transpose() + u * hc.transpose() + r;
+    let hph = h * pht;
+    let s = hph + hc * u.transpose() + u * hc.transpose() + r;
     let chol = s.cholesky()?;
     let nis = z.dot(&chol.solve(z));
     let test_ratio = nis / gate;
     let innovation_var = s.diagonal();
-    if let Some(rejected) = gated_out(z, innovation_var, nis, test_ratio) {
+    let state_var = hph.diagonal();
+    if let Some(rejected) = gated_out(z, innovation_var, state_var, nis, test_ratio) {
         return Some(rejected);
     }
     let g = pht + *c * u.transpose();
@@ -360,6 +371,7 @@ pub fn update_considering_block<const M: usize, const K: usize>(
     Some(UpdateOutcome {
         innovation: *z,
         innovation_var,
+        state_var,
         nis,
         test_ratio,
         dx,

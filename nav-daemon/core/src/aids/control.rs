@@ -102,6 +102,7 @@ mod tests {
         let ok = UpdateOutcome::<2> {
             innovation: SVector::<f64, 2>::new(1.0, 2.0),
             innovation_var: SVector::<f64, 2>::new(4.0, 4.0),
+            state_var: SVector::<f64, 2>::new(3.0, 3.0),
             nis: 1.25,
             test_ratio: 0.09,
             dx: SVector::zeros(),

@@ -208,18 +208,23 @@ impl ErrorState {
         true
     }
 
-    /// P as a propagation to the current time would make it, computed on
-    /// a copy: nothing of this error state changes (the integrity test
-    /// reads the reference navigator's P without touching it).
-    pub(super) fn current_p(&self, nominal: &Nominal) -> Mat15 {
+    /// P and the GNSS receiver's C as a propagation to the current time
+    /// would make them, computed on copies: nothing of this error state
+    /// changes (the integrity test reads the reference navigator's P
+    /// without touching it).
+    pub(super) fn current_p(&self, nominal: &Nominal) -> (Mat15, SMatrix<f64, 15, 3>) {
         let mut p = self.p;
+        let mut c = self.gnss_c;
         if self.acc_dt > 0.0 {
             let f_b = self.acc_dv_b / self.acc_dt;
             let mut f = nominal.nav().error_dynamics(&f_b);
             self.noise.add_bias_dynamics(&mut f);
-            filter::propagate(&mut p, &f, &self.noise, self.acc_dt);
+            let phi = filter::propagate(&mut p, &f, &self.noise, self.acc_dt);
+            if c != SMatrix::<f64, 15, 3>::zeros() {
+                c = phi * c * (-self.acc_dt / self.gnss_tau_s).exp();
+            }
         }
-        p
+        (p, c)
     }
 
     /// Replaces a covariance that lost finiteness or positive definiteness
@@ -901,7 +906,6 @@ mod tests {
             q_b_e: [q.w, q.i, q.j, q.k],
             ..heading_held_init()
         };
-        let nav = Navigator::new(&init, &NavigatorConfig::default());
         let g = crate::aids::gnss::GnssSettings {
             lever_arm_b_m: [0.3, 1.5, 0.8],
             correlated_sigma_h_m: 1.5,
@@ -909,6 +913,9 @@ mod tests {
             correlated_tau_s: 300.0,
             ..Default::default()
         };
+        let mut cfg = NavigatorConfig::default();
+        cfg.aid_settings.own.gnss = g.clone();
+        let nav = Navigator::new(&init, &cfg);
         let ff = nav.nominal.nav().frame_free();
         let c_b_e = ff.q_b_e.to_rotation_matrix().into_inner();
         let l_b = Vector3::from(g.lever_arm_b_m);
@@ -1019,6 +1026,45 @@ mod tests {
             assert!(err_unturned > 1e-2, "{err_unturned}");
         }
         assert_eq!(nav.nominal.nav().kind(), first);
+    }
+
+    /// The integrity test of a fix against a navigator whose errors are
+    /// correlated with the receiver's (a reference copied from one that
+    /// had fused it): q = νᵀ S⁻¹ ν with S of the augmented state [δx, b]
+    /// (H_a = [H, U], P_a = [[P, C], [Cᵀ, B]], R less U B Uᵀ), written out
+    /// here, to 1e-9; leaving C out (S = H P Hᵀ + R) gives another q.
+    #[test]
+    fn the_integrity_test_counts_the_receivers_correlation_with_the_state() {
+        let (nav, _, fix, measured) = with_gnss_consider(60.0, 10.0);
+        let settings = crate::integrity::IntegritySettings::default();
+        let test = nav
+            .test_aid(&msgs::AidSample::Gnss(fix), &settings)
+            .expect("testable");
+        let crate::aids::AnyMeasurement::D6(m) = measured.m else {
+            panic!("position and velocity")
+        };
+        let b = nav.err.gnss_b;
+        let mut pa = SMatrix::<f64, 18, 18>::zeros();
+        pa.fixed_view_mut::<15, 15>(0, 0).copy_from(&nav.err.p);
+        pa.fixed_view_mut::<15, 3>(0, 15).copy_from(&nav.err.gnss_c);
+        pa.fixed_view_mut::<3, 15>(15, 0)
+            .copy_from(&nav.err.gnss_c.transpose());
+        pa.fixed_view_mut::<3, 3>(15, 15)
+            .copy_from(&Matrix3::from_diagonal(&b));
+        let mut ha = SMatrix::<f64, 6, 18>::zeros();
+        ha.fixed_view_mut::<6, 15>(0, 0).copy_from(&m.h);
+        let mut rw = m.r;
+        for i in 0..3 {
+            ha[(i, 15 + i)] = 1.0;
+            rw[(i, i)] -= b[i];
+        }
+        let s = ha * pa * ha.transpose() + rw;
+        let q = m.z.dot(&s.cholesky().expect("S").solve(&m.z));
+        let s_white = m.h * nav.err.p * m.h.transpose() + m.r;
+        let q_white = m.z.dot(&s_white.cholesky().expect("S").solve(&m.z));
+        println!("q {} (augmented {q}, without C {q_white})", test.q);
+        assert!((test.q - q).abs() <= 1e-9 * q, "{} vs {q}", test.q);
+        assert!((q_white - q).abs() > 1e-3 * q, "{q_white} vs {q}");
     }
 
     /// A checkpoint keeps the receiver's parameters: the resumed navigator's

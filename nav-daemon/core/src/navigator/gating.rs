@@ -116,14 +116,14 @@ fn observed_widening<const M: usize>(
 /// innovation is that of the position error, ż = G_v δv with G_v =
 /// H_p F_pv (H_p the measurement's position columns, F_pv the position
 /// rate per velocity error); the streak's trend gives ż at its newest
-/// sample as ρ in whitened units (ż = L ρ, R = L Lᵀ) with variance
-/// σ_ρ² per component (cov ż = R σ_ρ²). The velocity's prior grows by
-/// X (ż żᵀ + R σ_ρ²) Xᵀ, X a right inverse of G_v as for the observed
-/// blocks: its second moment along what the aid sees of the velocity is
-/// then at least the streak's estimate of it. Without this the velocity
-/// keeps the wrong model's σ (scaled by κ only) and the reset position
-/// drifts away from the next fixes. Only the streak's first three
-/// components are tracked (all of such an aid's). None when not finite.
+/// sample with its covariance ([`StreakVerdict::rate`]). The velocity's
+/// prior grows by X (ż żᵀ + cov ż) Xᵀ, X a right inverse of G_v as for
+/// the observed blocks: its second moment along what the aid sees of the
+/// velocity is then at least the streak's estimate of it. Without this
+/// the velocity keeps the wrong model's σ (scaled by κ only) and the
+/// reset position drifts away from the next fixes. Only the streak's
+/// first three components are tracked (all of such an aid's). None when
+/// not finite.
 fn rate_widening<const M: usize>(
     m: &Measurement<M>,
     f_pv: &Matrix3<f64>,
@@ -135,16 +135,11 @@ fn rate_widening<const M: usize>(
     g.view_mut((0, 0), (k, 3))
         .copy_from(&g_v.view((0, 0), (k, 3)));
     let x = right_inverse(g)?;
-    let l = m.r.cholesky()?.l();
-    let mut rho = SVector::<f64, M>::zeros();
-    for i in 0..k {
-        rho[i] = verdict.rate[i];
-    }
-    let z_dot = l * rho;
+    let z_dot = verdict.rate;
     let mut lambda = Matrix6::<f64>::zeros();
     for i in 0..k {
         for j in 0..k {
-            lambda[(i, j)] = z_dot[i] * z_dot[j] + m.r[(i, j)] * verdict.rate_var;
+            lambda[(i, j)] = z_dot[i] * z_dot[j] + verdict.rate_cov[i][j];
         }
     }
     let w = (x * lambda * x.transpose())
@@ -262,6 +257,7 @@ impl Navigator {
                 &m.r,
                 out.nis,
                 &out.innovation_var,
+                &out.state_var,
                 max_gap_ns,
             );
             self.maybe_reset(which, t_ns, m, persistent_var, correlated);
@@ -361,10 +357,8 @@ impl Navigator {
         let velocity_widening = if observed.contains(&idx::DP) && !observed.contains(&idx::DV) {
             let f = self.nominal.nav().error_dynamics(&Vector3::zeros());
             let f_pv = f.fixed_view::<3, 3>(idx::DP, idx::DV).into_owned();
-            let Some(w) = rate_widening(m, &f_pv, verdict) else {
-                return;
-            };
-            Some(w)
+            // Not finite: the reset goes ahead with κ alone.
+            rate_widening(m, &f_pv, verdict)
         } else {
             None
         };
@@ -564,8 +558,8 @@ mod tests {
     /// longitude in radians, in g): the velocity's prior grows so that the
     /// velocity as the aid sees it (G_v = H_p F_pv, here the identity up
     /// to rounding, computed from the frame's own F) has the second
-    /// moment the streak measured: G_v W G_vᵀ = ż żᵀ + R σ_ρ² with
-    /// ż = L ρ, against the quantities written out (1e-9). A baro (one
+    /// moment the streak measured: G_v W G_vᵀ = ż żᵀ + cov ż, with a
+    /// covariance that correlates east and north (1e-9). A baro (one
     /// component, up) widens the vertical velocity only.
     #[test]
     fn a_position_reset_widens_the_velocity_by_the_streaks_rate() {
@@ -596,6 +590,7 @@ mod tests {
                 1.0,
             ));
         let r = SMatrix::<f64, 3, 3>::from_diagonal(&Vector3::new(2.25, 2.25, 9.0));
+        let cov = [[0.09, 0.05, 0.0], [0.05, 0.09, 0.01], [0.0, 0.01, 0.36]];
         let verdict = StreakVerdict {
             duration_s: 5.0,
             samples: 6,
@@ -606,8 +601,8 @@ mod tests {
             step_bound: 16.0,
             inflation: 30.0,
             covariance_inflation: 10.0,
-            rate: [0.8, -0.5, 0.1],
-            rate_var: 0.04,
+            rate: [1.2, -0.75, 0.3],
+            rate_cov: cov,
         };
         let m = Measurement {
             z: SVector::<f64, 3>::new(30.0, -10.0, 5.0),
@@ -618,9 +613,8 @@ mod tests {
         let g_v = h.fixed_view::<3, 3>(0, idx::DP) * f_pv;
         println!("G_v = {g_v:.6}");
         assert!((g_v - Matrix3::identity()).amax() < 1e-3, "{g_v}");
-        let sd = Vector3::new(1.5, 1.5, 3.0);
-        let z_dot = Vector3::new(0.8 * sd[0], -0.5 * sd[1], 0.1 * sd[2]);
-        let want = z_dot * z_dot.transpose() + r * 0.04;
+        let z_dot = Vector3::new(1.2, -0.75, 0.3);
+        let want = z_dot * z_dot.transpose() + Matrix3::from_fn(|i, j| cov[i][j]);
         let seen = g_v * w * g_v.transpose();
         assert!(
             (seen - want).amax() <= 1e-9 * want.amax(),
@@ -635,7 +629,8 @@ mod tests {
             r: SMatrix::<f64, 1, 1>::new(100.0),
         };
         let wb = rate_widening(&mb, &f_pv, &verdict).expect("widening");
-        let vertical = 0.8f64.powi(2) * 100.0 + 100.0 * 0.04;
+        // Its one component: the rate's first and its variance.
+        let vertical = 1.2f64.powi(2) + 0.09;
         assert!((wb[(2, 2)] - vertical).abs() <= 1e-9 * vertical);
         assert!(wb.fixed_view::<2, 2>(0, 0).amax() <= 1e-9 * vertical);
     }

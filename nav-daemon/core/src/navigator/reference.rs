@@ -48,14 +48,19 @@ impl Navigator {
         let ctx = Context {
             omega_ib_b: self.body_rate(),
         };
-        let Measured { m, .. } = x.measure(&at, &ctx, A::own(&self.aids.settings.own)).ok()?;
-        let p = self.err.current_p(&self.nominal);
+        let Measured { m, correlated, .. } =
+            x.measure(&at, &ctx, A::own(&self.aids.settings.own)).ok()?;
+        let (p, c) = self.err.current_p(&self.nominal);
+        // The receiver's correlated error and this navigator's errors are
+        // correlated when this navigator's state came from one that had
+        // fused the receiver (a copy taken after a resumed checkpoint).
+        let c = correlated.map(|_| c);
         let decl = A::KIND.decl();
         let q = match &m {
-            AnyMeasurement::D1(m) => statistic(m, &p, decl.components),
-            AnyMeasurement::D2(m) => statistic(m, &p, decl.components),
-            AnyMeasurement::D3(m) => statistic(m, &p, decl.components),
-            AnyMeasurement::D6(m) => statistic(m, &p, decl.components),
+            AnyMeasurement::D1(m) => statistic(m, &p, c.as_ref(), decl.components),
+            AnyMeasurement::D2(m) => statistic(m, &p, c.as_ref(), decl.components),
+            AnyMeasurement::D3(m) => statistic(m, &p, c.as_ref(), decl.components),
+            AnyMeasurement::D6(m) => statistic(m, &p, c.as_ref(), decl.components),
         };
         let (q, by_unit, with_r, reference) = q?;
         let threshold = settings.threshold(decl.dof());
@@ -110,21 +115,33 @@ impl Navigator {
 /// A symmetric 2×2 block, rows of a matrix.
 type Block2 = [[f64; 2]; 2];
 
-/// q = zᵀ (H P Hᵀ + R)⁻¹ z of a measurement, the cause its largest
-/// share of q points to (the block of components of one unit, position or
-/// velocity, whose own q over its own χ² quantile is the largest), and
-/// the horizontal position blocks (the first two components in metres:
-/// east and north in g, grid x and y in G) of S = H P Hᵀ + R and of the
-/// reference's part H P Hᵀ, from which the protection levels follow (NaN
-/// without two such components: no level).
+/// q = zᵀ S⁻¹ z of a measurement, S = H P Hᵀ + R (+ H C Uᵀ + U Cᵀ Hᵀ
+/// for a measurement whose first three components share a correlated
+/// error b with cov(δx, b) = C, given), the cause its largest share of q
+/// points to (the block of components of one unit, position or velocity,
+/// whose own q over its own χ² quantile is the largest), and the
+/// horizontal position blocks (the first two components in metres: east
+/// and north in g, grid x and y in G) of S and of the reference's part
+/// H P Hᵀ, from which the protection levels follow (NaN without two such
+/// components: no level).
 fn statistic<const M: usize>(
     m: &crate::aids::Measurement<M>,
     p: &crate::error_model::Mat15,
+    correlated_c: Option<&SMatrix<f64, 15, 3>>,
     components: &[msgs::aids::Component],
 ) -> Option<(f64, u8, Block2, Block2)> {
     use msgs::aids::Unit;
     let hph: SMatrix<f64, M, M> = m.h * p * m.h.transpose();
-    let s = hph + m.r;
+    let mut s = hph + m.r;
+    if let Some(c) = correlated_c.filter(|c| **c != SMatrix::<f64, 15, 3>::zeros()) {
+        let hc = m.h * c;
+        for i in 0..M {
+            for j in 0..M.min(3) {
+                s[(i, j)] += hc[(i, j)];
+                s[(j, i)] += hc[(i, j)];
+            }
+        }
+    }
     let chol = s.cholesky()?;
     let q = m.z.dot(&chol.solve(&m.z));
     let (with_r, reference) = {
