@@ -361,16 +361,12 @@ pub fn measurement(
 /// The position's variances of R, horizontal per axis and vertical: the
 /// receiver's estimates, their white share (what is left of them beyond
 /// the correlated share of the settings) raised to the floors. Without a
-/// correlated share, the estimate raised to its floor.
+/// correlated share this is the estimate raised to its floor, to the bit
+/// (squaring is monotone and adding 0 is exact).
 fn position_var(s: &GnssFix, g: &GnssSettings) -> (f64, f64) {
     let var = |acc: f64, floor: f64, correlated: f64| {
-        if correlated == 0.0 {
-            let sd = acc.max(floor);
-            sd * sd
-        } else {
-            let c2 = correlated * correlated;
-            (acc * acc - c2).max(floor * floor) + c2
-        }
+        let c2 = correlated * correlated;
+        (acc * acc - c2).max(floor * floor) + c2
     };
     (
         var(s.h_acc_m, g.sigma_floor_h_m, g.correlated_sigma_h_m),
@@ -399,7 +395,10 @@ impl Aid for GnssFix {
             Measured::from(position_only(&m))
         };
         Ok(Measured {
-            correlated: correlated(g),
+            shares: super::ConsiderShares {
+                persistent_var: 0.0,
+                correlated: correlated(g),
+            },
             ..measured
         })
     }
@@ -556,7 +555,7 @@ mod tests {
         // 2.5² = 1.5² + 2²: a white 2 m, above the 0.5 m floor.
         assert!((m.r[(0, 0)] - 6.25).abs() < 1e-12 && (m.r[(1, 1)] - 6.25).abs() < 1e-12);
         assert!((m.r[(2, 2)] - 25.0).abs() < 1e-12);
-        let c = out.correlated.expect("declared");
+        let c = out.shares.correlated.expect("declared");
         assert_eq!(c.var, Vector3::new(2.25, 2.25, 9.0));
         assert_eq!(c.tau_s.to_bits(), 120.0f64.to_bits());
         // An estimate below the correlated share: the white share at its
@@ -570,7 +569,7 @@ mod tests {
         assert!((m.r[(2, 2)] - (1.0 + 9.0)).abs() < 1e-12);
         // Without a share: nothing declared.
         let out = fix.measure(&t, &ctx, &settings()).expect("fix");
-        assert_eq!(out.correlated, None);
+        assert_eq!(out.shares.correlated, None);
     }
 
     #[test]

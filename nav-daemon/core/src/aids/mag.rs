@@ -600,7 +600,10 @@ impl Aid for MagSample {
     const MAKES_TILT_OBSERVABLE: bool = false;
     fn measure(&self, nav: &AnyNav, _: &Context, m: &MagSettings) -> Result<Measured, AidError> {
         measurement_and_declination_var(nav, self, m).map(|(x, persistent_var)| Measured {
-            persistent_var,
+            shares: super::ConsiderShares {
+                persistent_var,
+                correlated: None,
+            },
             ..Measured::from(x)
         })
     }

@@ -132,22 +132,27 @@ pub struct Measured {
     pub m: AnyMeasurement,
     /// SRS: the body excluded by fault detection, if one was.
     pub excluded_body: Option<u32>,
-    /// The part of R that is one error common to every sample of the aid
-    /// rather than noise, entering each component (the magnetometer's:
-    /// the model's declination error, the local field's departure from
-    /// the WMM); 0 for white measurements. The navigator carries its
-    /// covariance with the states as a consider parameter
-    /// ([`crate::filter::update_considering`]), so that repeated samples
-    /// cannot average it away. One aid declares one (the magnetometer).
+    /// The parts of R that are not white noise.
+    pub shares: ConsiderShares,
+}
+
+/// The parts of a measurement's R that are one error common to many
+/// samples rather than noise. The navigator carries their covariance with
+/// the states as consider parameters ([`crate::filter::update_considering_block`]),
+/// so that repeated samples cannot average them away. Zero and `None`
+/// (the default) for white measurements.
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
+pub struct ConsiderShares {
+    /// The share entering each component that is one error for the
+    /// flight (the magnetometer's: the model's declination error, the
+    /// local field's departure from the WMM). One aid declares one (the
+    /// magnetometer).
     pub persistent_var: f64,
-    /// The part of R of the first three components (a position in the
-    /// navigation frame's axes) that is an error correlated in time
-    /// rather than noise: a receiver's multipath, atmosphere and orbits.
-    /// The navigator carries its covariance with the states as consider
-    /// parameters ([`crate::filter::update_considering_block`]), decaying
-    /// with its correlation time. `None` for white measurements; one aid
-    /// declares one (GNSS, when its settings give the receiver's
-    /// correlated σ).
+    /// The share of the first three components (a position in the
+    /// navigation frame's axes) that is an error correlated in time: a
+    /// receiver's multipath, atmosphere and orbits, decaying with its
+    /// correlation time. One aid declares one (GNSS, when its settings give
+    /// the receiver's correlated σ).
     pub correlated: Option<Correlated>,
 }
 
@@ -166,8 +171,7 @@ impl From<Measurement<1>> for Measured {
         Self {
             m: AnyMeasurement::D1(m),
             excluded_body: None,
-            persistent_var: 0.0,
-            correlated: None,
+            shares: ConsiderShares::default(),
         }
     }
 }
@@ -176,8 +180,7 @@ impl From<Measurement<2>> for Measured {
         Self {
             m: AnyMeasurement::D2(m),
             excluded_body: None,
-            persistent_var: 0.0,
-            correlated: None,
+            shares: ConsiderShares::default(),
         }
     }
 }
@@ -186,8 +189,7 @@ impl From<Measurement<3>> for Measured {
         Self {
             m: AnyMeasurement::D3(m),
             excluded_body: None,
-            persistent_var: 0.0,
-            correlated: None,
+            shares: ConsiderShares::default(),
         }
     }
 }
@@ -196,8 +198,7 @@ impl From<Measurement<6>> for Measured {
         Self {
             m: AnyMeasurement::D6(m),
             excluded_body: None,
-            persistent_var: 0.0,
-            correlated: None,
+            shares: ConsiderShares::default(),
         }
     }
 }

@@ -250,8 +250,7 @@ impl Aid for SrsSample {
         measurement(nav, self).map(|(m, sol)| Measured {
             m: AnyMeasurement::D3(m),
             excluded_body: sol.excluded_body,
-            persistent_var: 0.0,
-            correlated: None,
+            shares: super::ConsiderShares::default(),
         })
     }
 }

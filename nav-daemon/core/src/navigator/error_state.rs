@@ -7,7 +7,7 @@
 use msgs::InitState;
 use nalgebra::{Matrix3, SMatrix, SVector, Vector3};
 
-use crate::aids::{Correlated, Measurement};
+use crate::aids::{ConsiderShares, Correlated, Measurement};
 use crate::earth;
 use crate::error_model::{Mat15, idx};
 use crate::filter::{self, ProcessNoise, UpdateOutcome};
@@ -186,10 +186,7 @@ impl ErrorState {
         if self.consider != SVector::<f64, 15>::zeros() {
             self.consider = phi * self.consider;
         }
-        if self.gnss_c != SMatrix::<f64, 15, 3>::zeros() {
-            // cov(Φ δx, ρ b + w) = Φ C ρ: the receiver's error forgets.
-            self.gnss_c = phi * self.gnss_c * (-self.acc_dt / self.gnss_tau_s).exp();
-        }
+        self.gnss_c = self.propagated_gnss_c(&phi);
         // The bias estimates decay by their Gauss–Markov share between
         // updates; a turn-on part beyond the wander stays
         // ([`ProcessNoise::bias_decay`]; constant biases when τ = ∞).
@@ -220,11 +217,19 @@ impl ErrorState {
             let mut f = nominal.nav().error_dynamics(&f_b);
             self.noise.add_bias_dynamics(&mut f);
             let phi = filter::propagate(&mut p, &f, &self.noise, self.acc_dt);
-            if c != SMatrix::<f64, 15, 3>::zeros() {
-                c = phi * c * (-self.acc_dt / self.gnss_tau_s).exp();
-            }
+            c = self.propagated_gnss_c(&phi);
         }
         (p, c)
+    }
+
+    /// The receiver's C over the accumulated interval with transition
+    /// `phi`: cov(Φ δx, ρ b + w) = Φ C ρ, ρ = e^(−Δt/τ) (the receiver's
+    /// error forgets; zero stays zero).
+    fn propagated_gnss_c(&self, phi: &Mat15) -> SMatrix<f64, 15, 3> {
+        if self.gnss_c == SMatrix::<f64, 15, 3>::zeros() {
+            return self.gnss_c;
+        }
+        phi * self.gnss_c * (-self.acc_dt / self.gnss_tau_s).exp()
     }
 
     /// Replaces a covariance that lost finiteness or positive definiteness
@@ -308,7 +313,7 @@ impl ErrorState {
     /// persistent error (0 for every other aid): such a sample is fused
     /// with the consider parameter, and so is every sample while the
     /// parameter is not zero ([`filter::update_considering`]).
-    /// `correlated` is the share of a position's R that is the GNSS
+    /// `shares.correlated` is the share of a position's R that is the GNSS
     /// receiver's correlated error: while it or its covariance `gnss_c` is
     /// there, every sample is fused with all four consider parameters
     /// ([`filter::update_considering_block`]).
@@ -316,9 +321,9 @@ impl ErrorState {
         &mut self,
         m: &Measurement<M>,
         gate: f64,
-        persistent_var: f64,
-        correlated: Option<&Correlated>,
+        shares: &ConsiderShares,
     ) -> Option<UpdateOutcome<M>> {
+        let persistent_var = shares.persistent_var;
         let before = (
             self.p,
             self.consider,
@@ -329,7 +334,7 @@ impl ErrorState {
             self.gnss_tau_s,
         );
         // A correlated share enters a position's three components.
-        let correlated = correlated.filter(|_| M >= 3);
+        let correlated = shares.correlated.as_ref().filter(|_| M >= 3);
         let gnss = correlated.is_some() || self.gnss_c != SMatrix::<f64, 15, 3>::zeros();
         let out = if persistent_var > 0.0 || self.consider != SVector::<f64, 15>::zeros() || gnss {
             let u = SVector::<f64, M>::repeat(if persistent_var > 0.0 { 1.0 } else { 0.0 });
@@ -880,8 +885,6 @@ mod tests {
         assert!(!covariance_usable(&p));
     }
 
-    /// The σ of the consider tests' start: metres, decimetres per second,
-    /// a milliradian of tilt and 20 mrad of heading.
     /// A navigator at `lat_deg` that has fused one GNSS fix (near its own
     /// antenna) declaring a correlated share (1.5 m / 3 m, τ 300 s) of its
     /// 2 m / 3.5 m accuracy; the receiver's settings, the fix and its
@@ -949,7 +952,7 @@ mod tests {
         };
         assert!(
             nav.err
-                .update(&m, f64::INFINITY, 0.0, measured.correlated.as_ref())
+                .update(&m, f64::INFINITY, &measured.shares)
                 .is_some_and(|o| o.fused)
         );
         assert!(nav.err.gnss_c.amax() > 0.0);
@@ -1077,7 +1080,7 @@ mod tests {
         let crate::aids::AnyMeasurement::D6(m) = measured.m else {
             panic!("position and velocity")
         };
-        let c = measured.correlated.as_ref();
+        let c = &measured.shares;
         let ckpt = nav.checkpoint();
         ckpt.validate().expect("a valid checkpoint");
         let mut resumed = Navigator::from_checkpoint(&ckpt, &NavigatorConfig::default());
@@ -1090,12 +1093,22 @@ mod tests {
         for n in [&mut nav, &mut resumed] {
             n.err.acc_dt = 0.1;
             n.err.propagate(&n.nominal);
-            n.err.update(&m, f64::INFINITY, 0.0, c).expect("update");
+            n.err.update(&m, f64::INFINITY, c).expect("update");
         }
         assert_eq!(resumed.err.p, nav.err.p);
         assert_eq!(resumed.err.gnss_c, nav.err.gnss_c);
     }
 
+    /// The magnetometer's share of R, `a`, and nothing correlated.
+    fn persistent(a: f64) -> ConsiderShares {
+        ConsiderShares {
+            persistent_var: a,
+            correlated: None,
+        }
+    }
+
+    /// The σ of the consider tests' start: metres, decimetres per second,
+    /// a milliradian of tilt and 20 mrad of heading.
     fn heading_held_init() -> InitState {
         InitState {
             sigma_pos_h_m: 5.0,
@@ -1147,7 +1160,7 @@ mod tests {
                 h,
                 r: SMatrix::<f64, 1, 1>::new(a + 1e-6),
             };
-            let out = e.update(&m, f64::INFINITY, a, None);
+            let out = e.update(&m, f64::INFINITY, &persistent(a));
             assert!(
                 out.is_some_and(|o| o.fused),
                 "sample {k} (a = {a:e}) not fused"
@@ -1204,7 +1217,7 @@ mod tests {
         };
         assert!(
             nav.err
-                .update(&m, f64::INFINITY, 1e-5, None)
+                .update(&m, f64::INFINITY, &persistent(1e-5))
                 .is_some_and(|o| o.fused)
         );
         assert!(nav.err.consider.amax() > 0.0);
@@ -1216,11 +1229,11 @@ mod tests {
         );
         assert_eq!(resumed.err.p, nav.err.p);
         nav.err
-            .update(&m, f64::INFINITY, 1e-5, None)
+            .update(&m, f64::INFINITY, &persistent(1e-5))
             .expect("update");
         resumed
             .err
-            .update(&m, f64::INFINITY, 1e-5, None)
+            .update(&m, f64::INFINITY, &persistent(1e-5))
             .expect("update");
         assert_eq!(resumed.err.p, nav.err.p);
         assert_eq!(resumed.err.consider, nav.err.consider);

@@ -8,14 +8,14 @@ use nalgebra::{Matrix3, Matrix6, SVector, Vector3};
 
 use crate::aids::control::AidControl;
 use crate::aids::{
-    Aid, AidError, AnyMeasurement, Context, Correlated, Measured, Measurement, OwnOf,
+    Aid, AidError, AnyMeasurement, ConsiderShares, Context, Measured, Measurement, OwnOf,
 };
 use crate::error_model::{Mat15, idx};
 use crate::filter;
 use crate::mech::AnyNav;
 use crate::settings::{AidSet, AidSettings, BiasModel, SensorGrade};
 
-use super::recovery::{Streak, StreakVerdict};
+use super::recovery::{Rate, Streak, StreakVerdict};
 use super::{AidOutcome, InputRejection, Navigator, secs_to_ns};
 
 /// The per-aid fusion controls, which aids are selected, and the latency limit.
@@ -127,7 +127,7 @@ fn observed_widening<const M: usize>(
 fn rate_widening<const M: usize>(
     m: &Measurement<M>,
     f_pv: &Matrix3<f64>,
-    verdict: &StreakVerdict,
+    rate: &Rate,
 ) -> Option<Matrix3<f64>> {
     let k = M.min(3);
     let mut g = Matrix6::<f64>::zeros();
@@ -135,11 +135,11 @@ fn rate_widening<const M: usize>(
     g.view_mut((0, 0), (k, 3))
         .copy_from(&g_v.view((0, 0), (k, 3)));
     let x = right_inverse(g)?;
-    let z_dot = verdict.rate;
+    let z_dot = rate.z_dot;
     let mut lambda = Matrix6::<f64>::zeros();
     for i in 0..k {
         for j in 0..k {
-            lambda[(i, j)] = z_dot[i] * z_dot[j] + verdict.rate_cov[i][j];
+            lambda[(i, j)] = z_dot[i] * z_dot[j] + rate.cov[i][j];
         }
     }
     let w = (x * lambda * x.transpose())
@@ -224,11 +224,10 @@ impl Navigator {
         which: AidKind,
         t_ns: u64,
         m: &Measurement<M>,
-        persistent_var: f64,
-        correlated: Option<&Correlated>,
+        shares: &ConsiderShares,
     ) -> AidOutcome {
         let gate = self.aids.controls[which].gate;
-        let Some(out) = self.err.update(m, gate, persistent_var, correlated) else {
+        let Some(out) = self.err.update(m, gate, shares) else {
             self.aids.controls[which].rejected_invalid();
             return AidOutcome {
                 gated: false,
@@ -260,7 +259,7 @@ impl Navigator {
                 &out.state_var,
                 max_gap_ns,
             );
-            self.maybe_reset(which, t_ns, m, persistent_var, correlated);
+            self.maybe_reset(which, t_ns, m, shares);
         }
         AidOutcome {
             gated: true,
@@ -290,8 +289,7 @@ impl Navigator {
         which: AidKind,
         t_ns: u64,
         m: &Measurement<M>,
-        persistent_var: f64,
-        correlated: Option<&Correlated>,
+        shares: &ConsiderShares,
     ) {
         let after = self.aids.reset_after_ns;
         let streak = &self.aids.streaks[which];
@@ -305,7 +303,7 @@ impl Navigator {
         if !verdict.healthy() {
             return;
         }
-        self.reset_to_aid(which, t_ns, m, &verdict, persistent_var, correlated);
+        self.reset_to_aid(which, t_ns, m, &verdict, shares);
     }
 
     /// Resets the states the aid observes to its measurement `m` with its σ:
@@ -334,8 +332,7 @@ impl Navigator {
         t_ns: u64,
         m: &Measurement<M>,
         verdict: &StreakVerdict,
-        persistent_var: f64,
-        correlated: Option<&Correlated>,
+        shares: &ConsiderShares,
     ) {
         // σ at most 10⁴ times what P said: beyond, the state is unknown anyway.
         const KAPPA_MAX: f64 = 1e8;
@@ -357,8 +354,8 @@ impl Navigator {
         let velocity_widening = if observed.contains(&idx::DP) && !observed.contains(&idx::DV) {
             let f = self.nominal.nav().error_dynamics(&Vector3::zeros());
             let f_pv = f.fixed_view::<3, 3>(idx::DP, idx::DV).into_owned();
-            // Not finite: the reset goes ahead with κ alone.
-            rate_widening(m, &f_pv, verdict)
+            // No rate, or not finite: the reset goes ahead with κ alone.
+            verdict.rate.and_then(|r| rate_widening(m, &f_pv, &r))
         } else {
             None
         };
@@ -409,10 +406,7 @@ impl Navigator {
         }
         filter::symmetrize(&mut p);
         self.err.p = p;
-        let Some(out) = self
-            .err
-            .update(m, f64::INFINITY, persistent_var, correlated)
-        else {
+        let Some(out) = self.err.update(m, f64::INFINITY, shares) else {
             self.err.p = before;
             (self.err.consider, self.err.gnss_c) = consider_before;
             return;
@@ -500,8 +494,7 @@ impl Navigator {
         let Measured {
             m,
             excluded_body,
-            persistent_var,
-            correlated,
+            shares,
         } = match measured {
             Ok(m) => m,
             Err(e) => {
@@ -521,10 +514,10 @@ impl Navigator {
             });
         }
         let mut out = match &m {
-            AnyMeasurement::D1(m) => self.fuse(which, t_ns, m, persistent_var, correlated.as_ref()),
-            AnyMeasurement::D2(m) => self.fuse(which, t_ns, m, persistent_var, correlated.as_ref()),
-            AnyMeasurement::D3(m) => self.fuse(which, t_ns, m, persistent_var, correlated.as_ref()),
-            AnyMeasurement::D6(m) => self.fuse(which, t_ns, m, persistent_var, correlated.as_ref()),
+            AnyMeasurement::D1(m) => self.fuse(which, t_ns, m, &shares),
+            AnyMeasurement::D2(m) => self.fuse(which, t_ns, m, &shares),
+            AnyMeasurement::D3(m) => self.fuse(which, t_ns, m, &shares),
+            AnyMeasurement::D6(m) => self.fuse(which, t_ns, m, &shares),
         };
         out.excluded_body = excluded_body;
         if excluded_body.is_some() {
@@ -591,25 +584,16 @@ mod tests {
             ));
         let r = SMatrix::<f64, 3, 3>::from_diagonal(&Vector3::new(2.25, 2.25, 9.0));
         let cov = [[0.09, 0.05, 0.0], [0.05, 0.09, 0.01], [0.0, 0.01, 0.36]];
-        let verdict = StreakVerdict {
-            duration_s: 5.0,
-            samples: 6,
-            degree: 2,
-            consistency: 1.0,
-            consistency_bound: 3.0,
-            step: None,
-            step_bound: 16.0,
-            inflation: 30.0,
-            covariance_inflation: 10.0,
-            rate: [1.2, -0.75, 0.3],
-            rate_cov: cov,
+        let rate = Rate {
+            z_dot: [1.2, -0.75, 0.3],
+            cov,
         };
         let m = Measurement {
             z: SVector::<f64, 3>::new(30.0, -10.0, 5.0),
             h,
             r,
         };
-        let w = rate_widening(&m, &f_pv, &verdict).expect("widening");
+        let w = rate_widening(&m, &f_pv, &rate).expect("widening");
         let g_v = h.fixed_view::<3, 3>(0, idx::DP) * f_pv;
         println!("G_v = {g_v:.6}");
         assert!((g_v - Matrix3::identity()).amax() < 1e-3, "{g_v}");
@@ -628,7 +612,7 @@ mod tests {
             h: hb,
             r: SMatrix::<f64, 1, 1>::new(100.0),
         };
-        let wb = rate_widening(&mb, &f_pv, &verdict).expect("widening");
+        let wb = rate_widening(&mb, &f_pv, &rate).expect("widening");
         // Its one component: the rate's first and its variance.
         let vertical = 1.2f64.powi(2) + 0.09;
         assert!((wb[(2, 2)] - vertical).abs() <= 1e-9 * vertical);

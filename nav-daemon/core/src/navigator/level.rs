@@ -7,6 +7,7 @@
 
 use msgs::AidKind;
 
+use crate::aids::ConsiderShares;
 use crate::flight_state::{
     FlightState, FlightStateSettings, LEVEL_GATE, Window, classify, level_measurement,
 };
@@ -126,7 +127,7 @@ impl Navigator {
             self.level.counters.precise += 1;
             return;
         }
-        let Some(out) = self.err.update(&m, LEVEL_GATE, 0.0, None) else {
+        let Some(out) = self.err.update(&m, LEVEL_GATE, &ConsiderShares::default()) else {
             self.level.counters.invalid += 1;
             return;
         };

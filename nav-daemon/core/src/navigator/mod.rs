@@ -40,7 +40,7 @@ use history::History;
 use imu_input::ImuLimits;
 pub use imu_input::{IMU_DT_RANGE_S, MAX_BRIDGE_STEPS};
 pub use level::LevelCounters;
-pub use recovery::{StreakVerdict, chi2_999_per_dof};
+pub use recovery::{Rate, StreakVerdict, chi2_999_per_dof};
 
 /// Navigator settings.
 #[derive(Debug, Clone, PartialEq)]
@@ -437,15 +437,14 @@ impl Navigator {
             accel_bias_mps2: self.err.accel_bias.into(),
             consider: self.err.consider.into(),
             consider_var: self.err.consider_var,
-            gnss_consider: {
-                let mut c = [0.0; 45];
-                for i in 0..15 {
-                    for j in 0..3 {
-                        c[3 * i + j] = self.err.gnss_c[(i, j)];
-                    }
-                }
-                c
-            },
+            // Row-major: the transpose's column-major storage.
+            gnss_consider: self
+                .err
+                .gnss_c
+                .transpose()
+                .as_slice()
+                .try_into()
+                .expect("15 × 3"),
             gnss_consider_var: self.err.gnss_b.into(),
             // 0 while there is none (a checkpoint holds finite numbers).
             gnss_consider_tau_s: if self.err.gnss_b == Vector3::zeros() {

@@ -163,14 +163,20 @@ pub struct StreakVerdict {
     /// times the filter's own part of the innovation covariance was too
     /// small. The reset scales the unobserved states' covariance by it.
     pub covariance_inflation: f64,
-    /// The fitted trend's rate at the streak's newest sample, per
-    /// component in the measurement's units per s, and its covariance from
-    /// the fit (scaled by the fit's residual χ²/ν where that is above 1).
-    /// For an aid that observes a position and not the velocity, the
-    /// rate of its innovation is the velocity error the reset must allow
-    /// ([`super::gating`]).
-    pub rate: [f64; 3],
-    pub rate_cov: [[f64; 3]; 3],
+    /// The fitted trend's rate at the streak's newest sample (None when
+    /// it cannot be formed: only a position-only reset uses it).
+    pub rate: Option<Rate>,
+}
+
+/// The rate of a streak's innovations at its newest sample: per component
+/// in the measurement's units per s, and its covariance from the fit
+/// (scaled by the fit's residual χ²/ν where that is above 1). For an aid
+/// that observes a position and not the velocity, it is the velocity error
+/// the reset must allow ([`super::gating`]).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Rate {
+    pub z_dot: [f64; 3],
+    pub cov: [[f64; 3]; 3],
 }
 
 impl StreakVerdict {
@@ -201,7 +207,11 @@ pub fn chi2_999_per_dof(nu: f64) -> f64 {
 
 /// Whitens z with R: y = L⁻¹ z (R = L Lᵀ); the first M of 3 components.
 fn whiten<const M: usize>(z: &SVector<f64, M>, r: &SMatrix<f64, M, M>) -> Option<[f64; 3]> {
-    let l = r.cholesky()?.l();
+    whitened(z, &r.cholesky()?.l())
+}
+
+/// [`whiten`] with R's factor L known.
+fn whitened<const M: usize>(z: &SVector<f64, M>, l: &SMatrix<f64, M, M>) -> Option<[f64; 3]> {
     let y = l.solve_lower_triangular(z)?;
     let mut out = [0.0; 3];
     for i in 0..M.min(3) {
@@ -248,7 +258,10 @@ impl Streak {
         state_diag: &SVector<f64, M>,
         max_gap_ns: u64,
     ) {
-        let Some(y) = whiten(z, r) else {
+        let Some(l) = r.cholesky().map(|c| c.l()) else {
+            return;
+        };
+        let Some(y) = whitened(z, &l) else {
             return;
         };
         if self.n > 0 && t_ns.saturating_sub(self.last_ns) > max_gap_ns {
@@ -258,9 +271,6 @@ impl Streak {
             self.start_ns = t_ns;
             self.dof = M.min(3);
             self.y0 = y;
-            // whiten() succeeded: R has a Cholesky factor.
-            let Some(c) = r.cholesky() else { return };
-            let l = c.l();
             for i in 0..self.dof {
                 for j in 0..=i {
                     self.l0[i][j] = l[(i, j)];
@@ -423,7 +433,6 @@ impl Streak {
             self.fit(4)?
         };
         let step = self.step(&fit, anchor_max_ns);
-        let (rate, rate_cov) = self.rate(&fit)?;
         Some(StreakVerdict {
             duration_s: self.duration_ns(now_ns) as f64 * 1e-9,
             samples: self.n,
@@ -438,8 +447,7 @@ impl Streak {
             } else {
                 1.0
             },
-            rate,
-            rate_cov,
+            rate: self.rate(&fit),
         })
     }
 
@@ -448,7 +456,7 @@ impl Streak {
     /// L₀ L₀ᵀ bᵀ (RᵀR)⁻¹ b for the derivative's basis b = (0, 1, 2t, 3t²),
     /// scaled by the residual χ²/ν when the fit is looser than its
     /// unit-variance model. None for a NaN.
-    fn rate(&self, fit: &Fit) -> Option<([f64; 3], [[f64; 3]; 3])> {
+    fn rate(&self, fit: &Fit) -> Option<Rate> {
         let t = self.last_ns.saturating_sub(self.start_ns) as f64 * 1e-9;
         let cubic = if fit.degree == 3 { 3.0 * t * t } else { 0.0 };
         let basis = Vector4::new(0.0, 1.0, 2.0 * t, cubic);
@@ -475,7 +483,7 @@ impl Streak {
             .iter()
             .chain(cov.iter().flatten())
             .all(|x| x.is_finite()))
-        .then_some((rate, cov))
+        .then_some(Rate { z_dot: rate, cov })
     }
 }
 
@@ -845,11 +853,11 @@ mod tests {
                 .verdict((n - 1) * 1_000_000_000, 16.0, 2_000_000_000)
                 .expect("a verdict");
             for i in 0..3 {
-                let rate = verdict.rate[i];
+                let rate = verdict.rate.expect("a rate").z_dot[i];
                 sum[i] += rate;
                 sq[i] += rate * rate;
             }
-            stated += verdict.rate_cov[0][0];
+            stated += verdict.rate.expect("a rate").cov[0][0];
         }
         let m = f64::from(runs);
         let t_end = (n - 1) as f64;
@@ -892,8 +900,9 @@ mod tests {
         let v = s
             .verdict(10_000_000_000, 16.0, 2_000_000_000)
             .expect("a verdict");
-        println!("constant innovation, σ 2 → 4 m: rate {:?} m/s", v.rate);
-        assert!(v.rate.iter().all(|r| r.abs() < 0.05), "{:?}", v.rate);
+        let rate = v.rate.expect("a rate");
+        println!("constant innovation, σ 2 → 4 m: rate {:?} m/s", rate.z_dot);
+        assert!(rate.z_dot.iter().all(|r| r.abs() < 0.05), "{rate:?}");
         let r = SMatrix::<f64, 2, 2>::new(4.0, 3.0, 3.0, 9.0);
         let mut s = Streak::default();
         for k in 0..11u64 {
@@ -905,17 +914,17 @@ mod tests {
         let v = s
             .verdict(10_000_000_000, 16.0, 2_000_000_000)
             .expect("a verdict");
+        let rate = v.rate.expect("a rate");
         assert!(
-            (v.rate[0] - 0.7).abs() < 1e-9 && (v.rate[1] - 0.7).abs() < 1e-9,
+            (rate.z_dot[0] - 0.7).abs() < 1e-9 && (rate.z_dot[1] - 0.7).abs() < 1e-9,
             "{:?}",
             v.rate
         );
         // The covariance is R times one variance of the basis.
-        let k = v.rate_cov[0][0] / 4.0;
+        let k = rate.cov[0][0] / 4.0;
         assert!(k > 0.0);
         assert!(
-            (v.rate_cov[0][1] - 3.0 * k).abs() < 1e-12
-                && (v.rate_cov[1][1] - 9.0 * k).abs() < 1e-12
+            (rate.cov[0][1] - 3.0 * k).abs() < 1e-12 && (rate.cov[1][1] - 9.0 * k).abs() < 1e-12
         );
     }
 }

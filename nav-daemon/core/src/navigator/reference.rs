@@ -48,13 +48,13 @@ impl Navigator {
         let ctx = Context {
             omega_ib_b: self.body_rate(),
         };
-        let Measured { m, correlated, .. } =
+        let Measured { m, shares, .. } =
             x.measure(&at, &ctx, A::own(&self.aids.settings.own)).ok()?;
         let (p, c) = self.err.current_p(&self.nominal);
         // The receiver's correlated error and this navigator's errors are
         // correlated when this navigator's state came from one that had
         // fused the receiver (a copy taken after a resumed checkpoint).
-        let c = correlated.map(|_| c);
+        let c = shares.correlated.map(|_| c);
         let decl = A::KIND.decl();
         let q = match &m {
             AnyMeasurement::D1(m) => statistic(m, &p, c.as_ref(), decl.components),
