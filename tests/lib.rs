@@ -58,8 +58,10 @@ pub fn bin(name: &str) -> PathBuf {
 /// decoder, a WebSocket client for the Foxglove live view, pyubx2 (a
 /// UBX implementation independent of gnss-ubx's, which makes its frames),
 /// and the independent MAVLink and NMEA decoders of the bridges' output
-/// (`tests/nav_out.rs`; nav-out's own tests pin the same two).
-pub const PYTHON_PACKAGES: [&str; 8] = [
+/// (`tests/nav_out.rs`; nav-out's own tests pin the same two), and the
+/// official Kubernetes client, whose models are the Job schema a
+/// campaign's manifest is checked against (`tests/campaign.rs`).
+pub const PYTHON_PACKAGES: [&str; 9] = [
     "iceoryx2==0.10.0",
     "mcap==1.6.0",
     "mcap-protobuf-support==0.6.0",
@@ -68,6 +70,7 @@ pub const PYTHON_PACKAGES: [&str; 8] = [
     "pyubx2==1.4.0",
     "pymavlink==2.4.50",
     "pynmeagps==1.1.8",
+    "kubernetes==37.0.2",
 ];
 
 /// A Python interpreter with [`PYTHON_PACKAGES`]: a virtual environment in

@@ -68,12 +68,10 @@ enum Cmd {
         #[arg(long = "stall-imu", value_name = "AT:FOR", value_delimiter = ',', value_parser = stall_arg)]
         stall_imu: Vec<sensor_replay::live::ImuStall>,
     },
-    /// Fault campaign: every scenario in DIR simulated with and without its
-    /// [faults], navigated by batch, and judged (exit 1 if any fails).
+    /// Campaigns of many flights: plan, run here or on a cluster, status, merge.
     Campaign {
-        /// Directory of fault scenarios (every *.toml in it).
-        #[arg(long, default_value = "config/scenarios/faults")]
-        dir: PathBuf,
+        #[command(subcommand)]
+        cmd: sensor_replay::campaign::cli::CampaignCmd,
     },
     /// Flight recorder: subscribe to every service and write a navlog until stopped.
     Record {
@@ -503,27 +501,8 @@ fn run(cli: Cli) -> Result<(), Fail> {
             }
             Ok(())
         }
-        Cmd::Campaign { dir } => {
-            let files = sensor_replay::campaign::scenario_files(&dir)
-                .map_err(|e| bad(format!("{}: {e}", dir.display())))?;
-            if files.is_empty() {
-                return Err(bad(format!("{}: no scenario files", dir.display())));
-            }
-            let mut failed = 0;
-            for f in &files {
-                let r = sensor_replay::campaign::run_scenario(f)
-                    .map_err(|e| Fail(2, format!("{}: {e}", f.display())))?;
-                print_stdout(&sensor_replay::campaign::report(&r, "batch"))?;
-                failed += usize::from(!r.ok());
-            }
-            print_stdout(&format!(
-                "campaign: {} scenarios, {failed} failed\n",
-                files.len()
-            ))?;
-            if failed > 0 {
-                return Err(Fail(1, format!("{failed} fault scenarios failed")));
-            }
-            Ok(())
+        Cmd::Campaign { cmd } => {
+            sensor_replay::campaign::cli::run(cmd).map_err(|(code, m)| Fail(code, m))
         }
         Cmd::Play {
             log,

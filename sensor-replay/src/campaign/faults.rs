@@ -1,4 +1,5 @@
-//! The fault campaign: every scenario with a `[faults]` section is simulated
+//! The fault campaign's judgement (`sensor-replay campaign run
+//! config/campaigns/faults.toml`, whose runs are of kind `fault-judge`): every scenario with a `[faults]` section is simulated
 //! with and without its faults (same seed, so the flights differ only in the
 //! faulted samples) and navigated; the faulted run is judged against the
 //! fault-free one.
@@ -444,12 +445,18 @@ impl ScenarioResult {
     }
 }
 
-fn simulate_bytes(s: &Scenario, text: &str, faults: bool) -> Result<(Vec<u8>, Vec<u64>), String> {
+fn simulate_bytes(
+    s: &Scenario,
+    text: &str,
+    seed: u64,
+    faults: bool,
+) -> Result<(Vec<u8>, Vec<u64>), String> {
     let mut buf = Vec::new();
     let sum = simulate(
         s,
         text,
         SimOptions {
+            seed,
             faults,
             ..Default::default()
         },
@@ -478,17 +485,20 @@ pub fn navigate_rows(log: &[u8], name: &str) -> Result<(Vec<Row>, Status), Strin
     Ok((rows, status))
 }
 
-/// Simulates (with and without faults) and navigates one scenario file through `batch`.
+/// Simulates (with and without faults, seed 1) and navigates one scenario
+/// file through `batch`.
 pub fn run_scenario(path: &Path) -> Result<ScenarioResult, String> {
     let (s, text) = Scenario::load(path).map_err(|e| e.to_string())?;
-    let (faulted, injected) = simulate_bytes(&s, &text, true)?;
-    let (clean, _) = simulate_bytes(&s, &text, false)?;
+    run_scenario_text(&s, &text, 1).map_err(|e| format!("{}: {e}", path.display()))
+}
+
+/// [`run_scenario`] of a scenario already parsed from `text`, with `seed`.
+pub fn run_scenario_text(s: &Scenario, text: &str, seed: u64) -> Result<ScenarioResult, String> {
+    let (faulted, injected) = simulate_bytes(s, text, seed, true)?;
+    let (clean, _) = simulate_bytes(s, text, seed, false)?;
     let (records, report) = msgs::navlog::read_all(&faulted);
     if !report.is_clean() {
-        return Err(format!(
-            "{}: simulated log damaged: {report}",
-            path.display()
-        ));
+        return Err(format!("simulated log damaged: {report}"));
     }
     let truth: Vec<TruthRecord> = records
         .iter()
@@ -505,12 +515,12 @@ pub fn run_scenario(path: &Path) -> Result<ScenarioResult, String> {
     let published = published(&records);
     Ok(ScenarioResult {
         name: s.name.clone(),
-        faults: fault_lines(&s, &injected, &status),
-        errors: judge(&truth, &rows_ff, &rows, &windows(&s)),
+        faults: fault_lines(s, &injected, &status),
+        errors: judge(&truth, &rows_ff, &rows, &windows(s)),
         published,
         // The log's own sequence gaps are the samples the fault never let
         // the source send (outages), as a live replay reports them.
-        accounting: check_accounting(published, Some(upstream_missing(&s, &injected)), &status),
+        accounting: check_accounting(published, Some(upstream_missing(s, &injected)), &status),
         status,
         faulted_log: faulted,
         truth,
