@@ -60,8 +60,10 @@ pub fn bin(name: &str) -> PathBuf {
 /// and the independent MAVLink and NMEA decoders of the bridges' output
 /// (`tests/nav_out.rs`; nav-out's own tests pin the same two), and the
 /// official Kubernetes client, whose models are the Job schema a
-/// campaign's manifest is checked against (`tests/campaign.rs`).
-pub const PYTHON_PACKAGES: [&str; 9] = [
+/// campaign's manifest is checked against, and the readers a campaign's
+/// merged Parquet table is read with: pandas on pyarrow, and polars
+/// (`tests/campaign.rs`).
+pub const PYTHON_PACKAGES: [&str; 12] = [
     "iceoryx2==0.10.0",
     "mcap==1.6.0",
     "mcap-protobuf-support==0.6.0",
@@ -71,6 +73,9 @@ pub const PYTHON_PACKAGES: [&str; 9] = [
     "pymavlink==2.4.50",
     "pynmeagps==1.1.8",
     "kubernetes==37.0.2",
+    "pandas==3.1.1",
+    "pyarrow==26.0.1",
+    "polars==2.1.0",
 ];
 
 /// A Python interpreter with [`PYTHON_PACKAGES`]: a virtual environment in

@@ -508,3 +508,109 @@ fn the_kubernetes_job_matches_the_job_schema() {
     }
     let _ = std::fs::remove_dir_all(&d);
 }
+
+/// The merged metrics table reads in pandas (on pyarrow) and polars with
+/// every column of the row, its type and its nulls, the rows in index
+/// order; merging again gives the same bytes.
+#[test]
+fn the_merged_table_reads_in_pandas_and_polars() {
+    let d = tmp("parquet");
+    let smoke = repo("config/campaigns/smoke.toml");
+    let out = d.join("out");
+    let o = campaign(&["run", s(&smoke), "--out", s(&out), "--only", "0..6"]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let o = campaign(&["merge", s(&out)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let text = String::from_utf8_lossy(&o.stdout).into_owned();
+    assert!(
+        text.contains("24 runs: 6 done, 0 failed, 18 missing"),
+        "{text}"
+    );
+    let table = out.join("merged/metrics.parquet");
+    let first = std::fs::read(&table).expect("metrics.parquet");
+    let rows: Vec<_> = results(&out, 24)
+        .into_iter()
+        .flatten()
+        .map(|r| r.metrics)
+        .collect();
+    assert_eq!(rows.len(), 6);
+    let expect = sensor_replay::campaign::merge::parquet_expectations(&rows);
+    let o = Command::new(python())
+        .arg(repo("tests/python/check_campaign_parquet.py"))
+        .arg(&table)
+        .arg(&expect)
+        .output()
+        .expect("python");
+    assert!(
+        o.status.success(),
+        "the readers disagree with the rows:\n{}{}",
+        String::from_utf8_lossy(&o.stdout),
+        stderr(&o)
+    );
+    let said = String::from_utf8_lossy(&o.stdout);
+    assert!(said.contains("polars") && said.contains("pandas"), "{said}");
+    let o = campaign(&["merge", s(&out)]);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(
+        std::fs::read(&table).expect("again") == first,
+        "a second merge wrote other bytes"
+    );
+    let report = std::fs::read_to_string(out.join("merged/report.md")).expect("report");
+    assert!(report.contains("Spoofing detection"), "{report}");
+    let _ = std::fs::remove_dir_all(&d);
+}
+
+/// The program replaced while a campaign runs (a rebuild, an upgrade):
+/// the runs still started are flown by the build that started the
+/// campaign, none fails for it.
+#[test]
+fn a_program_replaced_under_a_running_campaign_keeps_flying_its_build() {
+    let d = tmp("replaced");
+    let exe = d.join("sensor-replay");
+    std::fs::copy(bin("sensor-replay"), &exe).expect("copy the program");
+    let smoke = repo("config/campaigns/smoke.toml");
+    let out = d.join("out");
+    let mut child = Command::new(&exe)
+        .args([
+            "campaign",
+            "run",
+            s(&smoke),
+            "--out",
+            s(&out),
+            "--only",
+            "0..6",
+            "--jobs",
+            "1",
+        ])
+        .stdin(Stdio::null())
+        .stdout(Stdio::null())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("spawn");
+    // After the first result, the file is replaced by another (as cargo
+    // and package managers do: a new file renamed over the old name).
+    let t0 = Instant::now();
+    while !store::result_path(&out, 0).exists() {
+        assert!(t0.elapsed() < Duration::from_secs(120), "no first result");
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let other = d.join("sensor-replay.new");
+    std::fs::write(&other, "#!/bin/sh\nexit 3\n").expect("write");
+    std::fs::rename(&other, &exe).expect("replace the program");
+    let st = child.wait().expect("wait");
+    let mut err = String::new();
+    std::io::Read::read_to_string(child.stderr.as_mut().expect("stderr"), &mut err).expect("read");
+    assert!(st.success(), "{err}");
+    for (i, r) in results(&out, 24).iter().enumerate().take(6) {
+        let r = r
+            .as_ref()
+            .unwrap_or_else(|| panic!("run {i} missing: {err}"));
+        assert_eq!(
+            r.metrics.outcome,
+            sensor_replay::campaign::row::Outcome::Ok,
+            "run {i}: {}",
+            r.metrics.reason
+        );
+    }
+    let _ = std::fs::remove_dir_all(&d);
+}

@@ -443,6 +443,48 @@ impl ScenarioResult {
     pub fn ok(&self) -> bool {
         self.accounting.is_ok() && self.errors.ok() && self.faults.iter().all(|f| f.ok)
     }
+
+    /// What failed the judgement, one phrase each (none when [`Self::ok`]).
+    pub fn failures(&self) -> Vec<String> {
+        let mut v: Vec<String> = self
+            .faults
+            .iter()
+            .filter(|f| !f.ok)
+            .map(|f| {
+                format!(
+                    "not detected: {} ({} injected, {})",
+                    f.what,
+                    f.injected,
+                    f.detected
+                        .as_ref()
+                        .map_or("outage".into(), |(k, n)| format!("{k} {n}"))
+                )
+            })
+            .collect();
+        let e = &self.errors;
+        if e.worst_outside_ratio > ERROR_FACTOR {
+            v.push(format!(
+                "horizontal error {:.2}x the fault-free RMSE outside the outages (bound {ERROR_FACTOR}x)",
+                e.worst_outside_ratio
+            ));
+        }
+        if e.recovery_s > RECOVERY_S {
+            v.push(format!(
+                "recovery {:.1} s after an outage (bound {RECOVERY_S:.0} s)",
+                e.recovery_s
+            ));
+        }
+        if e.reacquisition_step_sigma > 3.0 {
+            v.push(format!(
+                "correction step {:.2} sigma after an outage (bound 3 sigma)",
+                e.reacquisition_step_sigma
+            ));
+        }
+        if let Err(m) = &self.accounting {
+            v.push(format!("accounting: {m}"));
+        }
+        v
+    }
 }
 
 fn simulate_bytes(

@@ -157,8 +157,7 @@ pub fn execute(
     executor: &str,
     progress_every: Duration,
 ) -> Result<Tally, CampaignError> {
-    let exe = std::env::current_exe()
-        .map_err(|e| CampaignError::Io(format!("this program's path: {e}")))?;
+    let exe = own_program()?;
     store::remove_stale_temporaries(dir);
     let logs = dir.join("logs");
     std::fs::create_dir_all(&logs)
@@ -221,6 +220,19 @@ pub fn execute(
     });
     let t = *tally.lock().expect("tally");
     Ok(t)
+}
+
+/// The program the runs are started from: this very executable, through
+/// `/proc/self/exe`, which stays this build even when the file is replaced
+/// while a campaign runs (a `cargo build` or an upgrade: its path then
+/// names the new file, or reads "... (deleted)"), so every run of one
+/// invocation is flown by one build. Elsewhere, the path it was started from.
+fn own_program() -> Result<PathBuf, CampaignError> {
+    let proc_exe = Path::new("/proc/self/exe");
+    if proc_exe.exists() {
+        return Ok(proc_exe.to_path_buf());
+    }
+    std::env::current_exe().map_err(|e| CampaignError::Io(format!("this program's path: {e}")))
 }
 
 /// The progress bar: runs, failures, flight hours, the rate and the ETA.
@@ -336,9 +348,17 @@ fn run_child(
             }
         }
     };
+    // A run that cannot be started has not failed: it stays missing (the
+    // log file or the program is what is wrong, and says so).
     let mut child = match spawn {
         Ok(c) => c,
-        Err(e) => return fail(format!("could not start the run's process: {e}")),
+        Err(e) => {
+            eprintln!(
+                "campaign: run {index}: cannot start its process ({} campaign run-one): {e}; it stays missing",
+                exe.display()
+            );
+            return Ended::Stopped;
+        }
     };
     let status = loop {
         match child.try_wait() {

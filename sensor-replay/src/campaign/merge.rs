@@ -440,6 +440,10 @@ fn metrics_columns() -> Vec<Column<Metrics>> {
         Column::opt("time_to_exclusion_s", F64(|m: &M| m.time_to_exclusion_s)),
         Column::opt("error_at_exclusion_m", F64(|m: &M| m.error_at_exclusion_m)),
         Column::opt("judgement_pass", Bool(|m: &M| m.judgement_pass)),
+        Column::opt(
+            "judgement_failures",
+            Str(|m: &M| m.judgement_failures.as_deref()),
+        ),
     ]
 }
 
@@ -817,6 +821,8 @@ struct Report {
     profiles: BTreeMap<String, Profile>,
     jammed_runs: u64,
     judged: (u64, u64),
+    /// Judged runs that failed their judgement: (index, scenario, seed, what failed).
+    judged_failed: Vec<(u64, String, u64, String)>,
     /// Failure reasons (one line, at most 200 characters): runs, first index.
     failures: BTreeMap<String, (u64, u64)>,
     cost: CostAgg,
@@ -924,6 +930,14 @@ impl Report {
             if let Some(pass) = m.judgement_pass {
                 r.judged.0 += 1;
                 r.judged.1 += u64::from(pass);
+                if !pass {
+                    r.judged_failed.push((
+                        m.index,
+                        m.scenario.clone(),
+                        m.seed,
+                        m.judgement_failures.clone().unwrap_or_default(),
+                    ));
+                }
             }
         }
         for (k, (errs, nees)) in raw {
@@ -1141,8 +1155,39 @@ impl Report {
         self.nees_md(&mut md, s, &fig);
         self.integrity_md(&mut md);
         self.detection_md(&mut md, s, &fig);
+        self.judgement_md(&mut md);
         self.cost_md(&mut md, s);
         md
+    }
+
+    /// The fault campaign's judgements (runs of kind `fault-judge`).
+    fn judgement_md(&self, md: &mut String) {
+        let (judged, passed) = self.judged;
+        if judged == 0 {
+            return;
+        }
+        w!(
+            md,
+            "## Fault judgement
+"
+        );
+        w!(
+            md,
+            "Each faulted flight against its fault-free twin (the same seed): every injected fault detected, the accounting exact, the horizontal error within 3× the fault-free RMSE outside the outages and back within it 60 s after each. {} of {} judged runs pass.\n",
+            count(passed),
+            count(judged)
+        );
+        if !self.judged_failed.is_empty() {
+            w!(md, "| run | scenario | seed | what failed |");
+            w!(md, "| ---: | --- | ---: | --- |");
+            for (i, sc, seed, why) in self.judged_failed.iter().take(50) {
+                w!(md, "| {i} | `{sc}` | {seed} | {} |", cell(&one_line(why)));
+            }
+            if self.judged_failed.len() > 50 {
+                w!(md, "\nand {} more.", self.judged_failed.len() - 50);
+            }
+            w!(md, "");
+        }
     }
 
     fn acceptance(&self, md: &mut String) {

@@ -108,6 +108,8 @@ pub struct Metrics {
     /// fault was detected, the accounting held and the error stayed within
     /// its bound against the fault-free twin.
     pub judgement_pass: Option<bool>,
+    /// What failed that judgement, `; `-separated (empty when it passed).
+    pub judgement_failures: Option<String>,
 }
 
 impl Metrics {
@@ -162,6 +164,7 @@ impl Metrics {
             time_to_exclusion_s: None,
             error_at_exclusion_m: None,
             judgement_pass: None,
+            judgement_failures: None,
         }
     }
 }

@@ -276,7 +276,10 @@ pub fn run(plan: &Plan, id: RunId) -> Outcomes {
     if plan.run.kind == RunKind::FaultJudge {
         let cpu1 = thread_cpu_s();
         match super::faults::run_scenario_text(&v.scenario, &v.text, id.seed) {
-            Ok(r) => o.metrics.judgement_pass = Some(r.ok()),
+            Ok(r) => {
+                o.metrics.judgement_pass = Some(r.ok());
+                o.metrics.judgement_failures = Some(r.failures().join("; "));
+            }
             Err(e) => return failed(format!("the fault-free twin: {e}")),
         }
         o.navigate_cpu_s += thread_cpu_s() - cpu1;
@@ -488,6 +491,7 @@ fn navigate(
             .and_then(|d| d.1)
             .filter(|_| keep(Group::Faults)),
         judgement_pass: None,
+        judgement_failures: None,
     };
     Ok(Outcomes {
         metrics,
