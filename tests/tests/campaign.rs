@@ -350,7 +350,7 @@ fn sigkill_mid_run_leaves_no_partial_result() {
             }
         }
         assert!(
-            t0.elapsed() < Duration::from_secs(240),
+            t0.elapsed() < Duration::from_secs(600), // a deadline: a campaign that never finishes fails, not hangs
             "the campaign did not finish between kills"
         );
     }
