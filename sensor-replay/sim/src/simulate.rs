@@ -253,6 +253,20 @@ impl Streams {
     }
 }
 
+/// The seed as a TOML value of the header's `[generated]` table: an
+/// integer, or above TOML's integer range (i64) a string of its digits.
+/// Written as a bare integer, a seed of 2⁶³ or more made the whole header
+/// invalid TOML, and `batch` then navigated without the scenario's
+/// `[navigator]` settings (its GNSS lever arm and correlated error among
+/// them): half of a campaign's derived seeds did.
+pub fn toml_seed(seed: u64) -> String {
+    if i64::try_from(seed).is_ok() {
+        seed.to_string()
+    } else {
+        format!("\"{seed}\"")
+    }
+}
+
 /// Runs the scenario and writes the navlog.
 pub fn simulate<W: Write>(
     s: &Scenario,
@@ -264,7 +278,7 @@ pub fn simulate<W: Write>(
     let mut imu_err = ImuErrorModel::new(&s.imu, &mut rng);
     let metadata = format!(
         "{scenario_text}\n\n# written by sensor-replay simulate\n[generated]\nseed = {}\nperfect = {}\ngyro_bias_rps = [{:e}, {:e}, {:e}]\naccel_bias_mps2 = [{:e}, {:e}, {:e}]\n",
-        opts.seed,
+        toml_seed(opts.seed),
         opts.perfect,
         imu_err.drawn.gyro_bias_rps.x,
         imu_err.drawn.gyro_bias_rps.y,
@@ -361,4 +375,67 @@ pub fn simulate<W: Write>(
     w.finish()?;
     sum.injected = inject.injected;
     Ok(sum)
+}
+
+#[cfg(test)]
+mod seed_tests {
+    use super::*;
+
+    /// A header written with any seed, 2⁶³ and above included, is TOML
+    /// whose `[navigator]` settings `batch` applies (before, a seed of 2⁶³
+    /// or more dropped them silently: the GNSS lever arm and the
+    /// receiver's correlated error of half a campaign's flights).
+    #[test]
+    fn a_header_keeps_its_navigator_settings_for_every_seed() {
+        let text = "name = \"x\"\n[start]\nlat_deg = 85.0\nlon_deg = 0.0\nh_m = 18000.0\nheading_deg = 0.0\nspeed_mps = 250.0\n[navigator]\nswitch_enter_deg = 88.0\n[[segment]]\nkind = \"cruise\"\nduration_s = 1.0\n";
+        let s = Scenario::parse(text, "x").expect("scenario");
+        for seed in [
+            0,
+            1,
+            i64::MAX as u64,
+            1 << 63,
+            12_836_938_113_049_135_532,
+            u64::MAX,
+        ] {
+            let mut log = Vec::new();
+            simulate(
+                &s,
+                text,
+                SimOptions {
+                    seed,
+                    ..Default::default()
+                },
+                &mut log,
+            )
+            .expect("simulate");
+            let (records, report) = msgs::navlog::read_all(&log);
+            assert!(report.is_clean());
+            let meta = records
+                .iter()
+                .find_map(|r| match r {
+                    Record::Header(h) => Some(h.metadata.clone()),
+                    _ => None,
+                })
+                .expect("header");
+            let table: toml::Table = meta
+                .parse()
+                .unwrap_or_else(|e| panic!("seed {seed}: header is not TOML: {e}"));
+            let written = &table["generated"]["seed"];
+            let back: u64 = match written {
+                toml::Value::Integer(i) => u64::try_from(*i).expect("non-negative"),
+                toml::Value::String(s) => s.parse().expect("digits"),
+                v => panic!("seed {seed} written as {v}"),
+            };
+            assert_eq!(back, seed);
+            let o = polarnav_config::ScenarioOverrides::from_metadata(&meta)
+                .expect("valid")
+                .unwrap_or_else(|| panic!("seed {seed}: the header's [navigator] was dropped"));
+            assert!(
+                o.assignments()
+                    .iter()
+                    .any(|(k, _)| k == "frame.switch_enter_deg"),
+                "seed {seed}"
+            );
+        }
+    }
 }
