@@ -16,7 +16,7 @@ use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
 
 use super::plan::{Frozen, Plan, PlanError};
-use super::row::{Cost, Metrics, Outcome};
+use super::row::Outcome;
 use super::store::{self, RunResult, RunState};
 
 /// Why a campaign cannot be run or read (exit 2: the user's input).
@@ -310,35 +310,19 @@ fn run_child(
             .spawn()
     });
     let fail = |reason: String| -> Ended {
-        let id = plan.run_id(index).expect("an index of the plan");
-        let v = &plan.variations[id.variation];
+        let o = super::run::Outcomes::failed(
+            plan,
+            plan.run_id(index).expect("an index of the plan"),
+            reason,
+        );
+        // The run's process is gone: its CPU and memory are not this
+        // process's to report.
+        let mut cost = super::run::cost(&o, index, 0.0, started, executor);
+        cost.peak_rss_mib = 0.0;
         let r = RunResult {
             campaign_sha256: plan.sha256.clone(),
-            metrics: Metrics::failed(
-                index,
-                id.variation as u32,
-                &v.label,
-                &v.scenario.name,
-                id.seed,
-                reason,
-            ),
-            cost: {
-                let (version, commit) = super::run::version_and_commit();
-                Cost {
-                    index,
-                    flight_h: 0.0,
-                    cpu_s: 0.0,
-                    simulate_cpu_s: 0.0,
-                    navigate_cpu_s: 0.0,
-                    evaluate_cpu_s: 0.0,
-                    wall_s: started.elapsed().as_secs_f64(),
-                    peak_rss_mib: 0.0,
-                    host: store::hostname(),
-                    executor: executor.to_owned(),
-                    version,
-                    commit,
-                }
-            },
+            metrics: o.metrics,
+            cost,
         };
         match store::write_result(dir, &r) {
             Ok(_) => Ended::Result(Box::new(r)),

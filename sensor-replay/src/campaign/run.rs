@@ -229,24 +229,32 @@ pub struct Outcomes {
     pub evaluate_cpu_s: f64,
 }
 
+impl Outcomes {
+    /// The outcome of a run that produced no metrics, with why.
+    pub fn failed(plan: &Plan, id: RunId, reason: String) -> Self {
+        let v = &plan.variations[id.variation];
+        Outcomes {
+            metrics: Metrics::failed(
+                id.index,
+                id.variation as u32,
+                &v.label,
+                &v.scenario.name,
+                id.seed,
+                reason,
+            ),
+            simulate_cpu_s: 0.0,
+            navigate_cpu_s: 0.0,
+            evaluate_cpu_s: 0.0,
+        }
+    }
+}
+
 /// Runs run `id` of `plan` and returns its row. Errors (a scenario that
 /// cannot be simulated, a log that cannot be navigated) become a failure
 /// row; a panic is the caller's to catch ([`run_caught`]).
 pub fn run(plan: &Plan, id: RunId) -> Outcomes {
     let v = &plan.variations[id.variation];
-    let failed = |reason: String| Outcomes {
-        metrics: Metrics::failed(
-            id.index,
-            id.variation as u32,
-            &v.label,
-            &v.scenario.name,
-            id.seed,
-            reason,
-        ),
-        simulate_cpu_s: 0.0,
-        navigate_cpu_s: 0.0,
-        evaluate_cpu_s: 0.0,
-    };
+    let failed = |reason: String| Outcomes::failed(plan, id, reason);
     let cpu0 = thread_cpu_s();
     let mut log = Vec::new();
     let sim = match simulate(
@@ -297,20 +305,7 @@ pub fn run_caught(plan: &Plan, id: RunId) -> Outcomes {
                 .map(|s| (*s).to_owned())
                 .or_else(|| p.downcast_ref::<String>().cloned())
                 .unwrap_or_else(|| "a panic without a message".into());
-            let v = &plan.variations[id.variation];
-            Outcomes {
-                metrics: Metrics::failed(
-                    id.index,
-                    id.variation as u32,
-                    &v.label,
-                    &v.scenario.name,
-                    id.seed,
-                    format!("panicked: {msg}"),
-                ),
-                simulate_cpu_s: 0.0,
-                navigate_cpu_s: 0.0,
-                evaluate_cpu_s: 0.0,
-            }
+            Outcomes::failed(plan, id, format!("panicked: {msg}"))
         }
     }
 }
