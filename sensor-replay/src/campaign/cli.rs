@@ -80,9 +80,12 @@ pub enum CampaignCmd {
     /// Run one run in this process and write its result (the executors' worker).
     #[command(hide = true)]
     RunOne {
+        /// The result directory.
         dir: PathBuf,
+        /// The run's index in the campaign's run list.
         #[arg(long)]
         index: u64,
+        /// The executor named in the row's cost (local, slurm, kubernetes).
         #[arg(long, default_value = "local")]
         executor: String,
     },
