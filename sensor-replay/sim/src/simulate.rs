@@ -173,12 +173,13 @@ impl Schedule {
 
 /// One aid of a flight: its section, state, schedule and generator.
 trait Stream: std::fmt::Debug {
-    /// The sample due at or before `t_ns` (once per period), if one is.
+    /// The sample due at or before `t_ns` (once per period), if one is;
+    /// `truth` is asked for only when one is.
     fn step(
         &mut self,
         shared: &mut ChaCha20Rng,
         t_ns: u64,
-        truth: &TruthSample,
+        truth: &mut dyn FnMut() -> TruthSample,
         noisy: bool,
     ) -> Option<AidSample>;
 }
@@ -196,15 +197,16 @@ impl<A: SimAid + SpecOf> Stream for Running<A> {
         &mut self,
         shared: &mut ChaCha20Rng,
         t_ns: u64,
-        truth: &TruthSample,
+        truth: &mut dyn FnMut() -> TruthSample,
         noisy: bool,
     ) -> Option<AidSample> {
         if !self.sched.due(t_ns) {
             return None;
         }
+        let truth = truth();
         let rng = self.own_rng.as_mut().unwrap_or(shared);
         let seq = self.sched.seq - 1;
-        let x = A::sample(&self.spec, &mut self.state, rng, t_ns, seq, truth, noisy);
+        let x = A::sample(&self.spec, &mut self.state, rng, t_ns, seq, &truth, noisy);
         Some(x.into())
     }
 }
@@ -236,12 +238,13 @@ impl Streams {
         Self(v)
     }
 
-    /// The samples due at or before `t_ns`, in the declared order.
+    /// The samples due at or before `t_ns`, in the declared order; `truth`
+    /// is asked for only when one is due.
     pub fn step(
         &mut self,
         shared: &mut ChaCha20Rng,
         t_ns: u64,
-        truth: &TruthSample,
+        truth: &mut dyn FnMut() -> TruthSample,
         noisy: bool,
         mut out: impl FnMut(AidSample),
     ) {
@@ -350,9 +353,13 @@ pub fn simulate<W: Write>(
         let times = inject.imu(&mut imu);
         sum.imu += put(&mut w, Record::Imu(imu), times)?;
 
-        let truth = flight.truth();
+        // The truth at this sample, formed only when an aid or the truth
+        // record needs it (at their rates, not the IMU's: a ninth of the
+        // simulator's kinematics at 200 Hz).
+        let mut truth_now: Option<TruthSample> = None;
+        let mut truth = || *truth_now.get_or_insert_with(|| flight.truth());
         let mut written = Ok(());
-        aids.step(&mut rng, t_ns, &truth, noisy, |mut x| {
+        aids.step(&mut rng, t_ns, &mut truth, noisy, |mut x| {
             let times = inject.aid(&mut x);
             let kind = x.kind();
             match put(&mut w, Record::aid(x), times) {
@@ -362,7 +369,7 @@ pub fn simulate<W: Write>(
         });
         written?;
         if truth_sched.due(t_ns) || k == n {
-            w.write(&Record::Truth(truth_record(t_ns, &truth)))?;
+            w.write(&Record::Truth(truth_record(t_ns, &truth())))?;
             w.write(&Record::TruthBias(truth_bias_record(
                 t_ns,
                 &imu_err,
