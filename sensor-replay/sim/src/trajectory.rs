@@ -177,11 +177,14 @@ pub struct Kinematics {
 
 /// Kinematics of the flight at time `t` in state (r, dir).
 pub fn kinematics(cmd: &Commands, t: f64, r_e: &Vector3<f64>, dir: &Vector3<f64>) -> Kinematics {
-    let geo = earth::ecef_to_geodetic(r_e);
-    let u = earth::up_e(geo.lat_rad, geo.lon_rad);
+    // The local geometry once: its up, up's rate and gravity are the same
+    // formulas as earth::up_e, frames::up_rate_e and earth::normal_gravity
+    // (sin L of sin_cos is sin L), which each took sin and cos again.
+    let local = frames::Local::new(&earth::ecef_to_geodetic(r_e));
+    let u = local.up;
     let p = cmd.at(t);
     let v_e = dir * p.speed + u * p.climb;
-    let u_dot = frames::up_rate_e(&geo, &v_e);
+    let u_dot = local.up_rate(&v_e);
     let dir_dot = -u * dir.dot(&u_dot) + dir.cross(&u) * p.turn_rate;
     let a_e = dir * p.speed_dot + dir_dot * p.speed + u * p.climb_dot + u_dot * p.climb;
 
@@ -223,7 +226,7 @@ pub fn kinematics(cmd: &Commands, t: f64, r_e: &Vector3<f64>, dir: &Vector3<f64>
     let omega_eb_b = frames::unskew(&(c_b_e.transpose() * c_dot));
     let omega_ie_e = earth::omega_ie_e();
     let omega_ib_b = omega_eb_b + c_b_e.transpose() * omega_ie_e;
-    let gamma = earth::normal_gravity(geo.lat_rad, geo.h_m);
+    let gamma = local.gravity;
     let f_e = a_e + omega_ie_e.cross(&v_e) * 2.0 + u * gamma;
     Kinematics {
         v_e,
