@@ -432,125 +432,48 @@ impl Plan {
                 ),
             ));
         }
-        let varies = |n: usize| n > 1;
+        let axes = Axes {
+            presets,
+            aids,
+            conversions,
+            gnss,
+            sets,
+        };
         let mut variations = Vec::with_capacity(count);
         for (si, (spath, stext)) in f.scenarios.iter().enumerate() {
             let skey = format!("scenarios[{si}]");
             let base: toml::Table = toml::from_str(stext)
                 .map_err(|e| err(&skey, format!("{spath}: {}", e.message().trim())))?;
-            let base_scenario =
-                Scenario::parse(stext, spath).map_err(|e| err(&skey, e.to_string()))?;
-            for p in &presets {
-                for a in &aids {
-                    for c in &conversions {
-                        for g in &gnss {
-                            let mut idx = vec![0usize; sets.len()];
-                            loop {
-                                let mut label = format!("scenario={}", base_scenario.name);
-                                if varies(presets.len()) {
-                                    label +=
-                                        &format!(" preset={}", p.as_deref().unwrap_or("scenario"));
-                                }
-                                if varies(aids.len()) {
-                                    label +=
-                                        &format!(" aids={}", a.as_deref().unwrap_or("scenario"));
-                                }
-                                if varies(conversions.len()) {
-                                    label += &format!(
-                                        " conversion={}",
-                                        c.as_deref().unwrap_or("scenario")
-                                    );
-                                }
-                                if varies(gnss.len()) {
-                                    label +=
-                                        &format!(" gnss={}", g.as_deref().unwrap_or("scenario"));
-                                }
-                                let mut table = base.clone();
-                                let mut edited = false;
-                                for ((k, vals), &j) in sets.iter().zip(&idx) {
-                                    set_path(&mut table, k, vals[j].clone()).map_err(|why| {
-                                        err(
-                                            &format!("matrix.set.\"{k}\""),
-                                            format!("{spath}: {why}"),
-                                        )
-                                    })?;
-                                    edited = true;
-                                    if varies(vals.len()) {
-                                        label += &format!(" {k}={}", vals[j]);
-                                    }
-                                }
-                                if g.as_deref() == Some("off") {
-                                    edited |= table.remove("gnss").is_some();
-                                } else if g.as_deref() == Some("on") && !table.contains_key("gnss")
-                                {
-                                    return Err(err(
-                                        "matrix.gnss",
-                                        format!("\"on\": {spath} has no [gnss] section to fly"),
-                                    ));
-                                }
-                                if let Some(d) = cf.run.duration_s {
-                                    edited |= cut(&mut table, d).map_err(|why| {
-                                        err("run.duration_s", format!("{spath}: {why}"))
-                                    })?;
-                                }
-                                // An unedited scenario is flown from its own text, so a
-                                // run is the same flight as `simulate --scenario FILE`.
-                                let text = if edited {
-                                    toml::to_string(&table)
-                                        .map_err(|e| err(&skey, e.to_string()))?
-                                } else {
-                                    stext.clone()
-                                };
-                                let scenario = Scenario::parse(&text, spath).map_err(|e| {
-                                    err(&skey, format!("after the variation {label:?}: {e}"))
-                                })?;
-                                let overrides = CliOverrides {
-                                    preset: p
-                                        .as_deref()
-                                        .map(|x| SensorGrade::parse(x).expect("checked")),
-                                    fuse: a.as_deref().map(|x| AidSet::parse(x).expect("checked")),
-                                    conversion: c
-                                        .as_deref()
-                                        .map(|x| conversion(x).expect("checked")),
-                                    ..Default::default()
-                                };
-                                // The navigator's settings are checked now, not in every run.
-                                let eff = polarnav_config::effective(
-                                    &polarnav_config::ConfigFile::defaults(),
-                                    Some(&text),
-                                    &overrides,
-                                );
-                                if let Err(e) = eff {
-                                    return Err(err(
-                                        &skey,
-                                        format!("the variation {label:?}: {e}"),
-                                    ));
-                                }
-                                variations.push(Variation {
-                                    label,
-                                    text,
-                                    scenario,
-                                    overrides,
-                                });
-                                // Next combination of the `set` keys (the last fastest).
-                                let mut d = sets.len();
-                                loop {
-                                    if d == 0 {
-                                        break;
-                                    }
-                                    d -= 1;
-                                    idx[d] += 1;
-                                    if idx[d] < sets[d].1.len() {
-                                        break;
-                                    }
-                                    idx[d] = 0;
-                                }
-                                if idx.iter().all(|&i| i == 0) {
-                                    break;
-                                }
-                            }
-                        }
+            let name = Scenario::parse(stext, spath)
+                .map_err(|e| err(&skey, e.to_string()))?
+                .name;
+            let source = Source {
+                path: spath,
+                text: stext,
+                key: &skey,
+                name: &name,
+                table: &base,
+            };
+            // Every combination of the axes, the last fastest (a mixed-radix
+            // count over their lengths).
+            let radix = axes.lengths();
+            let mut digit = vec![0usize; radix.len()];
+            loop {
+                variations.push(axes.variation(&source, &digit, cf.run.duration_s, &err)?);
+                let mut d = radix.len();
+                loop {
+                    if d == 0 {
+                        break;
                     }
+                    d -= 1;
+                    digit[d] += 1;
+                    if digit[d] < radix[d] {
+                        break;
+                    }
+                    digit[d] = 0;
+                }
+                if digit.iter().all(|&i| i == 0) {
+                    break;
                 }
             }
         }
@@ -586,6 +509,124 @@ impl Plan {
     /// Whether the campaign keeps a group of metrics.
     pub fn keeps(&self, g: Group) -> bool {
         self.run.keep.contains(&g)
+    }
+}
+
+/// One scenario of the campaign as the variations start from it.
+struct Source<'a> {
+    path: &'a str,
+    text: &'a str,
+    /// `scenarios[i]`: where errors point.
+    key: &'a str,
+    name: &'a str,
+    table: &'a toml::Table,
+}
+
+/// The matrix's axes after their checks: `None` is "the scenario's own".
+struct Axes {
+    presets: Vec<Option<String>>,
+    aids: Vec<Option<String>>,
+    conversions: Vec<Option<String>>,
+    gnss: Vec<Option<String>>,
+    /// The `set` keys (sorted by name) and their values.
+    sets: Vec<(String, Vec<toml::Value>)>,
+}
+
+impl Axes {
+    /// The length of each axis, in the run list's order (preset, aids,
+    /// conversion, gnss, then the `set` keys).
+    fn lengths(&self) -> Vec<usize> {
+        [
+            self.presets.len(),
+            self.aids.len(),
+            self.conversions.len(),
+            self.gnss.len(),
+        ]
+        .into_iter()
+        .chain(self.sets.iter().map(|(_, v)| v.len()))
+        .collect()
+    }
+
+    /// The variation at `digit` (one index per axis, as [`Axes::lengths`]) of
+    /// scenario `src`, its settings checked.
+    fn variation(
+        &self,
+        src: &Source,
+        digit: &[usize],
+        duration_s: Option<f64>,
+        err: &dyn Fn(&str, String) -> PlanError,
+    ) -> Result<Variation, PlanError> {
+        let (p, a, c, g) = (
+            &self.presets[digit[0]],
+            &self.aids[digit[1]],
+            &self.conversions[digit[2]],
+            &self.gnss[digit[3]],
+        );
+        let spath = src.path;
+        let own = |x: &Option<String>| x.as_deref().unwrap_or("scenario").to_owned();
+        let mut label = format!("scenario={}", src.name);
+        for (key, axis, value) in [
+            ("preset", self.presets.len(), p),
+            ("aids", self.aids.len(), a),
+            ("conversion", self.conversions.len(), c),
+            ("gnss", self.gnss.len(), g),
+        ] {
+            if axis > 1 {
+                label += &format!(" {key}={}", own(value));
+            }
+        }
+        let mut table = src.table.clone();
+        let mut edited = false;
+        for ((k, vals), &j) in self.sets.iter().zip(&digit[4..]) {
+            set_path(&mut table, k, vals[j].clone())
+                .map_err(|why| err(&format!("matrix.set.\"{k}\""), format!("{spath}: {why}")))?;
+            edited = true;
+            if vals.len() > 1 {
+                label += &format!(" {k}={}", vals[j]);
+            }
+        }
+        if g.as_deref() == Some("off") {
+            edited |= table.remove("gnss").is_some();
+        } else if g.as_deref() == Some("on") && !table.contains_key("gnss") {
+            return Err(err(
+                "matrix.gnss",
+                format!("\"on\": {spath} has no [gnss] section to fly"),
+            ));
+        }
+        if let Some(d) = duration_s {
+            edited |= cut(&mut table, d)
+                .map_err(|why| err("run.duration_s", format!("{spath}: {why}")))?;
+        }
+        // An unedited scenario is flown from its own text, so a run is the
+        // same flight as `simulate --scenario FILE`.
+        let text = if edited {
+            toml::to_string(&table).map_err(|e| err(src.key, e.to_string()))?
+        } else {
+            src.text.to_owned()
+        };
+        let scenario = Scenario::parse(&text, spath)
+            .map_err(|e| err(src.key, format!("after the variation {label:?}: {e}")))?;
+        let overrides = CliOverrides {
+            preset: p
+                .as_deref()
+                .map(|x| SensorGrade::parse(x).expect("checked")),
+            fuse: a.as_deref().map(|x| AidSet::parse(x).expect("checked")),
+            conversion: c.as_deref().map(|x| conversion(x).expect("checked")),
+            ..Default::default()
+        };
+        // The navigator's settings are checked now, not in every run.
+        polarnav_config::effective(
+            &polarnav_config::ConfigFile::defaults(),
+            Some(&text),
+            &overrides,
+        )
+        .map_err(|e| err(src.key, format!("the variation {label:?}: {e}")))?;
+        Ok(Variation {
+            label,
+            text,
+            scenario,
+            overrides,
+        })
     }
 }
 
