@@ -282,7 +282,7 @@ fn quantile_abs(values: impl Iterator<Item = f64>, q: f64) -> f64 {
 
 /// How a legend entry is drawn.
 #[derive(Debug, Clone, Copy)]
-pub(crate) enum Mark {
+pub enum Mark {
     Line(RGBColor, u32),
     Band(RGBColor),
     Dot(RGBColor),
@@ -292,13 +292,17 @@ pub(crate) enum Mark {
     Switch,
 }
 
-/// The legend in the strip right of the panels.
-pub(crate) fn legend<DB: DrawingBackend>(
+/// The legend in the strip right of the panels: a title, the entries, then
+/// the notes in grey, wrapped to the strip's width (24 and 30 characters in
+/// the evaluator's 290-pixel strip).
+pub fn legend<DB: DrawingBackend>(
     area: &DrawingArea<DB, Shift>,
     title: &str,
     entries: &[(String, Mark)],
     notes: &[String],
 ) -> Result<(), String> {
+    let strip = area.dim_in_pixel().0 as usize;
+    let (label_w, note_w) = (strip.saturating_sub(50) / 10, strip.saturating_sub(20) / 9);
     let font = ("sans-serif", 17).into_font();
     let mut y = 60;
     area.draw(&Text::new(
@@ -342,7 +346,7 @@ pub(crate) fn legend<DB: DrawingBackend>(
                 .map_err(s)?,
         }
         let mut yy = y - 9;
-        for part in wrap(label, 24) {
+        for part in wrap(label, label_w.max(8)) {
             area.draw(&Text::new(part, (x1 + 10, yy), font.clone()))
                 .map_err(s)?;
             yy += 20;
@@ -351,7 +355,7 @@ pub(crate) fn legend<DB: DrawingBackend>(
     }
     y += 10;
     for n in notes {
-        for part in wrap(n, 30) {
+        for part in wrap(n, note_w.max(8)) {
             area.draw(&Text::new(
                 part,
                 (10, y),
@@ -365,16 +369,22 @@ pub(crate) fn legend<DB: DrawingBackend>(
     Ok(())
 }
 
-/// Greedy word wrap at `width` characters.
-fn wrap(text: &str, width: usize) -> Vec<String> {
+/// Greedy word wrap at `width` characters (a longer word is cut).
+pub fn wrap(text: &str, width: usize) -> Vec<String> {
+    let width = width.max(1);
     let mut out: Vec<String> = Vec::new();
-    for word in text.split(' ') {
+    for word in text.split_whitespace() {
+        let mut word: Vec<char> = word.chars().collect();
+        while word.len() > width {
+            out.push(word.drain(..width).collect());
+        }
+        let word: String = word.into_iter().collect();
         match out.last_mut() {
             Some(l) if l.chars().count() + 1 + word.chars().count() <= width => {
                 l.push(' ');
-                l.push_str(word);
+                l.push_str(&word);
             }
-            _ => out.push(word.to_owned()),
+            _ => out.push(word),
         }
     }
     out

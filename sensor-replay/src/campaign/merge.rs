@@ -46,7 +46,7 @@ use parquet::schema::types::Type;
 use plotters::coord::Shift;
 use plotters::coord::ranged1d::{AsRangedCoord, ValueFormatter};
 use plotters::prelude::*;
-use polarnav_eval::plots::{Format, init_fonts};
+use polarnav_eval::plots::{Format, Mark, init_fonts, legend};
 
 use super::row::{Cost, Metrics, Outcome};
 use super::stats::{self, StatsError};
@@ -1741,11 +1741,6 @@ struct CdfPanel {
     extent: Option<(f64, f64)>,
 }
 
-struct LegendEntry {
-    label: String,
-    color: RGBColor,
-}
-
 /// A variation's average NEES and its band.
 #[derive(Debug, Clone, Copy)]
 struct NeesPoint {
@@ -1759,7 +1754,8 @@ enum Figure {
     Cdf {
         title: String,
         panels: Vec<CdfPanel>,
-        legend: Vec<LegendEntry>,
+        /// The legend's title and entries.
+        legend: (&'static str, Vec<(String, Mark)>),
         notes: Vec<String>,
     },
     Nees {
@@ -1834,10 +1830,15 @@ impl Report {
                     points: cdf_points(max),
                     color,
                 });
-                legend.push(LegendEntry {
-                    label: format!("v{i} ({} runs) {}", count(rmse.len() as u64), v.label),
-                    color,
-                });
+                legend.push((
+                    format!(
+                        "v{i} ({} run{}) {}",
+                        count(rmse.len() as u64),
+                        if rmse.len() == 1 { "" } else { "s" },
+                        v.label
+                    ),
+                    Mark::Line(color, 3),
+                ));
             }
             figs.push((
                 page_name(FIG_HORIZONTAL, page, pages),
@@ -1849,7 +1850,7 @@ impl Report {
                         pages,
                     ),
                     panels,
-                    legend,
+                    legend: ("variations", legend),
                     notes: vec![
                         "grey lines: 50 %, 95 % and 99 % of the runs".into(),
                         "logarithmic value axis where the values span more than a factor of 10"
@@ -1893,14 +1894,14 @@ impl Report {
                     points: cdf_points(&p.error_at_exclusion),
                     color,
                 });
-                legend.push(LegendEntry {
-                    label: format!(
+                legend.push((
+                    format!(
                         "{name} ({} of {} detected)",
                         count(p.detected),
                         count(p.runs - p.no_verdict)
                     ),
-                    color,
-                });
+                    Mark::Line(color, 3),
+                ));
             }
             figs.push((
                 page_name(FIG_EXCLUSION, page, pages),
@@ -1912,7 +1913,7 @@ impl Report {
                         pages,
                     ),
                     panels,
-                    legend,
+                    legend: ("profiles", legend),
                     notes: vec![
                         "grey lines: 50 %, 95 % and 99 % of the detected runs".into(),
                         "undetected runs have no exclusion and are not drawn".into(),
@@ -2031,7 +2032,7 @@ fn draw<DB: DrawingBackend>(root: DrawingArea<DB, Shift>, f: &Figure) -> Result<
             for (a, p) in areas.iter().zip(panels) {
                 cdf_panel(a, p)?;
             }
-            legend(&side, entries, notes)?;
+            legend(&side, entries.0, &entries.1, notes)?;
         }
         Figure::Nees { title, panels } => {
             let root = root
@@ -2044,7 +2045,27 @@ fn draw<DB: DrawingBackend>(root: DrawingArea<DB, Shift>, f: &Figure) -> Result<
             for (a, (caption, pts)) in areas.iter().zip(panels) {
                 nees_panel(a, caption, pts)?;
             }
-            nees_legend(&side)?;
+            let notes = [
+                "each run's NEES is its mean over its epochs; a variation's average is over its done runs",
+                "variations are listed in the report's table",
+            ];
+            legend(
+                &side,
+                "average NEES",
+                &[
+                    (
+                        "95 % band of the average of N runs".into(),
+                        Mark::Band(BAND),
+                    ),
+                    ("average inside its band".into(), Mark::Dot(INSIDE)),
+                    ("average OUTSIDE its band".into(), Mark::Dot(OUTSIDE)),
+                    (
+                        "3: the ideal (3 degrees of freedom)".into(),
+                        Mark::Line(GREY, 1),
+                    ),
+                ],
+                &notes.map(String::from),
+            )?;
         }
     }
     root.present().map_err(s)
@@ -2183,63 +2204,6 @@ where
     Ok(())
 }
 
-/// Greedy word wrap at `width` characters (a longer word is cut).
-fn wrap(text: &str, width: usize) -> Vec<String> {
-    let mut out: Vec<String> = Vec::new();
-    for word in text.split_whitespace() {
-        let mut word: Vec<char> = word.chars().collect();
-        while word.len() > width {
-            out.push(word.drain(..width).collect());
-        }
-        let word: String = word.into_iter().collect();
-        match out.last_mut() {
-            Some(l) if l.chars().count() + 1 + word.chars().count() <= width => {
-                l.push(' ');
-                l.push_str(&word);
-            }
-            _ => out.push(word),
-        }
-    }
-    out
-}
-
-fn legend<DB: DrawingBackend>(
-    area: &DrawingArea<DB, Shift>,
-    entries: &[LegendEntry],
-    notes: &[String],
-) -> Result<(), String> {
-    let font = ("sans-serif", 16).into_font();
-    let mut y = 60;
-    for e in entries {
-        area.draw(&PathElement::new(
-            [(10, y), (44, y)],
-            e.color.stroke_width(3),
-        ))
-        .map_err(s)?;
-        let mut yy = y - 9;
-        for part in wrap(&e.label, 36) {
-            area.draw(&Text::new(part, (54, yy), font.clone()))
-                .map_err(s)?;
-            yy += 19;
-        }
-        y = yy + 14;
-    }
-    y += 10;
-    for n in notes {
-        for part in wrap(n, 42) {
-            area.draw(&Text::new(
-                part,
-                (10, y),
-                ("sans-serif", 15).into_font().color(&GREY),
-            ))
-            .map_err(s)?;
-            y += 19;
-        }
-        y += 8;
-    }
-    Ok(())
-}
-
 const INSIDE: RGBColor = RGBColor(0, 140, 60);
 const OUTSIDE: RGBColor = RGBColor(200, 30, 30);
 const BAND: RGBColor = RGBColor(0, 90, 180);
@@ -2361,62 +2325,6 @@ where
             Circle::new((v, p.mean), 6, c.filled())
         }))
         .map_err(s)?;
-    Ok(())
-}
-
-fn nees_legend<DB: DrawingBackend>(area: &DrawingArea<DB, Shift>) -> Result<(), String> {
-    let font = ("sans-serif", 16).into_font();
-    let mut y = 60;
-    let entries: [(&str, u8); 4] = [
-        ("95 % band of the average of N runs", 0),
-        ("average inside its band", 1),
-        ("average OUTSIDE its band", 2),
-        ("3: the ideal (3 degrees of freedom)", 3),
-    ];
-    for (label, kind) in entries {
-        match kind {
-            0 => area
-                .draw(&Rectangle::new(
-                    [(20, y - 12), (34, y + 12)],
-                    BAND.mix(0.25).filled(),
-                ))
-                .map_err(s)?,
-            1 => area
-                .draw(&Circle::new((27, y), 6, INSIDE.filled()))
-                .map_err(s)?,
-            2 => area
-                .draw(&Circle::new((27, y), 6, OUTSIDE.filled()))
-                .map_err(s)?,
-            _ => area
-                .draw(&PathElement::new(
-                    [(10, y), (44, y)],
-                    GREY.mix(0.7).stroke_width(1),
-                ))
-                .map_err(s)?,
-        }
-        let mut yy = y - 9;
-        for part in wrap(label, 36) {
-            area.draw(&Text::new(part, (54, yy), font.clone()))
-                .map_err(s)?;
-            yy += 19;
-        }
-        y = yy + 16;
-    }
-    for n in [
-        "each run's NEES is its mean over its epochs; a variation's average is over its done runs",
-        "variations are listed in the report's table",
-    ] {
-        y += 8;
-        for part in wrap(n, 42) {
-            area.draw(&Text::new(
-                part,
-                (10, y),
-                ("sans-serif", 15).into_font().color(&GREY),
-            ))
-            .map_err(s)?;
-            y += 19;
-        }
-    }
     Ok(())
 }
 
@@ -2816,9 +2724,12 @@ mod tests {
         assert_eq!(tick(2.50), "2.5");
         assert_eq!(tick(100.0), "100");
         assert_eq!(
-            wrap("scenario=a preset=bb", 12),
+            polarnav_eval::plots::wrap("scenario=a preset=bb", 12),
             vec!["scenario=a".to_owned(), "preset=bb".into()]
         );
-        assert_eq!(wrap("abcdefghij", 4), vec!["abcd", "efgh", "ij"]);
+        assert_eq!(
+            polarnav_eval::plots::wrap("abcdefghij", 4),
+            vec!["abcd", "efgh", "ij"]
+        );
     }
 }
