@@ -717,8 +717,12 @@ fn cut(table: &mut toml::Table, duration_s: f64) -> Result<bool, String> {
                     }
                 }
             }
+            // Dropping the later segments is an edit too (it was once
+            // tested after the truncation, so a cut at a segment's end flew
+            // the whole scenario).
+            let dropped = segs.len() > i + 1;
             segs.truncate(i + 1);
-            return Ok(t + d > duration_s || segs.len() > i + 1);
+            return Ok(t + d > duration_s || dropped);
         }
         t += d;
     }
@@ -728,6 +732,38 @@ fn cut(table: &mut toml::Table, duration_s: f64) -> Result<bool, String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_cut_shortens_or_drops_and_says_so() {
+        let two = |a: f64, b: f64| -> toml::Table {
+            format!("[[segment]]\nkind = \"cruise\"\nduration_s = {a:?}\n[[segment]]\nkind = \"turn\"\nduration_s = {b:?}\nheading_change_deg = 90.0\n")
+                .parse()
+                .expect("toml")
+        };
+        let segs = |t: &toml::Table| -> Vec<f64> {
+            t["segment"]
+                .as_array()
+                .expect("segments")
+                .iter()
+                .map(|s| s["duration_s"].as_float().expect("duration"))
+                .collect()
+        };
+        // At the first segment's end: the second dropped, an edit.
+        let mut t = two(300.0, 300.0);
+        assert_eq!(cut(&mut t, 300.0), Ok(true));
+        assert_eq!(segs(&t), [300.0]);
+        // Inside the turn: shortened, its change in proportion.
+        let mut t = two(300.0, 300.0);
+        assert_eq!(cut(&mut t, 450.0), Ok(true));
+        assert_eq!(segs(&t), [300.0, 150.0]);
+        assert_eq!(t["segment"][1]["heading_change_deg"].as_float(), Some(45.0));
+        // At the flight's end or beyond: no edit.
+        for d in [600.0, 1e6] {
+            let mut t = two(300.0, 300.0);
+            assert_eq!(cut(&mut t, d), Ok(false), "{d}");
+            assert_eq!(segs(&t), [300.0, 300.0]);
+        }
+    }
 
     #[test]
     fn seeds_are_distinct_and_depend_on_base_and_index() {
