@@ -1623,10 +1623,10 @@ impl Report {
         for (name, x) in [
             ("simulate", c.simulate_s),
             (
-                "navigate (with the integrity test's reference)",
+                "navigate (both navigators, evaluated as the flight streams)",
                 c.navigate_s,
             ),
-            ("evaluate", c.evaluate_s),
+            ("evaluate (after the flight)", c.evaluate_s),
             ("other (setup, writing the result)", other),
         ] {
             w!(md, "| {name} | {} | {} |", sig(x / 3600.0, 4), share(x));
@@ -1645,9 +1645,10 @@ impl Report {
         w!(md, "");
         w!(
             md,
-            "Wall time of the runs added up: {} h, on {} hosts; executors: {}.\n",
+            "Wall time of the runs added up: {} h, on {} host{}; executors: {}.\n",
             sig(c.wall_s.iter().sum::<f64>() / 3600.0, 4),
             count(c.hosts.len() as u64),
+            if c.hosts.len() == 1 { "" } else { "s" },
             c.executors
                 .iter()
                 .map(|(k, n)| format!("{} ({})", cell(k), count(*n)))
