@@ -1203,11 +1203,11 @@ impl Report {
                     sig(b, 3)
                 );
             }
+            Err(_) if t.flight_h == 0.0 => {
+                w!(md, "- False-alarm rate: no clean flight with tested fixes.");
+            }
             Err(e) => {
-                w!(
-                    md,
-                    "- False-alarm rate: no clean flight with tested fixes ({e})."
-                );
+                w!(md, "- False-alarm rate: no verdict ({e}).");
             }
         }
         if self.profiles.is_empty() {
