@@ -781,6 +781,15 @@ pub fn first_init(records: &[Record]) -> Option<InitState> {
     })
 }
 
+/// The metadata of a log's first header record (the scenario's text and
+/// what its producer added), if it has one.
+pub fn header_metadata(records: &[Record]) -> Option<&str> {
+    records.iter().find_map(|r| match r {
+        Record::Header(h) => Some(h.metadata.as_str()),
+        _ => None,
+    })
+}
+
 /// True when `bytes`, the start of a file, begin with a navlog header record
 /// (its first frame decodes to a [`Header`] with [`MAGIC`]): how a reader of
 /// another format recognizes a navlog passed by mistake. Reads at most one

@@ -417,13 +417,7 @@ mod seed_tests {
             .expect("simulate");
             let (records, report) = msgs::navlog::read_all(&log);
             assert!(report.is_clean());
-            let meta = records
-                .iter()
-                .find_map(|r| match r {
-                    Record::Header(h) => Some(h.metadata.clone()),
-                    _ => None,
-                })
-                .expect("header");
+            let meta = msgs::navlog::header_metadata(&records).expect("header");
             let table: toml::Table = meta
                 .parse()
                 .unwrap_or_else(|e| panic!("seed {seed}: header is not TOML: {e}"));
@@ -434,7 +428,7 @@ mod seed_tests {
                 v => panic!("seed {seed} written as {v}"),
             };
             assert_eq!(back, seed);
-            let o = polarnav_config::ScenarioOverrides::from_metadata(&meta)
+            let o = polarnav_config::ScenarioOverrides::from_metadata(meta)
                 .expect("valid")
                 .unwrap_or_else(|| panic!("seed {seed}: the header's [navigator] was dropped"));
             assert!(

@@ -516,10 +516,7 @@ pub fn navigate_rows(log: &[u8], name: &str) -> Result<(Vec<Row>, Status), Strin
     if !report.is_clean() {
         return Err(format!("{name}: damaged log: {report}"));
     }
-    let metadata = records.iter().find_map(|r| match r {
-        Record::Header(h) => Some(h.metadata.as_str()),
-        _ => None,
-    });
+    let metadata = msgs::navlog::header_metadata(&records);
     let eff = effective(&ConfigFile::defaults(), metadata, &CliOverrides::default())
         .map_err(|e| e.to_string())?;
     let (out, status) = session::navigate(&records, eff.session());

@@ -318,10 +318,7 @@ fn navigate(
     duration_ns: u64,
 ) -> Result<Outcomes, String> {
     let cpu0 = thread_cpu_s();
-    let metadata = records.iter().find_map(|r| match r {
-        Record::Header(h) => Some(h.metadata.as_str()),
-        _ => None,
-    });
+    let metadata = msgs::navlog::header_metadata(records);
     let eff =
         effective(&ConfigFile::defaults(), metadata, &v.overrides).map_err(|e| e.to_string())?;
     // The truth compared with: every record, or the first of every `every_s`.
