@@ -46,18 +46,30 @@ pub fn render(sol: Option<&Solution>, st: Option<&Status>, solutions_per_s: f64)
                 x.pitch_rad.to_degrees(),
                 x.roll_rad.to_degrees()
             ));
+            // The solution's own flags, then each aid's from its
+            // declaration (fresh; for an aid that is not autonomous, its
+            // exclusion and its untested fusion), so that a new aid is
+            // listed without an edit here.
+            let mut flags: Vec<String> = [
+                (solution_flags::ALIGNED, "aligned"),
+                (solution_flags::IMU_LOST, "imu-lost"),
+                (solution_flags::LAST_INNOVATION_REJECTED, "rejected"),
+                (solution_flags::COASTING, "coasting"),
+                (solution_flags::RESUMED, "resumed"),
+                (solution_flags::AID_RESET, "aid-reset"),
+                (solution_flags::LEVEL_FUSED, "level"),
+                (solution_flags::SECOND_PUBLISHER, "second-publisher"),
+            ]
+            .into_iter()
+            .map(|(b, name)| flag(b, name))
+            .collect();
+            flags.push(format!(
+                "state {}",
+                polarnav::flight_state::FlightState::from_flags(x.flags).name()
+            ));
             s.push_str(&format!(
-                "flags: {} {} {} {} {} {} {} {} {} {}   resets {} (last Δr {:.2} m)\n",
-                flag(solution_flags::ALIGNED, "aligned"),
-                flag(solution_flags::SRS_FRESH, "srs"),
-                flag(solution_flags::CNS_FRESH, "cns"),
-                flag(solution_flags::BARO_FRESH, "baro"),
-                flag(solution_flags::STAR_FRESH, "star"),
-                flag(solution_flags::IMU_LOST, "imu-lost"),
-                flag(solution_flags::LAST_INNOVATION_REJECTED, "rejected"),
-                flag(solution_flags::COASTING, "coasting"),
-                flag(solution_flags::RESUMED, "resumed"),
-                flag(solution_flags::AID_RESET, "aid-reset"),
+                "flags: {}   resets {} (last Δr {:.2} m)\n",
+                flags.join(" "),
                 x.reset_count,
                 x.reset_delta_pos_e_m
                     .iter()
@@ -65,6 +77,16 @@ pub fn render(sol: Option<&Solution>, st: Option<&Status>, solutions_per_s: f64)
                     .sum::<f64>()
                     .sqrt()
             ));
+            let mut aids = Vec::new();
+            for k in msgs::AidKind::ALL {
+                let d = k.decl();
+                aids.push(flag(d.fresh_flag, d.name));
+                if !d.autonomous {
+                    aids.push(flag(d.excluded_flag, &format!("{}-excluded", d.name)));
+                    aids.push(flag(d.untested_flag, &format!("{}-untested", d.name)));
+                }
+            }
+            s.push_str(&format!("aids fresh: {}\n", aids.join(" ")));
         }
     }
     match st {
@@ -215,6 +237,30 @@ mod tests {
         assert!(
             text.contains("cns") && text.contains("fresh") && text.contains("stale"),
             "{text}"
+        );
+        // Every aid's freshness from the declaration (the CNS's set, the
+        // others not), GNSS's exclusion and untested fusion among them.
+        assert!(
+            text.contains(
+                "aids fresh: -srs cns -baro -star -gnss -gnss-excluded -gnss-untested \
+                 -baseline -mag\n"
+            ),
+            "{text}"
+        );
+        let gnss_sol = Solution {
+            flags: solution_flags::GNSS_FRESH
+                | solution_flags::GNSS_UNTESTED
+                | solution_flags::MAG_FRESH
+                | solution_flags::SECOND_PUBLISHER
+                | (2 << solution_flags::FLIGHT_STATE_SHIFT),
+            ..sol
+        };
+        let g = render(Some(&gnss_sol), None, 200.0);
+        assert!(
+            g.contains(" gnss -gnss-excluded gnss-untested -baseline mag\n")
+                && g.contains(" second-publisher state steady ")
+                && g.contains("-aligned"),
+            "{g}"
         );
         assert!(text.contains("rx      300"), "{text}");
         assert!(render(None, None, 0.0).contains("none yet"));
