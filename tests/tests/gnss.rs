@@ -11,6 +11,22 @@
 use msgs::navlog::Record;
 use msgs::{AidKind, solution_flags};
 use polarnav::integrity::Verdict;
+
+/// The upper quantile of χ²(6) at `alpha`, by bisection on the tail's
+/// closed form Q(x) = e^(−x/2) (1 + x/2 + x²/8).
+fn chi2_6_upper_quantile(alpha: f64) -> f64 {
+    let q = |x: f64| (-x / 2.0).exp() * (1.0 + x / 2.0 + x * x / 8.0);
+    let (mut lo, mut hi) = (0.0f64, 400.0f64);
+    for _ in 0..200 {
+        let mid = 0.5 * (lo + hi);
+        if q(mid) > alpha {
+            lo = mid;
+        } else {
+            hi = mid;
+        }
+    }
+    0.5 * (lo + hi)
+}
 use polarnav::navigator::NavigatorConfig;
 use polarnav_config::{CliOverrides, ConfigFile, effective};
 use polarnav_tests::{Run, errors, nees, repo, run, simulate_records};
@@ -184,7 +200,7 @@ fn spoofed_at(drag: &str) {
     assert_eq!((g.excluded, g.exclusions), (0, 1));
     assert!(on.status.aid_counters(AidKind::Gnss).rejected_integrity > 0);
     // The autonomous aids hold the reference: the test could judge every
-    // fix (its protection level within the 100 m alert limit), also while
+    // fix (its protection level within the 185 m alert limit), also while
     // GNSS was excluded.
     let unavailable: Vec<f64> = on
         .integrity
@@ -600,6 +616,25 @@ fn no_false_alarm_over_22_flight_hours_of_clean_gnss() {
         tests += n;
         hours += h;
         worst = worst.max(top);
+        // Each test is charged its share of the rate per hour: the time
+        // since the previous test (1 ms to 1 s; the first, a second), its
+        // threshold the χ²(6) quantile of λ·Δt/3600 s from the tail's
+        // closed form (not the χ² module).
+        let lambda =
+            polarnav::integrity::IntegritySettings::default().integrity_false_alarm_per_hour;
+        let mut last: Option<u64> = None;
+        for (t_ns, test, _) in &r.integrity {
+            let dt = last.map_or(1.0, |l| {
+                (t_ns.saturating_sub(l) as f64 * 1e-9).clamp(1e-3, 1.0)
+            });
+            let want = chi2_6_upper_quantile(lambda * dt / 3600.0);
+            assert!(
+                (test.threshold / want - 1.0).abs() < 1e-9,
+                "seed {seed} at {t_ns} ns (Δt {dt} s): threshold {} against {want}",
+                test.threshold
+            );
+            last = Some(last.map_or(*t_ns, |l| l.max(*t_ns)));
+        }
         assert!(
             r.decisions(Verdict::Exclude).is_empty(),
             "seed {seed}: a false alarm"

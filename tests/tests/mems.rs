@@ -471,9 +471,10 @@ fn magnetometer_heading_nees(aligned: bool) {
 /// magnetometer (and the accelerometers' level), none of which holds the
 /// horizontal position or velocity, so the test's reference is a free
 /// MEMS INS, kilometres off within minutes. With the test on, seed 3 was
-/// excluded at 85 s (q 43.6 > 43.3) and the solution jumped 976 m to that
+/// excluded at 85 s (q 43.6 > 43.3, the threshold of the
+/// then 1e-7 per fix) and the solution jumped 976 m to that
 /// reference. The test must instead say it is unavailable (the
-/// test's horizontal protection level from the reference beyond the 100 m alert limit)
+/// test's horizontal protection level from the reference beyond the 185 m alert limit)
 /// and fuse GNSS untested: the main navigator's solution bit for bit the
 /// one of the flight with the test off, flagged `GNSS_UNTESTED`, and no
 /// exclusion. Seeds 1 to 3.

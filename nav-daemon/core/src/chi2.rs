@@ -1,6 +1,7 @@
 //! χ² distribution: cumulative distribution, upper tail and quantiles, for
 //! the integrity test of the aids that are not autonomous (an alarm
-//! threshold at a false-alarm probability of 1e-7) and the consistency
+//! threshold at a false-alarm probability of 5.6e-10 per fix: 1e-5 per
+//! flight hour at 5 Hz) and the consistency
 //! tests of the review (normalized innovation squared).
 //!
 //! The CDF is the regularized lower incomplete gamma function P(k/2, x/2)

@@ -18,8 +18,27 @@
 //!
 //! when the sample and the reference are both right (m = 6 for GNSS). An
 //! alarm is raised when q exceeds the χ²(m) quantile of the false-alarm
-//! probability per test from the settings (default 1e-7: at 5 Hz, one false
-//! alarm in 550 flight hours if the samples were independent). The test is
+//! probability α of that test. The settings give the requirement as
+//! integrity is judged, a rate per flight hour λ (default 1e-5 /h, the
+//! strict end of RAIM's acceptable 1e-5 to 3e-4 /h), and each test spends
+//! the share of it that the time since the previous test is of an hour:
+//! α = λ·Δt/3600 s, Δt from the samples' stamps, held within
+//! [[`MIN_TEST_INTERVAL_S`], [`MAX_TEST_INTERVAL_S`]] (the first test, and
+//! the first after a time re-synchronization or a reinitialization, takes
+//! the longest). The expected number of false alarms in a flight of T
+//! hours is then Σα = λ·(T + 1 s) for fixes up to 1 kHz on increasing
+//! stamps, however correlated the tests are (linearity of expectation; the
+//! union bound makes it a bound on the probability of any alarm too): a
+//! 10 Hz receiver gets the same rate per hour as a 1 Hz one, at a higher
+//! threshold per fix (at 5 Hz, α = 5.6e-10, T = 54.6 for m = 6). A gap in
+//! the fixes is not banked: a test after an outage spends at most a
+//! second's share; a repeated or backward stamp is charged a millisecond.
+//! (A probability per test does not say what integrity is judged by: the
+//! former default, 1e-7 per fix, was 0.0018 /h at 5 Hz; 1 556 clean
+//! flight hours of `integrity-clean` expected 2.8 false exclusions of it,
+//! and saw 4.) The former setting `integrity_false_alarm`, a probability
+//! per test, is still read, so that a log recorded with it replays as it
+//! flew: when given it is used as it is, and the rate is not. The test is
 //! a snapshot one on purpose: the reference's error and the receiver's
 //! correlated error change slowly, so a window of q's is not χ²(m·N) and its
 //! threshold would be a guess, while one sample's q is exact. A drag at a
@@ -52,7 +71,12 @@
 //! for a standard normal n, so q passes the threshold T with probability
 //! at least 1 − p_md once |δ| ≥ (√T + K_md)·σ_h, σ_h² = λ_max(S_hh), K_md
 //! the normal quantile of 1 − p_md: that |δ| is the level. Two levels are
-//! formed, each against the alert limit from the settings (default 100 m):
+//! formed, each against the alert limit from the settings (default 0.1 NM,
+//! 185.2 m, the smallest required navigation performance aviation flies,
+//! RNP AR 0.1; the level grows with √T, so a stricter false-alarm rate
+//! needs a wider limit for the same availability: on the spoofed flights
+//! of `tests/gnss.rs` the reference's level reaches 106 m at 1e-5 /h,
+//! 98 m at the former 1e-7 per fix):
 //! - **the reference's** (S = H P_ref Hᵀ, the receiver's R left out):
 //!   beyond the limit the test is *unavailable* — the reference cannot
 //!   judge any fix (regained within 90 % of the limit, so that a level
@@ -88,8 +112,14 @@ pub struct IntegritySettings {
     /// Test the aid against the autonomous solution (off: the aid is fused
     /// whenever its own gate passes it, as in PX4 or ArduPilot).
     pub integrity: bool,
-    /// False-alarm probability of one test (one sample).
-    pub integrity_false_alarm: f64,
+    /// The false-alarm rate the test is allowed, per flight hour: each
+    /// test's probability is its share of it ([`Self::false_alarm`]).
+    pub integrity_false_alarm_per_hour: f64,
+    /// The former setting, a false-alarm probability per test: when given
+    /// (a log recorded before the rate per hour replays as it flew), each
+    /// test has it, and the rate per hour is not used.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub integrity_false_alarm: Option<f64>,
     /// The test is available while its horizontal protection level from
     /// the reference's covariance is within this alert limit (m); a fix
     /// whose own claimed accuracy puts the level beyond it is refused.
@@ -103,8 +133,9 @@ impl Default for IntegritySettings {
     fn default() -> Self {
         Self {
             integrity: true,
-            integrity_false_alarm: 1e-7,
-            integrity_alert_limit_m: 100.0,
+            integrity_false_alarm_per_hour: 1e-5,
+            integrity_false_alarm: None,
+            integrity_alert_limit_m: 185.2,
             readmit_after_s: 60.0,
         }
     }
@@ -113,18 +144,29 @@ impl Default for IntegritySettings {
 impl IntegritySettings {
     pub fn validate(&self, origin: &str, table: &str) -> Result<(), SettingsError> {
         Bound {
-            lo: 1e-15,
-            hi: 0.01,
-            unit: "",
-            below: "below 1e-15 the threshold leaves the range the χ² tail is computed in: \
-                    no spoofer short of kilometres would be seen",
-            above: "above 1 % per sample the aid would be excluded every few seconds by chance",
+            lo: 1e-8,
+            hi: 10.0,
+            unit: "/h",
+            below: "below 1e-8 per hour a test's probability at 1 kHz nears the range's end the χ² \
+                    tail is computed to (1e-15), and the protection level grows without a gain \
+                    that any requirement asks for",
+            above: "above 10 false alarms per hour the aid would be excluded every few minutes by chance",
         }
         .check(
             origin,
-            &format!("{table}.integrity_false_alarm"),
-            self.integrity_false_alarm,
+            &format!("{table}.integrity_false_alarm_per_hour"),
+            self.integrity_false_alarm_per_hour,
         )?;
+        if let Some(per_test) = self.integrity_false_alarm {
+            Bound {
+                lo: 1e-15,
+                hi: 0.01,
+                unit: "",
+                below: "below 1e-15 the threshold leaves the range the χ² tail is computed in",
+                above: "above 1 % per sample the aid would be excluded every few seconds by chance",
+            }
+            .check(origin, &format!("{table}.integrity_false_alarm"), per_test)?;
+        }
         Bound {
             lo: 1.0,
             hi: 1e7,
@@ -151,26 +193,50 @@ impl IntegritySettings {
         )
     }
 
-    /// The alarm threshold on q for an innovation of `dof` components.
-    pub fn threshold(&self, dof: usize) -> f64 {
-        crate::chi2::quantile_upper(self.integrity_false_alarm, dof as f64)
+    /// The false-alarm probability of a test `interval_s` after the
+    /// previous one (None: the first): α = λ·Δt/3600 s, Δt held within
+    /// [[`MIN_TEST_INTERVAL_S`], [`MAX_TEST_INTERVAL_S`]] (a NaN interval
+    /// is the longest).
+    pub fn false_alarm(&self, interval_s: Option<f64>) -> f64 {
+        if let Some(per_test) = self.integrity_false_alarm {
+            return per_test;
+        }
+        let dt = interval_s
+            .filter(|d| !d.is_nan())
+            .map_or(MAX_TEST_INTERVAL_S, |d| {
+                d.clamp(MIN_TEST_INTERVAL_S, MAX_TEST_INTERVAL_S)
+            });
+        self.integrity_false_alarm_per_hour * dt / 3600.0
     }
 
-    /// The protection level (m) of a test of `dof` components whose
-    /// innovation covariance has the horizontal position block
-    /// `[[a, b], [b, c]]` (m²): (√T + K_md)·√λ_max (see the module's
-    /// documentation). Infinite (so beyond any limit) when the block is not
-    /// finite or not positive semi-definite.
-    pub fn protection_level(&self, dof: usize, a: f64, b: f64, c: f64) -> f64 {
-        let finite = a.is_finite() && b.is_finite() && c.is_finite();
-        // Positive semi-definite, to the rounding of a product.
-        let psd = a >= 0.0 && c >= 0.0 && a * c - b * b >= -1e-12 * (a * c).abs();
-        if !(finite && psd) {
-            return f64::INFINITY;
-        }
-        let lambda_max = 0.5 * (a + c) + (0.5 * (a - c)).hypot(b);
-        (self.threshold(dof).sqrt() + K_MISSED_DETECTION) * lambda_max.sqrt()
+    /// The alarm threshold on q for an innovation of `dof` components,
+    /// tested `interval_s` after the previous test ([`Self::false_alarm`]).
+    pub fn threshold(&self, dof: usize, interval_s: Option<f64>) -> f64 {
+        crate::chi2::quantile_upper(self.false_alarm(interval_s), dof as f64)
     }
+}
+
+/// The shortest interval a test is charged for (s): a flood of samples
+/// closer than this spends no less of the rate each.
+pub const MIN_TEST_INTERVAL_S: f64 = 1e-3;
+/// The longest interval a test is charged for (s): the budget of a gap in
+/// the samples is not banked for the test after it.
+pub const MAX_TEST_INTERVAL_S: f64 = 1.0;
+
+/// The protection level (m) of a test of threshold `threshold` whose
+/// innovation covariance has the horizontal position block
+/// `[[a, b], [b, c]]` (m²): (√T + K_md)·√λ_max (see the module's
+/// documentation). Infinite (so beyond any limit) when the block is not
+/// finite or not positive semi-definite.
+pub fn protection_level(threshold: f64, a: f64, b: f64, c: f64) -> f64 {
+    let finite = a.is_finite() && b.is_finite() && c.is_finite();
+    // Positive semi-definite, to the rounding of a product.
+    let psd = a >= 0.0 && c >= 0.0 && a * c - b * b >= -1e-12 * (a * c).abs();
+    if !(finite && psd) {
+        return f64::INFINITY;
+    }
+    let lambda_max = 0.5 * (a + c) + (0.5 * (a - c)).hypot(b);
+    (threshold.sqrt() + K_MISSED_DETECTION) * lambda_max.sqrt()
 }
 
 /// Probability that the test misses a horizontal offset of its protection
@@ -287,9 +353,41 @@ pub struct Monitor {
     pub available: Option<bool>,
     /// Stamp of the last test that agreed while the aid is excluded.
     last_agreeing_ns: u64,
+    /// Stamp of the newest test (None before any): the next test's
+    /// interval, whose share of the rate it spends.
+    last_test_ns: Option<u64>,
+    /// The last threshold formed, by its probability's bits and its
+    /// degrees of freedom: at a steady fix rate every test has the same.
+    threshold_memo: Option<(u64, usize, f64)>,
 }
 
 impl Monitor {
+    /// The sample clock starts again (a time re-synchronization, a
+    /// reinitialization): the next test is charged as a first one.
+    pub fn restart_clock(&mut self) {
+        self.last_test_ns = None;
+    }
+
+    /// The alarm threshold of a test of a sample stamped `t_ns` with `dof`
+    /// components: its probability is the share of the rate that the time
+    /// since the previous test is of an hour
+    /// ([`IntegritySettings::false_alarm`]). The χ² quantile is formed
+    /// only when the probability changes.
+    pub fn threshold(&mut self, t_ns: u64, settings: &IntegritySettings, dof: usize) -> f64 {
+        let interval_s = self
+            .last_test_ns
+            .map(|last| t_ns.saturating_sub(last) as f64 * 1e-9);
+        let alpha = settings.false_alarm(interval_s);
+        match self.threshold_memo {
+            Some((bits, d, t)) if bits == alpha.to_bits() && d == dof => t,
+            _ => {
+                let t = crate::chi2::quantile_upper(alpha, dof as f64);
+                self.threshold_memo = Some((alpha.to_bits(), dof, t));
+                t
+            }
+        }
+    }
+
     /// A sample of the aid could not be tested (its content refused, its
     /// stamp beyond the state history, or its S not positive definite):
     /// an excluded aid's agreement starts again.
@@ -303,6 +401,7 @@ impl Monitor {
     /// agreeing samples (the aid's timeout: an outage) starts it again.
     pub fn decide(&mut self, t_ns: u64, test: &Test, readmit_ns: u64, max_gap_ns: u64) -> Verdict {
         self.last_ratio = Some(test.ratio());
+        self.last_test_ns = Some(self.last_test_ns.map_or(t_ns, |last| last.max(t_ns)));
         // Lost beyond the alert limit, regained within REGAIN of it: a
         // protection level hovering at the limit (it grows between the
         // autonomous aids' updates and drops at each) does not flap.
@@ -501,9 +600,10 @@ mod tests {
             let th = u() * std::f64::consts::TAU;
             let r = nalgebra::Matrix2::new(th.cos(), -th.sin(), th.sin(), th.cos());
             let c = r * nalgebra::Matrix2::new(l1, 0.0, 0.0, l2) * r.transpose();
-            let got = s.protection_level(6, c[(0, 0)], c[(0, 1)], c[(1, 1)]);
+            let t5 = s.threshold(6, Some(0.2));
+            let got = protection_level(t5, c[(0, 0)], c[(0, 1)], c[(1, 1)]);
             let max = c.symmetric_eigen().eigenvalues.max();
-            let want = (s.threshold(6).sqrt() + K_MISSED_DETECTION) * max.sqrt();
+            let want = (t5.sqrt() + K_MISSED_DETECTION) * max.sqrt();
             assert!((got / want - 1.0).abs() < 1e-9, "{got} {want}");
         }
         for bad in [
@@ -514,28 +614,29 @@ mod tests {
             [4.0, 0.0, -4e4],
             [1.0, 2.0, 1.0],
         ] {
-            let p = s.protection_level(6, bad[0], bad[1], bad[2]);
+            let p = protection_level(s.threshold(6, None), bad[0], bad[1], bad[2]);
             assert!(p.is_infinite(), "{bad:?}: {p}");
         }
         let mut gauss = || {
             let (a, b) = (u().max(1e-300), u());
             (-2.0 * a.ln()).sqrt() * (std::f64::consts::TAU * b).cos()
         };
+        // 1e-3 per test: 3.6 /h, tested every second.
         let loose = IntegritySettings {
-            integrity_false_alarm: 1e-3,
+            integrity_false_alarm_per_hour: 3.6,
             ..s
         };
+        let t = loose.threshold(6, Some(1.0));
         for case in 0..4 {
             let a = SMatrix::<f64, 6, 6>::from_fn(|_, _| gauss());
             let sm = a * a.transpose() + SMatrix::<f64, 6, 6>::identity() * (0.1 + case as f64);
             let hh = sm.fixed_view::<2, 2>(0, 0).into_owned();
-            let level = loose.protection_level(6, hh[(0, 0)], hh[(0, 1)], hh[(1, 1)]);
+            let level = protection_level(t, hh[(0, 0)], hh[(0, 1)], hh[(1, 1)]);
             let e = hh.symmetric_eigen();
             let dir = e.eigenvectors.column(e.eigenvalues.imax()).into_owned();
             let hh_inv = hh.try_inverse().expect("S_hh");
             let sinv = sm.try_inverse().expect("S");
             let chol = sm.cholesky().expect("S").l();
-            let t = loose.threshold(6);
             let offset = |scale: f64, hide: bool| -> SVector<f64, 6> {
                 let dh = dir * (level * scale);
                 if hide {
@@ -684,18 +785,238 @@ mod tests {
     }
 
     /// Against the closed form of χ²(6)'s tail, Q = e^(−x/2) (1 + x/2 +
-    /// x²/8), and the 99.9 % table value of χ²(3).
+    /// x²/8), and the 99.9 % table value of χ²(3): the default (1e-5 /h)
+    /// at 5 Hz is α = 5.56e-10 per fix; 3.6e-4 /h tested every second is
+    /// the former 1e-7 per fix (T = 43.3378).
     #[test]
     fn thresholds_are_the_chi2_quantiles_of_the_false_alarm_probability() {
         let s = IntegritySettings::default();
-        let x = s.threshold(6);
+        let alpha = 1e-5 * 0.2 / 3600.0;
+        assert!((s.false_alarm(Some(0.2)) / alpha - 1.0).abs() < 1e-15);
+        let x = s.threshold(6, Some(0.2));
         let tail = (-x / 2.0).exp() * (1.0 + x / 2.0 + x * x / 8.0);
-        assert!((tail / 1e-7 - 1.0).abs() < 1e-6, "χ²(6) {x}: tail {tail}");
-        assert!((x - 43.3378).abs() < 1e-3, "{x}");
-        let t = IntegritySettings {
-            integrity_false_alarm: 1e-3,
+        assert!((tail / alpha - 1.0).abs() < 1e-6, "χ²(6) {x}: tail {tail}");
+        let former = IntegritySettings {
+            integrity_false_alarm_per_hour: 3.6e-4,
             ..s
         };
-        assert!((t.threshold(3) - 16.266).abs() < 1e-3, "{}", t.threshold(3));
+        let x = former.threshold(6, Some(1.0));
+        assert!((x - 43.3378).abs() < 1e-3, "{x}");
+        let t = IntegritySettings {
+            integrity_false_alarm_per_hour: 3.6,
+            ..s
+        };
+        assert!(
+            (t.threshold(3, Some(1.0)) - 16.266).abs() < 1e-3,
+            "{}",
+            t.threshold(3, Some(1.0))
+        );
+    }
+
+    /// The rate per hour is the rate per hour whatever the fix rate: the
+    /// probabilities a monitor spends over an hour of stamps sum to λ at
+    /// 1, 5, 10 and 100 Hz and on jittered stamps (to rounding); a 0.5 Hz
+    /// aid spends half of it (a gap is not banked), a 2 kHz flood no more
+    /// than 1 kHz's share each; the first test is charged a second.
+    #[test]
+    #[allow(clippy::float_cmp)] // the clamped intervals give the same product, to the bit
+    fn each_test_spends_its_share_of_the_rate_per_hour() {
+        let s = IntegritySettings::default();
+        let spent = |stamps: &[u64]| {
+            let mut last: Option<u64> = None;
+            let mut sum = 0.0;
+            for &t in stamps {
+                sum += s.false_alarm(last.map(|l| (t - l) as f64 * 1e-9));
+                last = Some(t);
+            }
+            sum
+        };
+        let hour = |hz: u64| -> Vec<u64> {
+            // From a test one period before the hour, so that the hour's
+            // first test is charged one period.
+            (0..=3600 * hz).map(|i| i * 1_000_000_000 / hz).collect()
+        };
+        for hz in [1u64, 5, 10, 100] {
+            let sum = spent(&hour(hz)) - s.false_alarm(None);
+            assert!((sum / 1e-5 - 1.0).abs() < 1e-9, "{hz} Hz: {sum}");
+        }
+        let mut seed = 7u64;
+        let jittered: Vec<u64> = (0..=18_000u64)
+            .map(|i| {
+                seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1);
+                i * 200_000_000 + if i == 0 || i == 18_000 { 0 } else { seed >> 44 }
+            })
+            .collect();
+        let sum = spent(&jittered) - s.false_alarm(None);
+        assert!((sum / 1e-5 - 1.0).abs() < 1e-9, "jittered: {sum}");
+        let sum = spent(&(0..=1800u64).map(|i| i * 2_000_000_000).collect::<Vec<_>>())
+            - s.false_alarm(None);
+        assert!((sum / 0.5e-5 - 1.0).abs() < 1e-9, "0.5 Hz: {sum}");
+        assert_eq!(s.false_alarm(Some(5e-4)), s.false_alarm(Some(1e-3)));
+        assert_eq!(s.false_alarm(None), 1e-5 / 3600.0);
+        assert_eq!(s.false_alarm(Some(f64::NAN)), s.false_alarm(None));
+        assert_eq!(s.false_alarm(Some(1e6)), s.false_alarm(None));
+    }
+
+    /// Monte Carlo of the whole chain: 10 hours of 5 Hz tests of χ²(6)
+    /// statistics drawn from six normals (not from the χ² module), each
+    /// against the threshold its monitor forms from the stamps, at
+    /// λ = 10 /h: the alarms counted are 100 ± 4.5 Poisson σ.
+    #[test]
+    fn a_monte_carlo_flight_alarms_at_the_rate_per_hour() {
+        let s = IntegritySettings {
+            integrity_false_alarm_per_hour: 10.0,
+            ..IntegritySettings::default()
+        };
+        let mut m = Monitor::default();
+        let mut seed = 11u64;
+        let mut u = || {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            ((seed >> 11) as f64 + 0.5) / (1u64 << 53) as f64
+        };
+        let mut alarms = 0;
+        for i in 1..=10 * 3600 * 5u64 {
+            let t_ns = i * 200_000_000;
+            let threshold = m.threshold(t_ns, &s, 6);
+            let q: f64 = (0..3)
+                .map(|_| {
+                    // Two normals (Box–Muller), squared.
+                    let (r, b) = ((-2.0 * u().ln()).sqrt(), std::f64::consts::TAU * u());
+                    (r * b.cos()).powi(2) + (r * b.sin()).powi(2)
+                })
+                .sum();
+            let test = Test {
+                threshold,
+                ..test(q)
+            };
+            if test.alarm() {
+                alarms += 1;
+            }
+            // Its stamps are what the next test is charged from; the
+            // decision itself is not under test (an excluded aid would
+            // stop counting alarms), so a fresh monitor keeps the clock.
+            let last = m.last_test_ns;
+            m.decide(t_ns, &test, u64::MAX, u64::MAX);
+            assert_eq!(m.last_test_ns, Some(last.map_or(t_ns, |l| l.max(t_ns))));
+            m.excluded = false;
+        }
+        let expected = 10.0 * 10.0;
+        let sigma = f64::sqrt(expected);
+        assert!(
+            (alarms as f64 - expected).abs() < 4.5 * sigma,
+            "{alarms} alarms in 10 h at 10 /h"
+        );
+    }
+
+    /// The former setting, a probability per test, from a log recorded
+    /// before the rate per hour: read, used as it is whatever the
+    /// interval, held to its own bounds, and never written when not given.
+    #[test]
+    #[allow(clippy::float_cmp)] // the setting is returned as it is, to the bit
+    fn the_former_probability_per_test_replays_as_it_flew() {
+        let recorded: IntegritySettings =
+            toml::from_str("integrity = true\nintegrity_false_alarm = 1e-7\n").expect("parsed");
+        assert_eq!(recorded.integrity_false_alarm, Some(1e-7));
+        for dt in [None, Some(1e-9), Some(0.2), Some(5.0)] {
+            assert_eq!(recorded.false_alarm(dt), 1e-7);
+        }
+        assert!((recorded.threshold(6, Some(0.2)) - 43.3378).abs() < 1e-3);
+        // GNSS's table of a recorded header, which refuses unknown keys.
+        use crate::aids::OwnSettings;
+        let gnss: crate::aids::gnss::GnssSettings =
+            toml::from_str("integrity_false_alarm = 1e-7\n").expect("a recorded header");
+        assert_eq!(
+            gnss.integrity().map(|i| i.integrity_false_alarm),
+            Some(Some(1e-7))
+        );
+        assert!(recorded.validate("log", "aids.gnss").is_ok());
+        let e = IntegritySettings {
+            integrity_false_alarm: Some(0.5),
+            ..recorded
+        }
+        .validate("log", "aids.gnss")
+        .expect_err("refused");
+        assert!(
+            e.to_string().contains("aids.gnss.integrity_false_alarm"),
+            "{e}"
+        );
+        let written = toml::to_string(&IntegritySettings::default()).expect("written");
+        assert!(
+            written.contains("integrity_false_alarm_per_hour")
+                && !written.contains("integrity_false_alarm ="),
+            "{written}"
+        );
+        // A new clock (a resync, a reinitialization): the next test is
+        // charged as a first one.
+        let s = IntegritySettings::default();
+        let mut m = Monitor::default();
+        let first = m.threshold(5_000_000_000, &s, 6);
+        m.decide(5_000_000_000, &test(1.0), u64::MAX, u64::MAX);
+        let next = m.threshold(5_200_000_000, &s, 6);
+        assert!(next > first, "{next} {first}");
+        m.restart_clock();
+        assert_eq!(m.threshold(1_000_000, &s, 6), first);
+    }
+
+    /// Absurd stamps and rates: thresholds finite and positive from the
+    /// bounds' ends over stamps of 0 to 1e18 ns, duplicates and stamps
+    /// going back (charged the shortest interval), and the memo equal to
+    /// the quantile it stands for.
+    #[test]
+    #[allow(clippy::float_cmp)] // the memo returns the quantile it stored, to the bit
+    fn thresholds_stay_finite_over_absurd_stamps() {
+        let mut seed = 5u64;
+        let mut u = || {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        };
+        for lambda in [1e-8, 1e-5, 3e-4, 10.0] {
+            let s = IntegritySettings {
+                integrity_false_alarm_per_hour: lambda,
+                ..IntegritySettings::default()
+            };
+            assert!(s.validate("t", "g").is_ok());
+            let mut m = Monitor::default();
+            for _ in 0..300 {
+                // Log-uniform over 1 ns to 1e18 ns, and the ends.
+                let t_ns = match (u() * 10.0) as u32 {
+                    0 => 0,
+                    1 => 1_000_000_000_000_000_000,
+                    2 => m.last_test_ns.unwrap_or(0),
+                    _ => 10f64.powf(u() * 18.0) as u64,
+                };
+                let dof = 1 + (u() * 6.0) as usize;
+                let interval = m.last_test_ns.map(|l| t_ns.saturating_sub(l) as f64 * 1e-9);
+                let t = m.threshold(t_ns, &s, dof);
+                assert!(t.is_finite() && t > 0.0, "λ {lambda} at {t_ns}: {t}");
+                assert_eq!(t, s.threshold(dof, interval), "memo at {t_ns}");
+                m.decide(
+                    t_ns,
+                    &Test {
+                        threshold: t,
+                        ..test(1.0)
+                    },
+                    u64::MAX,
+                    u64::MAX,
+                );
+            }
+        }
+        for bad in [0.0, 1e-9, 11.0, f64::NAN, f64::INFINITY, -1.0] {
+            let s = IntegritySettings {
+                integrity_false_alarm_per_hour: bad,
+                ..IntegritySettings::default()
+            };
+            let e = s.validate("nav.toml", "aids.gnss").expect_err("refused");
+            assert!(
+                e.to_string()
+                    .contains("aids.gnss.integrity_false_alarm_per_hour")
+                    && e.to_string().contains("nav.toml"),
+                "{e}"
+            );
+        }
     }
 }

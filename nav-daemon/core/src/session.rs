@@ -828,6 +828,9 @@ impl Session {
                 if self.reference.is_some() {
                     self.reference = Some(n.reference_copy());
                 }
+                for (_, m) in self.integrity.iter_mut() {
+                    m.restart_clock();
+                }
                 self.reinits += 1;
                 sink.event(&Event::Reinitialized { t_ns: init.t_ns });
             }
@@ -1048,6 +1051,10 @@ impl Session {
         n.resync(to);
         if let Some(r) = &mut self.reference {
             r.resync(to);
+        }
+        // The tests' intervals start again on the new time base.
+        for (_, m) in self.integrity.iter_mut() {
+            m.restart_clock();
         }
         self.resyncs += 1;
         sink.event(&Event::TimeResync {
@@ -1273,7 +1280,8 @@ impl Session {
         }
         let r = self.reference.get_or_insert_with(|| n.reference_copy());
         let k = a.kind();
-        let Some(test) = r.test_aid(a, is) else {
+        let threshold = self.integrity[k].threshold(a.t_ns(), is, k.decl().dof());
+        let Some(test) = r.test_aid(a, is, threshold) else {
             // Refused content is counted as such by the navigator; a sample
             // whose S is not positive definite is not trusted.
             self.integrity[k].untestable();

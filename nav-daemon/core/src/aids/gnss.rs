@@ -103,8 +103,14 @@ pub struct GnssSettings {
     /// (`crate::integrity`); off, GNSS is fused whenever its own χ² gate
     /// passes it, and a spoofer that drags slowly is followed.
     pub integrity: bool,
-    /// False-alarm probability of one integrity test (one fix).
-    pub integrity_false_alarm: f64,
+    /// False alarms the integrity test may raise per flight hour; each
+    /// test spends the share of it that the time since the previous test
+    /// is of an hour (`crate::integrity`).
+    pub integrity_false_alarm_per_hour: f64,
+    /// The former setting, a probability per test (`crate::integrity`):
+    /// read so that a log recorded with it replays as it flew.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub integrity_false_alarm: Option<f64>,
     /// The test is available while its horizontal protection level from
     /// the reference's covariance is within this (m); beyond it GNSS is
     /// fused untested (flagged `GNSS_UNTESTED`); a fix whose own claimed
@@ -130,7 +136,9 @@ impl Default for GnssSettings {
             correlated_sigma_v_m: 0.0,
             correlated_tau_s: 300.0,
             integrity: IntegritySettings::default().integrity,
-            integrity_false_alarm: IntegritySettings::default().integrity_false_alarm,
+            integrity_false_alarm_per_hour: IntegritySettings::default()
+                .integrity_false_alarm_per_hour,
+            integrity_false_alarm: None,
             integrity_alert_limit_m: IntegritySettings::default().integrity_alert_limit_m,
             readmit_after_s: IntegritySettings::default().readmit_after_s,
         }
@@ -141,6 +149,7 @@ impl OwnSettings for GnssSettings {
     fn integrity(&self) -> Option<IntegritySettings> {
         Some(IntegritySettings {
             integrity: self.integrity,
+            integrity_false_alarm_per_hour: self.integrity_false_alarm_per_hour,
             integrity_false_alarm: self.integrity_false_alarm,
             integrity_alert_limit_m: self.integrity_alert_limit_m,
             readmit_after_s: self.readmit_after_s,

@@ -1041,7 +1041,11 @@ mod tests {
         let (nav, _, fix, measured) = with_gnss_consider(60.0, 10.0);
         let settings = crate::integrity::IntegritySettings::default();
         let test = nav
-            .test_aid(&msgs::AidSample::Gnss(fix), &settings)
+            .test_aid(
+                &msgs::AidSample::Gnss(fix),
+                &settings,
+                settings.threshold(6, Some(0.2)),
+            )
             .expect("testable");
         let crate::aids::AnyMeasurement::D6(m) = measured.m else {
             panic!("position and velocity")

@@ -27,21 +27,29 @@ impl Navigator {
         r
     }
 
-    /// The integrity test of `sample` against this navigator: the sample's
-    /// innovation through its aid's model at its own time, with
-    /// S = H P Hᵀ + R (P brought to the current time on a copy: this
-    /// navigator is left exactly as it was). `None` when the sample cannot
-    /// be tested: its time is outside the state history's reach or its
-    /// content is refused (the navigator that is offered it counts why).
+    /// The integrity test of `sample` against this navigator, its alarm
+    /// threshold `threshold` (the aid's monitor forms it from the stamps,
+    /// [`integrity::Monitor::threshold`]): the sample's innovation through
+    /// its aid's model at its own time, with S = H P Hᵀ + R (P brought to
+    /// the current time on a copy: this navigator is left exactly as it
+    /// was). `None` when the sample cannot be tested: its time is outside
+    /// the state history's reach or its content is refused (the navigator
+    /// that is offered it counts why).
     pub fn test_aid(
         &self,
         sample: &AidSample,
         settings: &integrity::IntegritySettings,
+        threshold: f64,
     ) -> Option<Test> {
-        msgs::match_aid!(sample, x => self.test_of(x, settings))
+        msgs::match_aid!(sample, x => self.test_of(x, settings, threshold))
     }
 
-    fn test_of<A: OwnOf>(&self, x: &A, settings: &integrity::IntegritySettings) -> Option<Test> {
+    fn test_of<A: OwnOf>(
+        &self,
+        x: &A,
+        settings: &integrity::IntegritySettings,
+        threshold: f64,
+    ) -> Option<Test> {
         let t_ns = x.t_ns();
         let age = self.aid_age(t_ns).ok()?;
         let at = self.state_at(t_ns, age);
@@ -63,8 +71,7 @@ impl Navigator {
             AnyMeasurement::D6(m) => statistic(m, &p, c.as_ref(), decl.components),
         };
         let (q, by_unit, with_r, reference) = q?;
-        let threshold = settings.threshold(decl.dof());
-        let level = |[[a, b], [_, c]]: Block2| settings.protection_level(decl.dof(), a, b, c);
+        let level = |[[a, b], [_, c]]: Block2| integrity::protection_level(threshold, a, b, c);
         Some(Test {
             q,
             threshold,
