@@ -20,6 +20,7 @@ use polarnav::smoother::{FileStore, SmoothReport, Smoother};
 use crate::csv_pipe::RowPipe;
 use crate::events::log_event;
 use crate::imu_rate::RateCheck;
+use crate::mcap_pipe::{Item, McapPipe};
 use polarnav::solution_csv;
 use polarnav_config::{CliOverrides, ConfigError, ConfigFile, Effective, effective};
 use polarnav_foxglove::{McapError, McapFile};
@@ -155,10 +156,60 @@ fn skipped_init_note(read: &ReadReport) -> String {
     }
 }
 
+/// Where the sink writes.
+enum SinkOut<W: Write> {
+    Csv(W),
+    Mcap(McapOut),
+}
+
+/// The MCAP file: here, or on its encoding thread while the log is read
+/// (`mcap_pipe`: the same messages in the same order).
+struct McapOut {
+    file: Option<Box<McapFile>>,
+    pipe: Option<McapPipe>,
+}
+
+impl McapOut {
+    /// A record of the log: an aid's sample by value (no box per sample
+    /// on its way to the encoder).
+    fn record(&mut self, rec: &Record) -> std::io::Result<()> {
+        match (rec, &mut self.pipe, &mut self.file) {
+            (Record::Aid(a), Some(p), _) => p.push_aid(a),
+            (Record::Aid(a), None, Some(m)) => {
+                m.channels().aid_sample(a);
+                Ok(())
+            }
+            _ => self.log(Item::Record(rec.clone())),
+        }
+    }
+
+    fn log(&mut self, item: Item) -> std::io::Result<()> {
+        match (&mut self.pipe, &mut self.file) {
+            (Some(p), _) => p.push(item),
+            (None, Some(m)) => {
+                item.log(m);
+                Ok(())
+            }
+            (None, None) => Ok(()),
+        }
+    }
+
+    fn status(&mut self, st: &msgs::Status) -> std::io::Result<()> {
+        match (&mut self.pipe, &mut self.file) {
+            (Some(p), _) => p.push_status(st),
+            (None, Some(m)) => {
+                m.channels().status(st);
+                Ok(())
+            }
+            (None, None) => Ok(()),
+        }
+    }
+}
+
 /// Writes solution rows and logs the session's decisions (the first few
 /// rejections per stream, every start, switch and resync).
 struct CsvSink<'a, W: Write> {
-    out: Output<W>,
+    out: SinkOut<W>,
     log_name: &'a str,
     rows: u64,
     error: Option<std::io::Error>,
@@ -183,18 +234,16 @@ const REJECTIONS_LOGGED: u32 = 10;
 
 impl<W: Write> CsvSink<'_, W> {
     fn write(&mut self, s: &msgs::Solution) {
-        match &mut self.out {
-            Output::Csv(w) => {
-                let written = match &mut self.pipe {
-                    Some(p) => p.push(w, s),
-                    None => self.csv.write(w, s),
-                };
-                if let Err(e) = written {
-                    self.error = Some(e);
-                    return;
-                }
-            }
-            Output::Mcap(m) => m.channels().solution(s),
+        let written = match &mut self.out {
+            SinkOut::Csv(w) => match &mut self.pipe {
+                Some(p) => p.push(w, s),
+                None => self.csv.write(w, s),
+            },
+            SinkOut::Mcap(m) => m.log(Item::Solution(*s)),
+        };
+        if let Err(e) = written {
+            self.error = Some(e);
+            return;
         }
         self.rows += 1;
     }
@@ -284,8 +333,10 @@ impl<W: Write> Sink for CsvSink<'_, W> {
             Event::Aligned { init, .. } => {
                 log_event(log, e);
                 // The init record the alignment made, beside the one given.
-                if let Output::Mcap(m) = &mut self.out {
-                    m.channels().record(&Record::Init(*init));
+                if let SinkOut::Mcap(m) = &mut self.out
+                    && let Err(e) = m.log(Item::Record(Record::Init(*init)))
+                {
+                    self.error.get_or_insert(e);
                 }
             }
             Event::AidUpdate {
@@ -295,8 +346,16 @@ impl<W: Write> Sink for CsvSink<'_, W> {
                 lat_rad,
                 h_m,
             } => {
-                if let (Output::Mcap(m), Stream::Aid(aid)) = (&mut self.out, stream) {
-                    m.channels().aid_update(*aid, *t_ns, status, *lat_rad, *h_m);
+                if let (SinkOut::Mcap(m), Stream::Aid(aid)) = (&mut self.out, stream)
+                    && let Err(e) = m.log(Item::AidUpdate {
+                        aid: *aid,
+                        t_ns: *t_ns,
+                        status: *status,
+                        lat_rad: *lat_rad,
+                        h_m: *h_m,
+                    })
+                {
+                    self.error.get_or_insert(e);
                 }
             }
             other => log_event(log, other),
@@ -345,7 +404,13 @@ pub fn run_to<R: BufRead + Send, W: Write>(
     let mut session = Session::new(eff.session());
     let progress_ns = (opts.progress_every_s.clamp(0.0, 1e9) * 1e9) as u64;
     let mut sink = CsvSink {
-        out,
+        out: match out {
+            Output::Csv(w) => SinkOut::Csv(w),
+            Output::Mcap(m) => SinkOut::Mcap(McapOut {
+                file: Some(m),
+                pipe: None,
+            }),
+        },
         log_name,
         rows: 0,
         error: None,
@@ -367,8 +432,11 @@ pub fn run_to<R: BufRead + Send, W: Write>(
         session.keep_smoother_tape();
     }
     match &mut sink.out {
-        Output::Csv(w) => writeln!(w, "{}", solution_csv::header())?,
-        Output::Mcap(m) => {
+        SinkOut::Csv(w) => writeln!(w, "{}", solution_csv::header())?,
+        SinkOut::Mcap(McapOut {
+            file: Some(m),
+            pipe: None,
+        }) => {
             if let Some(Record::Header(h)) = &first {
                 m.header(h)?;
             }
@@ -377,6 +445,7 @@ pub fn run_to<R: BufRead + Send, W: Write>(
                 polarnav_config::provenance::settings(&eff),
             )?;
         }
+        SinkOut::Mcap(_) => {}
     }
     let mut next_status_ns = 0;
     let mut imu_rate = RateCheck::new(eff.config.live.imu_rate_hz);
@@ -386,21 +455,24 @@ pub fn run_to<R: BufRead + Send, W: Write>(
         {
             tracing::warn!("{log_name}: {d}");
         }
-        if let Output::Mcap(m) = &mut sink.out {
+        if let SinkOut::Mcap(m) = &mut sink.out
             // The log's inputs and truth; its own solutions and status (a
             // recording) would mix with this run's.
-            if !matches!(rec, Record::Solution(_) | Record::Status(_)) {
-                m.channels().record(rec);
-            }
+            && !matches!(rec, Record::Solution(_) | Record::Status(_))
+            && let Err(e) = m.record(rec)
+        {
+            sink.error.get_or_insert(e);
         }
         if let Some(input) = Input::from_record(rec) {
             session.push(input, sink);
         }
-        if let Output::Mcap(m) = &mut sink.out {
+        if let SinkOut::Mcap(m) = &mut sink.out {
             let now = session.span_ns().1;
             if session.navigator().is_some() && now >= next_status_ns {
                 next_status_ns = now.saturating_add(MCAP_STATUS_PERIOD_NS);
-                m.channels().status(&session.status());
+                if let Err(e) = m.status(&session.status()) {
+                    sink.error.get_or_insert(e);
+                }
             }
         }
     };
@@ -412,9 +484,18 @@ pub fn run_to<R: BufRead + Send, W: Write>(
     // decoding overlap on two cores); chunks go back to it for reuse, so
     // the steady state allocates nothing more than decoding itself does.
     let (read, sink_error) = std::thread::scope(|scope| {
-        // The forward solution as CSV: its text is made on a third thread.
-        if matches!(sink.out, Output::Csv(_)) && sink.smoother.is_none() {
-            sink.pipe = Some(RowPipe::start(scope).0);
+        // The forward solution as CSV: its text is made on a third thread;
+        // as MCAP, every message is encoded there.
+        match &mut sink.out {
+            SinkOut::Csv(_) if sink.smoother.is_none() => {
+                sink.pipe = Some(RowPipe::start(scope).0);
+            }
+            SinkOut::Mcap(m) => {
+                if let Some(f) = m.file.take() {
+                    m.pipe = Some(McapPipe::start(scope, f));
+                }
+            }
+            SinkOut::Csv(_) => {}
         }
         let (full_tx, full_rx) = std::sync::mpsc::sync_channel::<Vec<Record>>(CHUNKS_AHEAD);
         let (empty_tx, empty_rx) = std::sync::mpsc::sync_channel::<Vec<Record>>(CHUNKS_AHEAD + 2);
@@ -466,11 +547,23 @@ pub fn run_to<R: BufRead + Send, W: Write>(
         drop(full_rx);
         // The rows still being formatted are written before the scope ends
         // (the last solution, emitted by `finish` below, is written directly).
-        if let (Some(pipe), Output::Csv(w)) = (sink.pipe.take(), &mut sink.out)
+        if let (Some(pipe), SinkOut::Csv(w)) = (sink.pipe.take(), &mut sink.out)
             && sink_error.is_none()
             && let Err(e) = pipe.finish(w)
         {
             sink_error = Some(e);
+        }
+        // The MCAP file comes back once every message is logged (also
+        // after an error: it is then closed with what it has).
+        if let SinkOut::Mcap(m) = &mut sink.out
+            && let Some(pipe) = m.pipe.take()
+        {
+            match pipe.finish() {
+                Ok(f) => m.file = Some(f),
+                Err(e) => {
+                    sink_error.get_or_insert(e);
+                }
+            }
         }
         let read = decoder
             .join()
@@ -524,11 +617,14 @@ pub fn run_to<R: BufRead + Send, W: Write>(
         None => None,
     };
     match sink.out {
-        Output::Csv(mut w) => w.flush()?,
-        Output::Mcap(mut m) => {
+        SinkOut::Csv(mut w) => w.flush()?,
+        SinkOut::Mcap(McapOut {
+            file: Some(mut m), ..
+        }) => {
             m.channels().status(&session.status());
             m.close()?;
         }
+        SinkOut::Mcap(_) => {}
     }
     let (first_t_ns, last_t_ns) = session.span_ns();
     Ok(BatchReport {

@@ -6,6 +6,7 @@ pub mod csv_pipe;
 pub mod events;
 pub mod imu_rate;
 pub mod live;
+pub mod mcap_pipe;
 pub mod notify;
 pub mod owner;
 

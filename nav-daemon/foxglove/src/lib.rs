@@ -193,7 +193,7 @@ impl<M: prost::Message + ProtoName> Msg for AidMsg<M> {
 }
 
 /// An aid's input channel (`/NAME`), whatever the aid's message.
-trait AidInput: AnyChannel + std::fmt::Debug {
+trait AidInput: AnyChannel + std::fmt::Debug + Send {
     /// Logs `sample` (of this channel's aid) at log time `log_ns`.
     fn log_sample(&mut self, out: &mut Out, log_ns: u64, sample: &AidSample);
     fn as_channel(&self) -> &dyn AnyChannel;
@@ -695,7 +695,7 @@ impl FlightChannels {
             Record::Header(_) => {}
             Record::Init(x) => self.init.log(ctx, at(e, x.t_ns), || convert::init(x)),
             Record::Imu(x) => self.imu.log(ctx, at(e, x.t_ns), || convert::imu(x)),
-            Record::Aid(x) => self.inputs[x.kind()].log_sample(ctx, at(e, x.t_ns()), x),
+            Record::Aid(x) => self.aid_sample(x),
             Record::Truth(x) => self.truth(x),
             Record::Solution(x) => self.solution(x),
             Record::Status(x) => self.status(x),
@@ -704,6 +704,13 @@ impl FlightChannels {
                     .log(ctx, at(e, x.t_ns), || convert::truth_bias(x));
             }
         }
+    }
+
+    /// An aid's sample on its input channel, `/NAME` (what
+    /// [`Self::record`] does with a record of it).
+    pub fn aid_sample(&mut self, x: &AidSample) {
+        let at = at(self.epoch_ns, x.t_ns());
+        self.inputs[x.kind()].log_sample(&mut self.out, at, x);
     }
 
     /// A solution: `/solution`, `/solution/fix`, `/solution/pose`, and a
