@@ -149,7 +149,7 @@ impl McapPipe {
         let (to_encode, rx) = sync_channel::<Chunk>(IN_FLIGHT);
         let (empty_tx, emptied) = sync_channel::<Chunk>(IN_FLIGHT);
         let (file_tx, file_back) = sync_channel::<Ended>(1);
-        scope.spawn(move || {
+        let encoder = move || {
             let encoded = std::panic::catch_unwind(std::panic::AssertUnwindSafe(move || {
                 for mut chunk in rx.iter() {
                     chunk.log(&mut m);
@@ -166,7 +166,13 @@ impl McapPipe {
                     .or_else(|| panic.downcast_ref::<String>().cloned())
                     .unwrap_or_default()
             }));
-        });
+        };
+        // Named, so that a profile tells its share (`perf report --sort comm`);
+        // a thread that cannot be started encodes nothing, and the session's
+        // first hand-over says so.
+        let _ = std::thread::Builder::new()
+            .name("mcap-encoder".into())
+            .spawn_scoped(scope, encoder);
         Self {
             to_encode,
             emptied,
