@@ -465,6 +465,16 @@ impl Monitor {
 mod tests {
     use super::*;
 
+    /// Uniform draws in [0, 1) from a 64-bit LCG seeded with `seed`.
+    fn uniform(mut seed: u64) -> impl FnMut() -> f64 {
+        move || {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        }
+    }
+
     fn test(q: f64) -> Test {
         Test {
             q,
@@ -588,13 +598,7 @@ mod tests {
             (crate::chi2::normal_quantile(1.0 - P_MISSED_DETECTION) - K_MISSED_DETECTION).abs()
                 < 1e-9
         );
-        let mut seed = 3u64;
-        let mut u = || {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (seed >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut u = uniform(3);
         for _ in 0..200 {
             let (l1, l2) = (10f64.powf(u() * 8.0 - 2.0), 10f64.powf(u() * 8.0 - 2.0));
             let th = u() * std::f64::consts::TAU;
@@ -869,13 +873,7 @@ mod tests {
             ..IntegritySettings::default()
         };
         let mut m = Monitor::default();
-        let mut seed = 11u64;
-        let mut u = || {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            ((seed >> 11) as f64 + 0.5) / (1u64 << 53) as f64
-        };
+        let mut u = uniform(11);
         let mut alarms = 0;
         for i in 1..=10 * 3600 * 5u64 {
             let t_ns = i * 200_000_000;
@@ -883,7 +881,10 @@ mod tests {
             let q: f64 = (0..3)
                 .map(|_| {
                     // Two normals (Box–Muller), squared.
-                    let (r, b) = ((-2.0 * u().ln()).sqrt(), std::f64::consts::TAU * u());
+                    let (r, b) = (
+                        (-2.0 * u().max(1e-300).ln()).sqrt(),
+                        std::f64::consts::TAU * u(),
+                    );
                     (r * b.cos()).powi(2) + (r * b.sin()).powi(2)
                 })
                 .sum();
@@ -967,13 +968,7 @@ mod tests {
     #[test]
     #[allow(clippy::float_cmp)] // the memo returns the quantile it stored, to the bit
     fn thresholds_stay_finite_over_absurd_stamps() {
-        let mut seed = 5u64;
-        let mut u = || {
-            seed = seed
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            (seed >> 11) as f64 / (1u64 << 53) as f64
-        };
+        let mut u = uniform(5);
         for lambda in [1e-8, 1e-5, 3e-4, 10.0] {
             let s = IntegritySettings {
                 integrity_false_alarm_per_hour: lambda,
