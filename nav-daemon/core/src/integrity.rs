@@ -363,9 +363,13 @@ pub struct Monitor {
 
 impl Monitor {
     /// The sample clock starts again (a time re-synchronization, a
-    /// reinitialization): the next test is charged as a first one.
+    /// reinitialization): the next test is charged as a first one, and an
+    /// excluded aid's agreement starts again (a time on the old base says
+    /// nothing of how long it has agreed on the new one).
     pub fn restart_clock(&mut self) {
         self.last_test_ns = None;
+        self.agreeing_since_ns = None;
+        self.last_agreeing_ns = 0;
     }
 
     /// The alarm threshold of a test of a sample stamped `t_ns` with `dof`
@@ -959,6 +963,33 @@ mod tests {
         assert!(next > first, "{next} {first}");
         m.restart_clock();
         assert_eq!(m.threshold(1_000_000, &s, 6), first);
+        // Excluded, agreeing for 50 s, then the clock goes back 100 s: the
+        // agreement starts again on the new base (60 s more to readmit).
+        let sec = 1_000_000_000u64;
+        let mut m = Monitor::default();
+        assert_eq!(
+            m.decide(200 * sec, &test(11.0), 60 * sec, u64::MAX),
+            Verdict::Exclude
+        );
+        for t in 201..=250 {
+            assert_eq!(
+                m.decide(t * sec, &test(1.0), 60 * sec, u64::MAX),
+                Verdict::Refuse
+            );
+        }
+        m.restart_clock();
+        assert_eq!(
+            m.decide(150 * sec, &test(1.0), 60 * sec, u64::MAX),
+            Verdict::Refuse
+        );
+        assert_eq!(
+            m.decide(209 * sec, &test(1.0), 60 * sec, u64::MAX),
+            Verdict::Refuse
+        );
+        assert_eq!(
+            m.decide(210 * sec, &test(1.0), 60 * sec, u64::MAX),
+            Verdict::Readmit
+        );
     }
 
     /// Absurd stamps and rates: thresholds finite and positive from the
