@@ -71,8 +71,11 @@ udp_target = "127.0.0.1:{}"
             p
         }),
     )]);
-    daemon.stop();
+    // The stop begins when the publisher goes, inside `stop` (which then
+    // also drops the status port and the node): a bridge may say NO_GPS
+    // before `stop` returns, so the clock starts before it.
     let stop_at = wall();
+    daemon.stop();
     std::thread::sleep(Duration::from_secs(2));
     let (status, stderr) = terminate(bridge);
     let (msgs, summary) = rx.finish();

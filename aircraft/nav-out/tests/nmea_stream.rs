@@ -56,8 +56,10 @@ udp_target = "127.0.0.1:{}"
     let bridge = spawn_bridge(env!("CARGO_BIN_EXE_nav-nmea"), &config, &cfg);
     daemon.stall(Duration::from_millis(1500));
     daemon.fly(&polar_flight());
-    daemon.stop();
+    // The stop begins when the publisher goes, inside `stop`: a bridge may
+    // say no fix before `stop` returns, so the clock starts before it.
     let stop_at = wall();
+    daemon.stop();
     std::thread::sleep(Duration::from_millis(1500));
     let (status, stderr) = terminate(bridge);
     let (msgs, summary) = rx.finish();
