@@ -259,6 +259,40 @@ pub enum WriteError {
     Encode(#[from] postcard::Error),
 }
 
+/// Where a producer of records (the simulator) puts them: a navlog file
+/// ([`NavlogWriter`]) or, for a process that navigates what it produced
+/// (a campaign's run), the records themselves ([`RecordVec`]), which are
+/// those a reader of the file would return (the encoding round-trips every
+/// value exactly), without framing and decoding them.
+pub trait RecordSink {
+    /// Appends one record.
+    fn put(&mut self, record: Record) -> Result<(), WriteError>;
+}
+
+impl<W: Write> RecordSink for NavlogWriter<W> {
+    fn put(&mut self, record: Record) -> Result<(), WriteError> {
+        self.write(&record)
+    }
+}
+
+/// Records kept in memory, the header first.
+#[derive(Debug, Clone, Default)]
+pub struct RecordVec(pub Vec<Record>);
+
+impl RecordVec {
+    /// Starts with `header` as the first record, as [`NavlogWriter::new`] does.
+    pub fn new(header: Header) -> Self {
+        Self(vec![Record::Header(Box::new(header))])
+    }
+}
+
+impl RecordSink for RecordVec {
+    fn put(&mut self, record: Record) -> Result<(), WriteError> {
+        self.0.push(record);
+        Ok(())
+    }
+}
+
 /// Writes framed records. Buffers are reused: no allocation per record once warm.
 #[derive(Debug)]
 pub struct NavlogWriter<W: Write> {

@@ -2,7 +2,7 @@
 
 use std::io::Write;
 
-use msgs::navlog::{Header, NavlogWriter, Record, TruthBias, WriteError};
+use msgs::navlog::{Header, NavlogWriter, Record, RecordSink, TruthBias, WriteError};
 use msgs::{AidKind, AidSample, ImuSample, InitState, PerAid, TruthRecord};
 use nalgebra::{UnitQuaternion, Vector3};
 use polarnav::earth;
@@ -277,6 +277,21 @@ pub fn simulate<W: Write>(
     opts: SimOptions,
     out: W,
 ) -> Result<SimSummary, WriteError> {
+    let (sum, w) = simulate_into(s, scenario_text, opts, |h| NavlogWriter::new(out, h))?;
+    w.finish()?;
+    Ok(sum)
+}
+
+/// Runs the scenario into the sink that `start` makes from the navlog's
+/// header (a [`NavlogWriter`], or a [`msgs::navlog::RecordVec`] for a
+/// process that navigates the flight itself); the records are those
+/// [`simulate`] writes, in the same order.
+pub fn simulate_into<S: RecordSink>(
+    s: &Scenario,
+    scenario_text: &str,
+    opts: SimOptions,
+    start: impl FnOnce(Header) -> Result<S, WriteError>,
+) -> Result<(SimSummary, S), WriteError> {
     let mut rng = ChaCha20Rng::seed_from_u64(opts.seed);
     let mut imu_err = ImuErrorModel::new(&s.imu, &mut rng);
     let metadata = format!(
@@ -296,7 +311,7 @@ pub fn simulate<W: Write>(
         opts.seed,
         &metadata,
     );
-    let mut w = NavlogWriter::new(out, header)?;
+    let mut w = start(header)?;
 
     let mut flight = Flight::new(s, opts.substeps);
     let truth0 = flight.truth();
@@ -310,9 +325,9 @@ pub fn simulate<W: Write>(
         heading_rad: (ie.heading_arcmin / 60.0).to_radians(),
     };
     let init = init_record(0, &truth0, &sig, (!opts.perfect).then_some(&mut rng));
-    w.write(&Record::Init(init))?;
-    w.write(&Record::Truth(truth_record(0, &truth0)))?;
-    w.write(&Record::TruthBias(truth_bias_record(
+    w.put(Record::Init(init))?;
+    w.put(Record::Truth(truth_record(0, &truth0)))?;
+    w.put(Record::TruthBias(truth_bias_record(
         0,
         &imu_err,
         opts.perfect,
@@ -327,9 +342,12 @@ pub fn simulate<W: Write>(
     let mut inject =
         crate::faults::Injector::new(s.faults.as_ref().filter(|_| opts.faults), opts.seed);
     // Written records count as published; a faulted sample may be written 0, 1 or 2 times.
-    let put = |w: &mut NavlogWriter<W>, r: Record, times: u32| -> Result<u64, WriteError> {
-        for _ in 0..times {
-            w.write(&r)?;
+    let put = |w: &mut S, r: Record, times: u32| -> Result<u64, WriteError> {
+        if times > 0 {
+            for _ in 1..times {
+                w.put(r.clone())?;
+            }
+            w.put(r)?;
         }
         Ok(u64::from(times))
     };
@@ -369,8 +387,8 @@ pub fn simulate<W: Write>(
         });
         written?;
         if truth_sched.due(t_ns) || k == n {
-            w.write(&Record::Truth(truth_record(t_ns, &truth())))?;
-            w.write(&Record::TruthBias(truth_bias_record(
+            w.put(Record::Truth(truth_record(t_ns, &truth())))?;
+            w.put(Record::TruthBias(truth_bias_record(
                 t_ns,
                 &imu_err,
                 opts.perfect,
@@ -379,14 +397,57 @@ pub fn simulate<W: Write>(
         }
         sum.duration_ns = t_ns;
     }
-    w.finish()?;
     sum.injected = inject.injected;
-    Ok(sum)
+    Ok((sum, w))
 }
 
 #[cfg(test)]
 mod seed_tests {
     use super::*;
+
+    /// The records a campaign's run navigates ([`simulate_into`] with a
+    /// [`msgs::navlog::RecordVec`]) are those a reader of the navlog that
+    /// [`simulate`] writes returns, record for record, with every stream,
+    /// a sample written twice, one dropped and one sent back in time.
+    #[test]
+    fn a_run_navigates_the_records_a_navlog_would_hold() {
+        let text = "name = \"x\"\n[start]\nlat_deg = 89.9\nlon_deg = 10.0\nh_m = 18000.0\nheading_deg = 0.0\nspeed_mps = 250.0\n\
+            [imu]\nrate_hz = 200.0\ngyro_bias_dph = 0.01\naccel_bias_ug = 100.0\narw_dpsh = 0.001\nvrw_ug_psqhz = 10.0\n\
+            [srs]\nrate_hz = 1.0\nsigma_mps = 0.5\nelevation_mask_deg = 10.0\n[cns]\nrate_hz = 1.0\nsigma_m = 20.0\n\
+            [baro]\nrate_hz = 10.0\nsigma_m = 10.0\n[star]\nrate_hz = 1.0\nsigma_arcsec = 5.0\n\
+            [gnss]\nrate_hz = 5.0\nsigma_h_m = 1.0\nsigma_v_m = 2.0\n\
+            [[segment]]\nkind = \"cruise\"\nduration_s = 12.0\n\
+            [[faults.event]]\nkind = \"duplicate\"\nstream = \"imu\"\nstart_s = 2.0\nduration_s = 0.1\n\
+            [[faults.event]]\nkind = \"outage\"\nstream = \"baro\"\nstart_s = 3.0\nduration_s = 1.0\n\
+            [[faults.event]]\nkind = \"time_jump\"\nstream = \"imu\"\nstart_s = 5.0\nduration_s = 0.2\nmagnitude = 0.5\n";
+        let s = Scenario::parse(text, "x").expect("scenario");
+        let opts = SimOptions {
+            seed: 3,
+            faults: true,
+            ..Default::default()
+        };
+        let mut log = Vec::new();
+        let written = simulate(&s, text, opts, &mut log).expect("simulate");
+        let (read, report) = msgs::navlog::read_all(&log);
+        assert!(report.is_clean(), "{report}");
+        let (kept, msgs::navlog::RecordVec(records)) =
+            simulate_into(&s, text, opts, |h| Ok(msgs::navlog::RecordVec::new(h)))
+                .expect("simulate_into");
+        assert_eq!(written, kept);
+        assert!(
+            written.injected.len() == 3 && written.injected.iter().all(|&n| n > 0),
+            "{written:?}"
+        );
+        for kind in AidKind::ALL {
+            if kind != AidKind::Baseline && kind != AidKind::Mag {
+                assert!(written.aids[kind] > 0, "no {kind:?} in {written:?}");
+            }
+        }
+        assert_eq!(read.len(), records.len());
+        for (i, (a, b)) in read.iter().zip(&records).enumerate() {
+            assert_eq!(a, b, "record {i}");
+        }
+    }
 
     /// A header written with any seed, 2⁶³ and above included, is TOML
     /// whose `[navigator]` settings `batch` applies (before, a seed of 2⁶³
