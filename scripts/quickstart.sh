@@ -31,8 +31,17 @@ echo "== building (release; the first build takes about 7 minutes on 2 cores)"
 cargo build --release --bins
 echo "== simulating $scenario into $out/flight.navlog"
 $B/sensor-replay simulate --scenario "$scenario" --out "$out/flight.navlog" --seed 1 2>&1 | tail -1
-# The shipped configuration, on a prefix of its own.
-sed "s/^prefix = .*/prefix = \"$prefix\"/" config/nav-daemon.toml > "$out/nav-daemon.toml"
+# The daemon's settings describe the IMU installed, as on an aircraft: the
+# shipped configuration (written for a 200 Hz IMU), on a prefix of its own,
+# with [live] imu_rate_hz set to the rate of the IMU this flight simulates
+# (the scenario's [imu] rate_hz; polar-crossing's is 100 Hz). The daemon
+# would otherwise say, rightly, that the stream is not the configured rate.
+imu_rate_hz=$(awk '/^\[/ { in_imu = ($0 ~ /^\[imu\][ \t]*(#.*)?$/); next }
+  in_imu && /^[ \t]*rate_hz[ \t]*=/ { sub(/^[^=]*=[ \t]*/, ""); sub(/[ \t]*#.*$/, ""); print; exit }' "$scenario")
+sed -e "s/^prefix = .*/prefix = \"$prefix\"/" \
+    -e "s/^imu_rate_hz = .*/imu_rate_hz = ${imu_rate_hz:-200.0}/" config/nav-daemon.toml > "$out/nav-daemon.toml"
+$B/nav-daemon --check-config "$out/nav-daemon.toml" > /dev/null
+echo "== the daemon's settings: config/nav-daemon.toml for this flight's ${imu_rate_hz:-200.0} Hz IMU ($out/nav-daemon.toml)"
 
 echo "== live: nav-daemon and the flight recorder as services on $prefix/..., the flight replayed at ${speed}x"
 $B/nav-daemon --config "$out/nav-daemon.toml" > "$out/daemon.log" 2>&1 & pids+=($!)
