@@ -88,11 +88,31 @@ pub struct Local {
 
 impl Local {
     pub fn new(geo: &Geodetic) -> Self {
-        let (sl, cl) = geo.lat_rad.sin_cos();
-        let (so, co) = geo.lon_rad.sin_cos();
+        let (sin_lat, cos_lat) = geo.lat_rad.sin_cos();
+        let (sin_lon, cos_lon) = geo.lon_rad.sin_cos();
+        Self::from_trig(&earth::GeodeticTrig {
+            geo: *geo,
+            sin_lat,
+            cos_lat,
+            sin_lon,
+            cos_lon,
+        })
+    }
+
+    /// The local geometry at an ECEF point: [`Local::new`] of its geodetic
+    /// position with the sines and cosines of
+    /// [`earth::ecef_to_geodetic_trig`] (no `sin_cos`).
+    pub fn from_ecef(r_e: &Vector3<f64>) -> Self {
+        let t = earth::ecef_to_geodetic_trig(r_e);
+        Self::from_trig(&t)
+    }
+
+    /// [`Local::new`] with the sines and cosines already known.
+    pub fn from_trig(t: &earth::GeodeticTrig) -> Self {
+        let (sl, cl, so, co) = (t.sin_lat, t.cos_lat, t.sin_lon, t.cos_lon);
         let (rm, rn) = earth::radii_from_sin(sl);
         Self {
-            geo: *geo,
+            geo: t.geo,
             sin_lat: sl,
             cos_lat: cl,
             east: Vector3::new(-so, co, 0.0),
@@ -100,7 +120,7 @@ impl Local {
             up: Vector3::new(cl * co, cl * so, sl),
             rm,
             rn,
-            gravity: earth::normal_gravity_from_sin(sl, geo.h_m),
+            gravity: earth::normal_gravity_from_sin(sl, t.geo.h_m),
         }
     }
 

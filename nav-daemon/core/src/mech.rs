@@ -53,6 +53,10 @@ pub trait NavFrame: Copy + std::fmt::Debug + PartialEq {
     type Pos: Copy + std::fmt::Debug + PartialEq;
     const KIND: FrameKind;
     fn geodetic(pos: &Self::Pos) -> Geodetic;
+    /// The local geometry at a position.
+    fn local(pos: &Self::Pos) -> Local {
+        Local::new(&Self::geodetic(pos))
+    }
     /// C_e^n at a point.
     fn c_e_n(l: &Local) -> Matrix3<f64>;
     /// Transport rate ω_en^n for nav-frame velocity `v_n` (with `c_e_n` at `l`).
@@ -118,6 +122,10 @@ impl NavFrame for Grid {
     const KIND: FrameKind = FrameKind::Grid;
     fn geodetic(pos: &Vector3<f64>) -> Geodetic {
         earth::ecef_to_geodetic(pos)
+    }
+    /// The sines and cosines from the conversion's own intermediates.
+    fn local(pos: &Vector3<f64>) -> Local {
+        Local::from_ecef(pos)
     }
     fn c_e_n(l: &Local) -> Matrix3<f64> {
         l.c_e_grid()
@@ -234,7 +242,7 @@ pub fn mechanize_from<F: NavFrame>(
 
     // Corrector: the mid-interval environment as the mean of the start and
     // the predicted end (trapezoidal; second order like the midpoint rule).
-    let l1 = Local::new(&F::geodetic(&pos_pred));
+    let l1 = F::local(&pos_pred);
     let c1 = F::c_e_n(&l1);
     let env1 = Environment::with::<F>(&l1, &c1, &v_pred);
     let env_mid = Environment {
@@ -323,6 +331,14 @@ impl AnyNav {
         match self {
             AnyNav::Geographic(s) => s.pos,
             AnyNav::Grid(s) => Grid::geodetic(&s.pos),
+        }
+    }
+
+    /// The local geometry at the position.
+    pub fn local(&self) -> Local {
+        match self {
+            AnyNav::Geographic(s) => Geo::local(&s.pos),
+            AnyNav::Grid(s) => Grid::local(&s.pos),
         }
     }
 
@@ -548,7 +564,7 @@ pub struct Nominal {
 impl Nominal {
     pub fn new(nav: AnyNav) -> Self {
         Self {
-            local: Local::new(&nav.geodetic()),
+            local: nav.local(),
             nav,
         }
     }
@@ -583,6 +599,6 @@ impl Nominal {
     /// Closed-loop feedback of an error-state correction.
     pub fn correct(&mut self, phi: &Vector3<f64>, dv: &Vector3<f64>, dp: &Vector3<f64>) {
         self.nav.correct(phi, dv, dp);
-        self.local = Local::new(&self.nav.geodetic());
+        self.local = self.nav.local();
     }
 }
