@@ -19,6 +19,7 @@
 
 pub mod aids;
 pub mod baseline;
+pub mod finite;
 pub mod gnss;
 pub mod mag;
 pub mod navlog;
