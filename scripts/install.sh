@@ -52,6 +52,31 @@ install -m 0644 systemd/polarnav.sysusers "$DESTDIR/etc/sysusers.d/polarnav.conf
 install -m 0644 systemd/polarnav.tmpfiles "$DESTDIR/etc/tmpfiles.d/polarnav.conf"
 install -m 0644 README.md "$DESTDIR$PREFIX/share/doc/polarnav/README.md"
 install -m 0644 msgs/include/polarnav_msgs.h "$DESTDIR$PREFIX/share/doc/polarnav/"
+# libpolarnav_pub, the C ABI of the input publishers: the shared and the
+# static library, its header and the payloads' in $PREFIX/include/polarnav,
+# and a pkg-config file (cc driver.c $(pkg-config --cflags --libs polarnav_pub)).
+if [ -e "$BIN_DIR/libpolarnav_pub.so" ]; then
+  install -d -m 0755 "$DESTDIR$PREFIX/lib/pkgconfig" "$DESTDIR$PREFIX/include/polarnav"
+  install -m 0755 "$BIN_DIR/libpolarnav_pub.so" "$DESTDIR$PREFIX/lib/"
+  [ -e "$BIN_DIR/libpolarnav_pub.a" ] && install -m 0644 "$BIN_DIR/libpolarnav_pub.a" "$DESTDIR$PREFIX/lib/"
+  install -m 0644 msgs/include/polarnav_msgs.h msgs/include/polarnav_pub.h "$DESTDIR$PREFIX/include/polarnav/"
+  version=$(sed -n 's/^version = "\(.*\)"/\1/p' Cargo.toml | head -1)
+  cat >"$DESTDIR$PREFIX/lib/pkgconfig/polarnav_pub.pc" <<PC
+prefix=$PREFIX
+libdir=\${prefix}/lib
+includedir=\${prefix}/include/polarnav
+
+Name: polarnav_pub
+Description: Publish polarnav's inputs (IMU, aids, init) from C or C++ over iceoryx2
+Version: $version
+Libs: -L\${libdir} -lpolarnav_pub
+Libs.private: -lpthread -ldl -lm
+Cflags: -I\${includedir}
+PC
+  chmod 0644 "$DESTDIR$PREFIX/lib/pkgconfig/polarnav_pub.pc"
+else
+  echo "install: $BIN_DIR/libpolarnav_pub.so not built (cargo build --release -p polarnav-pub): the C publisher library is not installed"
+fi
 for c in nav-daemon.toml gnss-ubx.toml nav-mavlink.toml nav-nmea.toml; do
   if [ -e "$DESTDIR/etc/polarnav/$c" ]; then
     install -m 0644 "config/$c" "$DESTDIR/etc/polarnav/$c.dist"

@@ -1,5 +1,6 @@
-//! libpolarnav_pub from C: programs compiled by `cc` against the generated
-//! header (`msgs/include/polarnav_pub.h`) and the shared library publish a
+//! libpolarnav_pub from C: programs compiled by `cc` against the header and
+//! the shared library as `scripts/install.sh` installs them (flags from its
+//! pkg-config file) publish a
 //! simulated flight into the daemon (the recording equals `batch` on the
 //! same records bit for bit), provoke and name every code, are refused
 //! and counted by the daemon as a second publisher, and never block on a
@@ -28,8 +29,9 @@ fn lib_dir() -> PathBuf {
 }
 
 /// Builds the library (`cargo test` builds its rlib only, not the shared
-/// library a C program links) and compiles `tests/c/NAME.c` against the
-/// header and it, with every warning an error.
+/// library a C program links), installs it with `scripts/install.sh` into
+/// a stage under `dir` (PREFIX /usr), and compiles `tests/c/NAME.c` with
+/// the installed pkg-config file's flags, every warning an error.
 fn compile(name: &str, dir: &Path) -> PathBuf {
     let profile = if lib_dir().ends_with("release") {
         vec!["--release"]
@@ -43,19 +45,45 @@ fn compile(name: &str, dir: &Path) -> PathBuf {
         .status()
         .expect("cargo");
     assert!(st.success(), "cargo build -p polarnav-pub failed");
-    let lib = lib_dir();
-    assert!(lib.join("libpolarnav_pub.so").exists(), "{}", lib.display());
+    let stage = dir.join("stage");
+    if !stage.join("usr/lib/pkgconfig/polarnav_pub.pc").exists() {
+        let o = Command::new("bash")
+            .arg(repo("scripts/install.sh"))
+            .env("DESTDIR", &stage)
+            .env("PREFIX", "/usr")
+            .env("BIN_DIR", lib_dir())
+            .output()
+            .expect("install.sh");
+        assert!(
+            o.status.success(),
+            "install.sh: {}",
+            String::from_utf8_lossy(&o.stderr)
+        );
+    }
+    let flags = Command::new("pkg-config")
+        .args(["--cflags", "--libs", "polarnav_pub"])
+        .env("PKG_CONFIG_PATH", stage.join("usr/lib/pkgconfig"))
+        .env("PKG_CONFIG_SYSROOT_DIR", &stage)
+        .output()
+        .expect("pkg-config");
+    assert!(flags.status.success(), "pkg-config polarnav_pub");
+    let flags = String::from_utf8(flags.stdout).expect("flags");
+    let installed = stage.join("usr/lib");
+    assert!(
+        flags.contains(&format!(
+            "-I{}",
+            stage.join("usr/include/polarnav").display()
+        )) && flags.contains(&format!("-L{}", installed.display())),
+        "{flags}"
+    );
     let exe = dir.join(name);
     let out = Command::new("cc")
         .args(["-std=c11", "-Wall", "-Wextra", "-Werror", "-pedantic"])
         .arg("-D_POSIX_C_SOURCE=200809L")
-        .arg("-I")
-        .arg(repo("msgs/include"))
         .arg(repo(&format!("tests/c/{name}.c")))
-        .arg("-L")
-        .arg(&lib)
-        .args(["-lpolarnav_pub", "-lm"])
-        .arg(format!("-Wl,-rpath,{}", lib.display()))
+        .args(flags.split_whitespace())
+        .arg("-lm")
+        .arg(format!("-Wl,-rpath,{}", installed.display()))
         .arg("-o")
         .arg(&exe)
         .output()
