@@ -464,3 +464,140 @@ fn a_port_in_use_a_missing_device_and_absurd_rates_exit_2_naming_the_key() {
     feed.expect(&env, "done", Duration::from_secs(10));
     feed.say("close");
 }
+
+/// The real receiver's log of issue 43 (item 5): u-blox NAV-PVT, RXM-RAWX,
+/// RXM-SFRBX and NMEA interleaved on one port, 536 NAV-PVT, from the
+/// project's shared data beside this checkout.
+fn walk_log() -> PathBuf {
+    let p = repo("../shared/datasets/rtklibexplorer-gnss-imu/walk_0827/gnss_1730.ubx");
+    assert!(
+        p.exists(),
+        "{} is missing: the tests read the project's shared data from ../shared, beside this \
+         checkout (README, Quick start): clone or link it there",
+        p.display()
+    );
+    p
+}
+
+/// One replay of the real log with `gnss-ubx --file` into a daemon and a
+/// recorder that both subscribed before the driver started: returns the
+/// fixes the recorder wrote, the GNSS fixes the daemon received (its
+/// final status) and the driver's exit counters.
+fn replay_walk(tag: &str, log: &Path) -> (Vec<GnssFix>, u64, BTreeMap<String, u64>) {
+    use msgs::navlog::Record;
+    let env = Env::new(tag);
+    let mut daemon = env.start_daemon("daemon", None);
+    let rec_path = env.dir.join("recorded.navlog");
+    let mut recorder = env.start_recorder(&rec_path);
+    let cfg = env.dir.join("gnss.toml");
+    std::fs::write(
+        &cfg,
+        format!(
+            "prefix = \"{}\"\ndevice = \"/dev/null\"\nreport_s = 1\n",
+            env.cfg.prefix
+        ),
+    )
+    .expect("settings");
+    let mut driver = env
+        .command("gnss-ubx", "gnss")
+        .arg("--config")
+        .arg(&cfg)
+        .arg("--file")
+        .arg(log)
+        .spawn()
+        .map(Proc)
+        .expect("gnss-ubx");
+    assert_eq!(
+        wait(&mut driver, Duration::from_secs(30)),
+        Some(0),
+        "gnss-ubx --file: {}",
+        env.read("gnss.err")
+    );
+    let counters = exit_counters(&env, "gnss");
+    // The daemon drains within a cycle (5 ms); its final status, published
+    // as it stops, reaches the recorder, stopped after it.
+    std::thread::sleep(Duration::from_millis(300));
+    assert_eq!(terminate(&mut daemon, Duration::from_secs(10)), Some(0));
+    std::thread::sleep(Duration::from_millis(200));
+    assert_eq!(terminate(&mut recorder, Duration::from_secs(10)), Some(0));
+    let (records, report) = msgs::navlog::read_all(&std::fs::read(&rec_path).expect("recording"));
+    assert!(report.is_clean(), "{report}");
+    let mut fixes = Vec::new();
+    let mut last_status = None;
+    for r in records {
+        match r {
+            Record::Aid(a) => {
+                if let msgs::AidSample::Gnss(g) = *a {
+                    fixes.push(g);
+                }
+            }
+            Record::Status(s) => last_status = Some(*s),
+            _ => {}
+        }
+    }
+    let status = last_status.expect("the daemon's status in the recording");
+    let daemon_got = status.streams[msgs::Stream::Aid(AidKind::Gnss).index()].received;
+    (fixes, daemon_got, counters)
+}
+
+/// A real receiver's log (issue 43, item 5) through `gnss-ubx --file` into
+/// a daemon and a recorder started before it, again and again: each fix
+/// arrives at both, equal field for field to pyubx2's reading of the same
+/// log; a fix one of them missed would be counted in the driver's `lost`
+/// (the test allows nothing else). Before the fix, a subscriber that
+/// existed before the driver was not connected until its next receive:
+/// its buffer (25 fixes) filled and the rest went nowhere, uncounted
+/// (`published=536 … lost=0`, the recorder with 25 of 536 or so). The
+/// daemon's and the recorder's loops drain every 5 ms; the driver replays
+/// the file in a few ms, so the race came out on most repetitions.
+#[test]
+fn a_real_receivers_log_reaches_the_daemon_and_a_recorder_whole_or_counted() {
+    const REPETITIONS: usize = 5;
+    let log = walk_log();
+    let env = Env::new("ubxwalkexpected");
+    let json = env.dir.join("expected.json");
+    let out = Command::new(python())
+        .arg(repo("tests/python/ubx_log_fixes.py"))
+        .arg(&log)
+        .arg(&json)
+        .output()
+        .expect("python");
+    assert!(
+        out.status.success(),
+        "ubx_log_fixes.py: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let expected: Value =
+        serde_json::from_slice(&std::fs::read(&json).expect("json")).expect("json");
+    let want = expected["fixes"].as_array().expect("fixes");
+    assert_eq!(expected["nav_pvt"], 536, "the log's NAV-PVT by pyubx2");
+    assert_eq!(want.len(), 536, "every NAV-PVT of the log is dated");
+    let mut figures = Vec::new();
+    for k in 0..REPETITIONS {
+        let (got, daemon_got, c) = replay_walk(&format!("ubxwalk{k}"), &log);
+        figures.push((got.len(), daemon_got, c["lost"]));
+        assert_eq!(c["published"], 536, "repetition {k}: {c:?}");
+        // Each fix the recorder has is pyubx2's of the same `seq`, in order.
+        let want_got: Vec<Value> = got.iter().map(|g| want[g.seq as usize].clone()).collect();
+        assert_equal(&got, &want_got);
+        assert!(
+            got.windows(2).all(|w| w[0].seq < w[1].seq),
+            "repetition {k}: out of order"
+        );
+        let missed = (536 - got.len() as u64) + (536 - daemon_got);
+        assert_eq!(
+            missed,
+            c["lost"],
+            "repetition {k}: the recorder got {}, the daemon {daemon_got} of 536; the driver \
+             counted {} lost",
+            got.len(),
+            c["lost"]
+        );
+        assert_eq!(
+            (got.len(), daemon_got),
+            (536, 536),
+            "repetition {k}: fixes lost (counted: {c:?})"
+        );
+    }
+    eprintln!("(recorder, daemon, driver's lost) per repetition: {figures:?}");
+}
