@@ -305,7 +305,7 @@ pub fn run(
                         tracing::info!("gnss-ubx: NAV-PVT again");
                     }
                 }
-                if !heard && !(fixes.is_empty() && baselines.is_empty()) {
+                if !heard && (!fixes.is_empty() || !baselines.is_empty()) {
                     if !await_subscriber(&publisher, &baseline_publisher, &service, stop)? {
                         break;
                     }
@@ -454,6 +454,9 @@ mod tests {
     /// receives within, by the contract the input buffers are sized on.
     #[test]
     fn file_settle_is_the_input_buffers_time() {
-        assert_eq!(FILE_SETTLE.as_secs_f64(), polarnav_ipc::INPUT_BUFFER_S);
+        assert_eq!(
+            FILE_SETTLE,
+            Duration::from_secs_f64(polarnav_ipc::INPUT_BUFFER_S)
+        );
     }
 }
