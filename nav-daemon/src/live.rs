@@ -246,35 +246,22 @@ struct Ports {
     settings: Service<TopicPublisher<EffectiveSettings>>,
 }
 
-fn subscriber<T: std::fmt::Debug + ZeroCopySend + Copy + 'static>(
+/// The port `make` opens on `topic`'s service (bit `bit` of
+/// [`Status::unavailable`]), retried while it cannot be opened.
+fn port<P: 'static>(
     node: &Node<ipc::Service>,
     cfg: &TransportConfig,
     topic: Topic,
     bit: u32,
-) -> Service<TopicSubscriber<T>> {
+    make: fn(&Node<ipc::Service>, &TransportConfig, Topic) -> Result<P, TransportError>,
+) -> Service<P> {
     let name = topic.service_name(&cfg.prefix);
     Service::open(
         node,
         cfg,
         name,
         bit,
-        Box::new(move |n, c| TopicSubscriber::new(n, c, topic)),
-    )
-}
-
-fn publisher<T: std::fmt::Debug + ZeroCopySend + Copy + 'static>(
-    node: &Node<ipc::Service>,
-    cfg: &TransportConfig,
-    topic: Topic,
-    bit: u32,
-) -> Service<TopicPublisher<T>> {
-    let name = topic.service_name(&cfg.prefix);
-    Service::open(
-        node,
-        cfg,
-        name,
-        bit,
-        Box::new(move |n, c| TopicPublisher::new(n, c, topic)),
+        Box::new(move |n, c| make(n, c, topic)),
     )
 }
 
@@ -303,15 +290,45 @@ impl Ports {
         use msgs::unavailable as u;
         // The init subscriber first: a publisher hands it the init topic's
         // history (the init sent before this daemon started) at its next send.
-        let init = subscriber(node, cfg, Topic::Init, u::INIT_SERVICE);
+        let init = port(
+            node,
+            cfg,
+            Topic::Init,
+            u::INIT_SERVICE,
+            TopicSubscriber::new,
+        );
         Self {
             cfg: cfg.clone(),
             init,
-            imu: subscriber(node, cfg, Topic::Imu, u::stream(Stream::Imu)),
+            imu: port(
+                node,
+                cfg,
+                Topic::Imu,
+                u::stream(Stream::Imu),
+                TopicSubscriber::new,
+            ),
             aids: PerAid(AidKind::ALL.map(|k| aid_subscriber(node, cfg, k))),
-            solution: publisher(node, cfg, Topic::Solution, u::SOLUTION_SERVICE),
-            status: publisher(node, cfg, Topic::Status, u::STATUS_SERVICE),
-            settings: publisher(node, cfg, Topic::Settings, u::SETTINGS_SERVICE),
+            solution: port(
+                node,
+                cfg,
+                Topic::Solution,
+                u::SOLUTION_SERVICE,
+                TopicPublisher::new,
+            ),
+            status: port(
+                node,
+                cfg,
+                Topic::Status,
+                u::STATUS_SERVICE,
+                TopicPublisher::new,
+            ),
+            settings: port(
+                node,
+                cfg,
+                Topic::Settings,
+                u::SETTINGS_SERVICE,
+                TopicPublisher::new,
+            ),
         }
     }
 

@@ -21,7 +21,7 @@ use msgs::service::Topic;
 use msgs::{AidKind, BaselineSample, GnssFix};
 use polarnav_ipc::TopicSubscriber;
 use polarnav_tests::harness::{Env, Proc, terminate, wait};
-use polarnav_tests::{python, repo};
+use polarnav_tests::{python, repo, shared_dataset};
 use serde_json::Value;
 
 /// The feeder: a pty at `link`, driven line by line.
@@ -469,14 +469,7 @@ fn a_port_in_use_a_missing_device_and_absurd_rates_exit_2_naming_the_key() {
 /// RXM-SFRBX and NMEA interleaved on one port, 536 NAV-PVT, from the
 /// project's shared data beside this checkout.
 fn walk_log() -> PathBuf {
-    let p = repo("../shared/datasets/rtklibexplorer-gnss-imu/walk_0827/gnss_1730.ubx");
-    assert!(
-        p.exists(),
-        "{} is missing: the tests read the project's shared data from ../shared, beside this \
-         checkout (README, Quick start): clone or link it there",
-        p.display()
-    );
-    p
+    shared_dataset("rtklibexplorer-gnss-imu/walk_0827/gnss_1730.ubx")
 }
 
 /// One replay of the real log with `gnss-ubx --file`: with `daemon`, into

@@ -23,6 +23,20 @@ fn unavailable_lines(env: &Env, service: &str) -> usize {
         .count()
 }
 
+/// Whether a solution comes on `<prefix>/solution` within 20 s.
+fn solutions_come(env: &Env) -> bool {
+    let node = polarnav_ipc::node(&env.cfg, "test").expect("node");
+    let sub = TopicSubscriber::<Solution>::new(&node, &env.cfg, Topic::Solution).expect("sub");
+    let t0 = Instant::now();
+    while t0.elapsed() < Duration::from_secs(20) {
+        if sub.drain(|_| {}).expect("drain") > 0 {
+            return true;
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    false
+}
+
 /// The squatter's bits: the service, and the cause (another payload type).
 fn squatted(bit: u32) -> u32 {
     bit | bit << unavailable::INCOMPATIBLE_SHIFT
@@ -67,15 +81,10 @@ fn a_squatted_input_leaves_the_daemon_serving_and_is_taken_once_freed() {
         env.read("daemon.err")
     );
     // And it navigates: solutions come.
-    let node = polarnav_ipc::node(&env.cfg, "test").expect("node");
-    let sub = TopicSubscriber::<Solution>::new(&node, &env.cfg, Topic::Solution).expect("sub");
-    let t0 = Instant::now();
-    let mut n = 0;
-    while n == 0 && t0.elapsed() < Duration::from_secs(20) {
-        n += sub.drain(|_| {}).expect("drain");
-        std::thread::sleep(Duration::from_millis(20));
-    }
-    assert!(n > 0, "no solution after the IMU's service was freed");
+    assert!(
+        solutions_come(&env),
+        "no solution after the IMU's service was freed"
+    );
     assert_eq!(terminate(&mut daemon, Duration::from_secs(10)), Some(0));
 }
 
@@ -113,14 +122,9 @@ fn a_squatted_output_leaves_the_daemon_navigating_and_is_taken_once_freed() {
     drop(squatter);
     drop(node);
     status_until(&env, Duration::from_secs(10), |s| s.unavailable == 0);
-    let node = polarnav_ipc::node(&env.cfg, "test").expect("node");
-    let sub = TopicSubscriber::<Solution>::new(&node, &env.cfg, Topic::Solution).expect("sub");
-    let t0 = Instant::now();
-    let mut n = 0;
-    while n == 0 && t0.elapsed() < Duration::from_secs(20) {
-        n += sub.drain(|_| {}).expect("drain");
-        std::thread::sleep(Duration::from_millis(20));
-    }
-    assert!(n > 0, "no solution after the solution's service was freed");
+    assert!(
+        solutions_come(&env),
+        "no solution after the solution's service was freed"
+    );
     assert_eq!(terminate(&mut daemon, Duration::from_secs(10)), Some(0));
 }
