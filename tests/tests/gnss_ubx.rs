@@ -367,6 +367,46 @@ fn ten_minutes_at_10_hz_lose_nothing() {
     }
 }
 
+/// In flight (a receiver on its device), a subscriber that never takes
+/// its fixes misses all but its buffer's worth, and the driver counts each
+/// one it missed (issue 43, item 5): this test's second subscriber, made
+/// before the driver and never drained, is not even connected (iceoryx2
+/// 0.10 connects a subscriber at its receive), the case its backpressure
+/// handler never sees; the driver said `lost=0` for it before. The first
+/// subscriber gets every fix.
+#[test]
+fn a_subscriber_that_never_reads_costs_counted_fixes_in_flight() {
+    const FIXES: usize = 60;
+    let env = Env::new("ubxidle");
+    let node = polarnav_ipc::node(&env.cfg, "test").expect("node");
+    let topic = Topic::Aid(AidKind::Gnss);
+    let sub = TopicSubscriber::<GnssFix>::new(&node, &env.cfg, topic).expect("subscriber");
+    let idle = TopicSubscriber::<GnssFix>::new(&node, &env.cfg, topic).expect("subscriber");
+    let mut feed = Feed::start(&env, "long", FIXES, 200.0);
+    let link = feed.link.clone();
+    let mut driver = start_driver(&env, &link, "gnss");
+    feed.say("go");
+    let mut got = Vec::with_capacity(FIXES);
+    receive(&sub, &mut got, FIXES, Duration::from_secs(30));
+    feed.expect(&env, "done", Duration::from_secs(30));
+    // What the idle subscriber kept, taken while the driver still runs (a
+    // subscriber not connected to a publisher that has gone never gets
+    // what was queued for it).
+    let buffer = polarnav_ipc::qos(topic).buffer;
+    let mut kept = Vec::new();
+    idle.drain(|f| kept.push(f)).expect("drain");
+    assert_eq!(terminate(&mut driver, Duration::from_secs(10)), Some(0));
+    feed.say("close");
+    assert_equal(&got, feed.fixes());
+    assert_equal(&kept, &feed.fixes()[..buffer]);
+    let c = exit_counters(&env, "gnss");
+    assert_eq!(
+        (c["published"], c["lost"]),
+        (FIXES as u64, (FIXES - buffer) as u64),
+        "{c:?}"
+    );
+}
+
 #[test]
 fn a_device_removed_mid_stream_is_reported_and_reconnected() {
     let env = Env::new("ubxreconnect");
