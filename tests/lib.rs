@@ -170,10 +170,10 @@ pub fn repo(rel: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("..").join(rel)
 }
 
-/// The PSINS laser-gyro record of the project's shared data (`../shared`
+/// A file of the project's shared data sets (`../shared/datasets`
 /// beside this checkout); a test without it says so.
-pub fn lasergyro() -> PathBuf {
-    let p = repo("../shared/datasets/psins-lasergyro/lasergyro.imu");
+pub fn shared_dataset(rel: &str) -> PathBuf {
+    let p = repo(&format!("../shared/datasets/{rel}"));
     assert!(
         p.exists(),
         "{} is missing: the tests read the project's shared data from ../shared, beside this \
@@ -181,6 +181,11 @@ pub fn lasergyro() -> PathBuf {
         p.display()
     );
     p
+}
+
+/// The PSINS laser-gyro record of the project's shared data.
+pub fn lasergyro() -> PathBuf {
+    shared_dataset("psins-lasergyro/lasergyro.imu")
 }
 
 /// Simulates scenario text into navlog records.

@@ -181,7 +181,10 @@ class Status(ctypes.Structure):
         # init_heading_aid).
         ("init_method", ctypes.c_uint8),
         ("init_heading_aid", ctypes.c_uint8),
-        ("_pad", ctypes.c_uint8 * 4),
+        # Services the daemon cannot open now: bit 0 the IMU, 1 + k aid k,
+        # then init, solution, status, settings; bit 16 + b: service b exists
+        # with another payload type or other options (msgs::unavailable).
+        ("unavailable", ctypes.c_uint32),
     ]
 
     @property

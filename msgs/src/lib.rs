@@ -34,4 +34,4 @@ pub use baseline::BaselineSample;
 pub use gnss::GnssFix;
 pub use mag::MagSample;
 pub use payloads::*;
-pub use status::{AidStatus, Status, StreamCounters, integrity_state};
+pub use status::{AidStatus, Status, StreamCounters, integrity_state, unavailable};

@@ -187,8 +187,39 @@ pub struct Status {
     /// See [`Status::init_method`].
     pub init_method: u8,
     pub init_heading_aid: u8,
-    /// Always zero.
-    pub _pad: [u8; 4],
+    /// The services the daemon cannot open now, and why ([`unavailable`]):
+    /// each is retried, and taken once it opens. 0: every service served
+    /// (a sender before this field sent padding, always zero).
+    pub unavailable: u32,
+}
+
+/// Bits of [`Status::unavailable`]: a service the daemon could not open
+/// (another process created it first with another payload type or other
+/// options, or iceoryx2 refused it) is served by nobody; the daemon serves
+/// every other one, retries it and takes it once it opens. The low half
+/// says which service, the high half why: bit `INCOMPATIBLE_SHIFT + b` set with
+/// bit `b` when the service exists with another payload type or other
+/// options (a squatter), clear for any other failure (the log line says
+/// which).
+pub mod unavailable {
+    use crate::aids::{STREAM_COUNT, Stream};
+
+    /// An input stream's service: bit [`Stream::index`] (0 the IMU, 1 + k aid k).
+    pub const fn stream(s: Stream) -> u32 {
+        1 << s.index()
+    }
+    /// `<prefix>/init`.
+    pub const INIT_SERVICE: u32 = 1 << STREAM_COUNT;
+    /// `<prefix>/solution`.
+    pub const SOLUTION_SERVICE: u32 = 1 << (STREAM_COUNT + 1);
+    /// `<prefix>/status` (then only the log and systemd's STATUS= say so).
+    pub const STATUS_SERVICE: u32 = 1 << (STREAM_COUNT + 2);
+    /// `<prefix>/settings`.
+    pub const SETTINGS_SERVICE: u32 = 1 << (STREAM_COUNT + 3);
+    /// Shift of the cause bits: `bit << INCOMPATIBLE_SHIFT` set when the service
+    /// exists with another payload type or other options.
+    pub const INCOMPATIBLE_SHIFT: u32 = 16;
+    const _: () = assert!(STREAM_COUNT + 4 <= INCOMPATIBLE_SHIFT as usize);
 }
 
 impl Status {

@@ -9,6 +9,7 @@ pub mod live;
 pub mod mcap_pipe;
 pub mod notify;
 pub mod owner;
+pub mod services;
 
 /// `note!`: a line on standard error that a closed standard error loses
 /// without ending the run (the processes' shared macro, in

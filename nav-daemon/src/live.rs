@@ -38,6 +38,7 @@ use polarnav_ipc::{
 use crate::events::RateLimit;
 use crate::imu_rate::RateCheck;
 use crate::owner::Owner;
+use crate::services::Service;
 
 /// Settings of the live loop.
 #[derive(Debug, Clone, PartialEq)]
@@ -232,26 +233,173 @@ pub struct LiveReport {
 /// drained is dropped (test `capacity_holds_one_drain_of_every_input`).
 const CAPACITY: usize = 1024;
 
+/// The daemon's ports, each service on its own ([`Service`]: one that
+/// cannot be opened leaves the others served and is retried).
 struct Ports {
     cfg: TransportConfig,
-    imu: TopicSubscriber<ImuSample>,
+    imu: Service<TopicSubscriber<ImuSample>>,
     /// One subscriber per aid.
-    aids: PerAid<Box<dyn AidSubscriber>>,
-    init: TopicSubscriber<InitState>,
-    solution: TopicPublisher<Solution>,
-    status: TopicPublisher<Status>,
-    settings: TopicPublisher<EffectiveSettings>,
+    aids: PerAid<Service<Box<dyn AidSubscriber>>>,
+    init: Service<TopicSubscriber<InitState>>,
+    solution: Service<TopicPublisher<Solution>>,
+    status: Service<TopicPublisher<Status>>,
+    settings: Service<TopicPublisher<EffectiveSettings>>,
+}
+
+/// The port `make` opens on `topic`'s service (bit `bit` of
+/// [`Status::unavailable`]), retried while it cannot be opened.
+fn port<P: 'static>(
+    node: &Node<ipc::Service>,
+    cfg: &TransportConfig,
+    topic: Topic,
+    bit: u32,
+    make: fn(&Node<ipc::Service>, &TransportConfig, Topic) -> Result<P, TransportError>,
+) -> Service<P> {
+    let name = topic.service_name(&cfg.prefix);
+    Service::open(
+        node,
+        cfg,
+        name,
+        bit,
+        Box::new(move |n, c| make(n, c, topic)),
+    )
+}
+
+fn aid_subscriber(
+    node: &Node<ipc::Service>,
+    cfg: &TransportConfig,
+    k: AidKind,
+) -> Service<Box<dyn AidSubscriber>> {
+    let topic = Topic::Aid(k);
+    Service::open(
+        node,
+        cfg,
+        topic.service_name(&cfg.prefix),
+        msgs::unavailable::stream(Stream::Aid(k)),
+        Box::new(move |n, c| {
+            let s: Box<dyn AidSubscriber> = msgs::match_aid_kind!(k, P => {
+                Box::new(TopicSubscriber::<P>::new(n, c, topic)?)
+            });
+            Ok(s)
+        }),
+    )
 }
 
 impl Ports {
+    fn open(node: &Node<ipc::Service>, cfg: &TransportConfig) -> Self {
+        use msgs::unavailable as u;
+        // The init subscriber first: a publisher hands it the init topic's
+        // history (the init sent before this daemon started) at its next send.
+        let init = port(
+            node,
+            cfg,
+            Topic::Init,
+            u::INIT_SERVICE,
+            TopicSubscriber::new,
+        );
+        Self {
+            cfg: cfg.clone(),
+            init,
+            imu: port(
+                node,
+                cfg,
+                Topic::Imu,
+                u::stream(Stream::Imu),
+                TopicSubscriber::new,
+            ),
+            aids: PerAid(AidKind::ALL.map(|k| aid_subscriber(node, cfg, k))),
+            solution: port(
+                node,
+                cfg,
+                Topic::Solution,
+                u::SOLUTION_SERVICE,
+                TopicPublisher::new,
+            ),
+            status: port(
+                node,
+                cfg,
+                Topic::Status,
+                u::STATUS_SERVICE,
+                TopicPublisher::new,
+            ),
+            settings: port(
+                node,
+                cfg,
+                Topic::Settings,
+                u::SETTINGS_SERVICE,
+                TopicPublisher::new,
+            ),
+        }
+    }
+
+    /// Retries the services that could not be opened (at most once per
+    /// [`crate::services::RETRY_PERIOD`] each); true when the settings
+    /// service opened now (its publisher has the settings to send).
+    fn retry(&self, node: &Node<ipc::Service>) -> bool {
+        let now = Instant::now();
+        let cfg = &self.cfg;
+        self.init.retry(node, cfg, now);
+        self.imu.retry(node, cfg, now);
+        for (_, a) in self.aids.iter() {
+            a.retry(node, cfg, now);
+        }
+        self.solution.retry(node, cfg, now);
+        self.status.retry(node, cfg, now);
+        self.settings.retry(node, cfg, now)
+    }
+
+    /// [`Status::unavailable`] now.
+    fn unavailable(&self) -> u32 {
+        let mut bits = self.init.unavailable()
+            | self.imu.unavailable()
+            | self.solution.unavailable()
+            | self.status.unavailable()
+            | self.settings.unavailable();
+        for (_, a) in self.aids.iter() {
+            bits |= a.unavailable();
+        }
+        bits
+    }
+
+    /// Publishes a status (its `unavailable` from the services now), if
+    /// the status service is open.
+    fn publish_status(&self, mut st: Status) -> Result<(), TransportError> {
+        st.unavailable = self.unavailable();
+        match self.status.get() {
+            Some(p) => p.publish(&st).map(|_| ()),
+            None => Ok(()),
+        }
+    }
+
+    /// Publishes the effective settings (history 1, for flight recorders),
+    /// if the settings service is open.
+    fn publish_settings(&self, settings: &Effective) -> Result<(), TransportError> {
+        let Some(p) = self.settings.get() else {
+            return Ok(());
+        };
+        match EffectiveSettings::new(0, &settings.header_toml()) {
+            Some(m) => {
+                p.publish(&m)?;
+            }
+            None => tracing::warn!(
+                "effective settings longer than {} bytes: not published",
+                msgs::SETTINGS_TEXT_MAX
+            ),
+        }
+        Ok(())
+    }
+
     /// Drains `sub` into `take`, keeping only the samples of its owner.
     fn drain_owned<T: std::fmt::Debug + ZeroCopySend + Copy + 'static>(
         &self,
-        sub: &TopicSubscriber<T>,
+        sub: &Service<TopicSubscriber<T>>,
         owner: &mut Owner,
         stream: &str,
         mut take: impl FnMut(T),
     ) -> Result<(), TransportError> {
+        let Some(sub) = sub.get() else {
+            return Ok(());
+        };
         sub.drain_with_origin(|p, x| {
             if owner.admit(stream, p, |o| self.connected(|id| sub.has_publisher(id), o)) {
                 take(x);
@@ -268,7 +416,9 @@ impl Ports {
         owner: &mut Owner,
         take: &mut dyn FnMut(AidSample),
     ) -> Result<(), TransportError> {
-        let sub = &self.aids[k];
+        let Some(sub) = self.aids[k].get() else {
+            return Ok(());
+        };
         sub.drain_samples(&mut |p, x| {
             if owner.admit(k.decl().label, p, |o| {
                 self.connected(|id| sub.has_publisher(id), o)
@@ -302,36 +452,19 @@ pub fn run(
     refuse_if_served(transport_cfg, None)?;
     let node = polarnav_ipc::node(transport_cfg, NODE_ROLE)?;
     refuse_if_served(transport_cfg, Some(std::process::id() as i32))?;
-    // The init subscriber first: a publisher hands it the init topic's
-    // history (the init sent before this daemon started) at its next send.
-    let init = TopicSubscriber::new(&node, transport_cfg, Topic::Init)?;
-    let ports = Ports {
-        cfg: transport_cfg.clone(),
-        init,
-        imu: TopicSubscriber::new(&node, transport_cfg, Topic::Imu)?,
-        aids: polarnav_ipc::aid_subscribers(&node, transport_cfg)?,
-        solution: TopicPublisher::new(&node, transport_cfg, Topic::Solution)?,
-        status: TopicPublisher::new(&node, transport_cfg, Topic::Status)?,
-        settings: TopicPublisher::new(&node, transport_cfg, Topic::Settings)?,
-    };
+    // Every service it can open; one it cannot is said once, reported
+    // in every status and retried from the loop.
+    let ports = Ports::open(&node, transport_cfg);
     // The effective settings, for flight recorders (history 1).
-    match EffectiveSettings::new(0, &settings.header_toml()) {
-        Some(m) => {
-            ports.settings.publish(&m)?;
-        }
-        None => tracing::warn!(
-            "effective settings longer than {} bytes: not published",
-            msgs::SETTINGS_TEXT_MAX
-        ),
-    }
+    ports.publish_settings(settings)?;
     let waitset = WaitSetBuilder::new()
         .signal_handling_mode(SignalHandlingMode::Disabled)
         .create::<ipc::Service>()
         .map_err(|e| LiveError::WaitSet(format!("{e:?}")))?;
     let period = Duration::from_secs_f64(1.0 / opts.imu_rate_hz);
-    let imu_guard = waitset
-        .attach_notification(ports.imu.listener())
-        .map_err(|e| LiveError::WaitSet(format!("{e:?}")))?;
+    // The IMU's event wakes the loop once its service is open (attached
+    // in the loop; the interval tick runs it meanwhile).
+    let mut imu_guard = None;
     let _tick = waitset
         .attach_interval(period)
         .map_err(|e| LiveError::WaitSet(format!("{e:?}")))?;
@@ -364,9 +497,21 @@ pub fn run(
         waiting_line(&state.session, &transport_cfg.prefix)
     );
     loop {
+        if ports.retry(&node) {
+            ports.publish_settings(settings)?;
+        }
+        if imu_guard.is_none()
+            && let Some(imu) = ports.imu.get()
+        {
+            imu_guard = Some(
+                waitset
+                    .attach_notification(imu.listener())
+                    .map_err(|e| LiveError::WaitSet(format!("{e:?}")))?,
+            );
+        }
         let mut imu_event = false;
         let result = waitset.wait_and_process_once(|id| {
-            imu_event |= id.has_event_from(&imu_guard);
+            imu_event |= imu_guard.as_ref().is_some_and(|g| id.has_event_from(g));
             CallbackProgression::Continue
         });
         match result {
@@ -377,8 +522,8 @@ pub fn run(
             Ok(_) => {}
             Err(e) => return Err(LiveError::WaitSet(format!("{e:?}"))),
         }
-        if imu_event {
-            ports.imu.clear_events();
+        if imu_event && let Some(imu) = ports.imu.get() {
+            imu.clear_events();
         }
         let t0 = Instant::now();
         let cpu0 = cpu_time::ThreadTime::try_now().ok();
@@ -388,7 +533,7 @@ pub fn run(
         notify.watchdog();
         if status_due {
             let st = state.status();
-            ports.status.publish(&st)?;
+            ports.publish_status(st)?;
             let line = match state.session.navigator() {
                 Some(n) => status_line(&st, Some(n.state().geodetic().lat_rad.to_degrees())),
                 None => waiting_line(&state.session, &transport_cfg.prefix),
@@ -399,7 +544,9 @@ pub fn run(
         // A recorder that subscribed since gets the settings (history 1)
         // within this period, before it has to start its file.
         if state.last_settings_update.elapsed() >= SETTINGS_UPDATE_PERIOD {
-            ports.settings.update_connections()?;
+            if let Some(p) = ports.settings.get() {
+                p.update_connections()?;
+            }
             state.last_settings_update = Instant::now();
         }
         if stop.load(Ordering::Relaxed) {
@@ -408,12 +555,12 @@ pub fn run(
     }
     {
         // Nothing received is lost: what waited for the IMU goes first.
-        let mut sink = PublishSink::new(&ports.solution, &mut state.out);
+        let mut sink = PublishSink::new(ports.solution.get(), &mut state.out);
         state.inbox.deliver_all(&mut state.session, &mut sink);
         state.session.finish(&mut sink);
         state.report.solutions += sink.done()?;
     }
-    ports.status.publish(&state.status())?;
+    ports.publish_status(state.status())?;
     notify.stopping(&format!(
         "stopping after {} solutions",
         state.report.solutions
@@ -471,7 +618,9 @@ pub fn status_line(s: &Status, lat_deg: Option<f64>) -> String {
 /// Publishes the session's solutions and logs its decisions (rejections at
 /// most once a second per stream).
 struct PublishSink<'a> {
-    solution: &'a TopicPublisher<Solution>,
+    /// `None` while the solution service cannot be opened: the session
+    /// runs on, its solutions go nowhere (the status says so).
+    solution: Option<&'a TopicPublisher<Solution>>,
     error: Option<TransportError>,
     published: u64,
     out: &'a mut OutputState,
@@ -489,7 +638,7 @@ struct OutputState {
 }
 
 impl<'a> PublishSink<'a> {
-    fn new(solution: &'a TopicPublisher<Solution>, out: &'a mut OutputState) -> Self {
+    fn new(solution: Option<&'a TopicPublisher<Solution>>, out: &'a mut OutputState) -> Self {
         Self {
             solution,
             error: None,
@@ -521,7 +670,10 @@ impl Sink for PublishSink<'_> {
         } else {
             s
         };
-        if let Err(e) = self.solution.publish(s) {
+        let Some(solution) = self.solution else {
+            return;
+        };
+        if let Err(e) = solution.publish(s) {
             self.error = Some(e);
             return;
         }
@@ -637,9 +789,13 @@ impl LoopState {
             ports.drain_aid(k, owner, &mut |x| receive(Received::Aid(x)))?;
         }
         for (_, sub) in ports.aids.iter() {
-            sub.clear_events();
+            if let Some(sub) = sub.get() {
+                sub.clear_events();
+            }
         }
-        ports.init.clear_events();
+        if let Some(init) = ports.init.get() {
+            init.clear_events();
+        }
         if imu_seen {
             self.last_imu_wall = Some(Instant::now());
             if self.imu_lost {
@@ -650,7 +806,7 @@ impl LoopState {
         // No flush at the end of the cycle: the session emits each solution
         // as its sample is integrated and fuses aids before the next sample,
         // so where a cycle ends changes nothing.
-        let mut sink = PublishSink::new(&ports.solution, &mut self.out);
+        let mut sink = PublishSink::new(ports.solution.get(), &mut self.out);
         self.inbox.deliver(&mut self.session, &mut sink);
         self.report.solutions += sink.done()?;
         if let Some(w) = self.checkpoint.as_mut() {

@@ -21,7 +21,7 @@ use msgs::service::Topic;
 use msgs::{AidKind, BaselineSample, GnssFix};
 use polarnav_ipc::TopicSubscriber;
 use polarnav_tests::harness::{Env, Proc, terminate, wait};
-use polarnav_tests::{python, repo};
+use polarnav_tests::{python, repo, shared_dataset};
 use serde_json::Value;
 
 /// The feeder: a pty at `link`, driven line by line.
@@ -367,6 +367,46 @@ fn ten_minutes_at_10_hz_lose_nothing() {
     }
 }
 
+/// In flight (a receiver on its device), a subscriber that never takes
+/// its fixes misses all but its buffer's worth, and the driver counts each
+/// one it missed (issue 43, item 5): this test's second subscriber, made
+/// before the driver and never drained, is not even connected (iceoryx2
+/// 0.10 connects a subscriber at its receive), the case its backpressure
+/// handler never sees; the driver said `lost=0` for it before. The first
+/// subscriber gets every fix.
+#[test]
+fn a_subscriber_that_never_reads_costs_counted_fixes_in_flight() {
+    const FIXES: usize = 60;
+    let env = Env::new("ubxidle");
+    let node = polarnav_ipc::node(&env.cfg, "test").expect("node");
+    let topic = Topic::Aid(AidKind::Gnss);
+    let sub = TopicSubscriber::<GnssFix>::new(&node, &env.cfg, topic).expect("subscriber");
+    let idle = TopicSubscriber::<GnssFix>::new(&node, &env.cfg, topic).expect("subscriber");
+    let mut feed = Feed::start(&env, "long", FIXES, 200.0);
+    let link = feed.link.clone();
+    let mut driver = start_driver(&env, &link, "gnss");
+    feed.say("go");
+    let mut got = Vec::with_capacity(FIXES);
+    receive(&sub, &mut got, FIXES, Duration::from_secs(30));
+    feed.expect(&env, "done", Duration::from_secs(30));
+    // What the idle subscriber kept, taken while the driver still runs (a
+    // subscriber not connected to a publisher that has gone never gets
+    // what was queued for it).
+    let buffer = polarnav_ipc::qos(topic).buffer;
+    let mut kept = Vec::new();
+    idle.drain(|f| kept.push(f)).expect("drain");
+    assert_eq!(terminate(&mut driver, Duration::from_secs(10)), Some(0));
+    feed.say("close");
+    assert_equal(&got, feed.fixes());
+    assert_equal(&kept, &feed.fixes()[..buffer]);
+    let c = exit_counters(&env, "gnss");
+    assert_eq!(
+        (c["published"], c["lost"]),
+        (FIXES as u64, (FIXES - buffer) as u64),
+        "{c:?}"
+    );
+}
+
 #[test]
 fn a_device_removed_mid_stream_is_reported_and_reconnected() {
     let env = Env::new("ubxreconnect");
@@ -463,4 +503,155 @@ fn a_port_in_use_a_missing_device_and_absurd_rates_exit_2_naming_the_key() {
     feed.say("go");
     feed.expect(&env, "done", Duration::from_secs(10));
     feed.say("close");
+}
+
+/// The real receiver's log of issue 43 (item 5): u-blox NAV-PVT, RXM-RAWX,
+/// RXM-SFRBX and NMEA interleaved on one port, 536 NAV-PVT, from the
+/// project's shared data beside this checkout.
+fn walk_log() -> PathBuf {
+    shared_dataset("rtklibexplorer-gnss-imu/walk_0827/gnss_1730.ubx")
+}
+
+/// One replay of the real log with `gnss-ubx --file`: with `daemon`, into
+/// a daemon and a recorder that both subscribed before the driver
+/// started; without, into a recorder alone started once the driver has
+/// created its service (the issue's two runs). Returns the fixes the
+/// recorder wrote, the GNSS fixes the daemon received (its final status;
+/// `None` without a daemon) and the driver's exit counters.
+fn replay_walk(
+    tag: &str,
+    log: &Path,
+    daemon: bool,
+) -> (Vec<GnssFix>, Option<u64>, BTreeMap<String, u64>) {
+    use msgs::navlog::Record;
+    let env = Env::new(tag);
+    let rec_path = env.dir.join("recorded.navlog");
+    let mut daemon = daemon.then(|| env.start_daemon("daemon", None));
+    let mut recorder = daemon.as_ref().map(|_| env.start_recorder(&rec_path));
+    let cfg = env.dir.join("gnss.toml");
+    std::fs::write(
+        &cfg,
+        format!(
+            "prefix = \"{}\"\ndevice = \"/dev/null\"\nreport_s = 1\n",
+            env.cfg.prefix
+        ),
+    )
+    .expect("settings");
+    let mut driver = env
+        .command("gnss-ubx", "gnss")
+        .arg("--config")
+        .arg(&cfg)
+        .arg("--file")
+        .arg(log)
+        .spawn()
+        .map(Proc)
+        .expect("gnss-ubx");
+    if recorder.is_none() {
+        env.wait_for("gnss", "publishing NAV-PVT on", Duration::from_secs(20));
+        recorder = Some(env.start_recorder(&rec_path));
+    }
+    let mut recorder = recorder.expect("recorder");
+    assert_eq!(
+        wait(&mut driver, Duration::from_secs(30)),
+        Some(0),
+        "gnss-ubx --file: {}",
+        env.read("gnss.err")
+    );
+    let counters = exit_counters(&env, "gnss");
+    // The daemon drains within a cycle (5 ms); its final status, published
+    // as it stops, reaches the recorder, stopped after it.
+    std::thread::sleep(Duration::from_millis(300));
+    if let Some(d) = daemon.as_mut() {
+        assert_eq!(terminate(d, Duration::from_secs(10)), Some(0));
+        std::thread::sleep(Duration::from_millis(200));
+    }
+    assert_eq!(terminate(&mut recorder, Duration::from_secs(10)), Some(0));
+    let (records, report) = msgs::navlog::read_all(&std::fs::read(&rec_path).expect("recording"));
+    assert!(report.is_clean(), "{report}");
+    let mut fixes = Vec::new();
+    let mut last_status = None;
+    for r in records {
+        match r {
+            Record::Aid(a) => {
+                if let msgs::AidSample::Gnss(g) = *a {
+                    fixes.push(g);
+                }
+            }
+            Record::Status(s) => last_status = Some(*s),
+            _ => {}
+        }
+    }
+    let daemon_got = daemon.map(|_| {
+        let status = last_status.expect("the daemon's status in the recording");
+        status.streams[msgs::Stream::Aid(AidKind::Gnss).index()].received
+    });
+    (fixes, daemon_got, counters)
+}
+
+/// A real receiver's log (issue 43, item 5) through `gnss-ubx --file`,
+/// again and again, in the issue's two runs: a recorder alone, started
+/// once the driver has created its service, and a daemon and a recorder
+/// started before it. Each fix arrives at each of them, equal field for
+/// field to pyubx2's reading of the same log; a fix one of them missed
+/// would have to be counted in the driver's `lost` (and the test allows
+/// no miss at all). Before the fix, the driver replayed the file into
+/// whoever listened at once, in about 0.1 s: the recorder alone got what
+/// was sent after it subscribed, and a subscriber not connected yet (it
+/// connects at its next receive) kept 25 fixes and lost the rest, while
+/// the driver said `lost=0`.
+#[test]
+fn a_real_receivers_log_reaches_the_daemon_and_a_recorder_whole_or_counted() {
+    // Runs of each kind: about 1.5 s alone, 3 s with a daemon.
+    const REPETITIONS: usize = 4;
+    let log = walk_log();
+    let env = Env::new("ubxwalkexpected");
+    let json = env.dir.join("expected.json");
+    let out = Command::new(python())
+        .arg(repo("tests/python/ubx_log_fixes.py"))
+        .arg(&log)
+        .arg(&json)
+        .output()
+        .expect("python");
+    assert!(
+        out.status.success(),
+        "ubx_log_fixes.py: {}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let expected: Value =
+        serde_json::from_slice(&std::fs::read(&json).expect("json")).expect("json");
+    let want = expected["fixes"].as_array().expect("fixes");
+    assert_eq!(expected["nav_pvt"], 536, "the log's NAV-PVT by pyubx2");
+    assert_eq!(want.len(), 536, "every NAV-PVT of the log is dated");
+    let mut figures = Vec::new();
+    for k in 0..2 * REPETITIONS {
+        let with_daemon = k % 2 == 1;
+        let (got, daemon_got, c) = replay_walk(&format!("ubxwalk{k}"), &log, with_daemon);
+        figures.push((got.len(), daemon_got, c["lost"]));
+        assert_eq!(c["published"], 536, "repetition {k}: {c:?}");
+        // Each fix the recorder has is pyubx2's of the same `seq`, in order.
+        let want_got: Vec<Value> = got.iter().map(|g| want[g.seq as usize].clone()).collect();
+        assert_equal(&got, &want_got);
+        assert!(
+            got.windows(2).all(|w| w[0].seq < w[1].seq),
+            "repetition {k}: out of order"
+        );
+        let missed = (536 - got.len() as u64) + daemon_got.map_or(0, |d| 536 - d);
+        assert_eq!(
+            missed,
+            c["lost"],
+            "repetition {k}: the recorder got {}, the daemon {daemon_got:?} of 536; the driver \
+             counted {} lost",
+            got.len(),
+            c["lost"]
+        );
+        assert_eq!(
+            (got.len(), daemon_got.unwrap_or(536)),
+            (536, 536),
+            "repetition {k}: fixes lost (counted: {c:?})"
+        );
+    }
+    eprintln!(
+        "(recorder, daemon, driver's lost) per repetition, a recorder alone and with a daemon \
+         in turn: {figures:?}"
+    );
 }

@@ -1091,7 +1091,7 @@ fn python_ctypes_mirror_has_the_rust_layout() {
     rust.extend(
         offsets!(Status: t_ns, seq, streams, aids, cycles, overruns, overruns_cpu, cycle_time_mean_ns, cycle_time_max_ns, last_switch_t_ns, imu_gap_count,
         coasted_ns, checkpoints_written, reinit_count, switch_count, reset_count, flags, frame,
-        resumed, init_method, init_heading_aid, _pad),
+        resumed, init_method, init_heading_aid, unavailable),
     );
     rust.extend(
         offsets!(StarSample: t_ns, seq, q_b_i, boresight_b, sigma_cross_arcsec,

@@ -31,7 +31,11 @@ struct Cli {
     #[arg(long)]
     device: Option<String>,
     /// Read UBX from this file instead of the device, as fast as the
-    /// subscribers take it, and stop at its end.
+    /// subscribers take it, and stop at its end. The first fix waits for a
+    /// subscriber of <prefix>/gnss (as long as it takes; Ctrl-C stops),
+    /// then 0.5 s for the subscribers to connect: a replay nobody hears is
+    /// no delivery. Fixes a subscriber missed, or that reached none, count
+    /// in `lost`.
     #[arg(long, value_name = "UBX")]
     file: Option<PathBuf>,
     /// Check a settings file and exit (0 valid, 2 invalid).

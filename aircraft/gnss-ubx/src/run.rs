@@ -5,7 +5,8 @@
 //! the reports and the silence check are served within that however the
 //! device behaves; nothing in the loop waits on a subscriber (in flight
 //! the publisher discards and counts; from a file it waits at most 2 s,
-//! as a replay does).
+//! as a replay does, and waits for a first subscriber before its first fix:
+//! [`Source::File`]).
 
 use std::io::Read;
 use std::path::PathBuf;
@@ -26,6 +27,13 @@ pub const READ_TIMEOUT: Duration = Duration::from_millis(100);
 pub const SILENT_PERIODS: f64 = 5.0;
 /// How long a publisher waits for a full subscriber when reading a file.
 pub const FILE_MAX_WAIT: Duration = Duration::from_secs(2);
+/// How long `--file` lets its subscribers connect before its first fix,
+/// once one exists: an input subscriber receives at least once per
+/// [`polarnav_ipc::INPUT_BUFFER_S`] (what the input buffers are sized on),
+/// and one that existed before the driver connects only at a receive.
+pub const FILE_SETTLE: Duration = Duration::from_millis(500);
+/// How often `--file` looks for a first subscriber.
+const SUBSCRIBER_POLL: Duration = Duration::from_millis(10);
 
 /// Where the bytes come from.
 #[derive(Debug, Clone, PartialEq, Eq)]
@@ -34,6 +42,17 @@ pub enum Source {
     Device,
     /// A file of UBX (recorded from a receiver), read as fast as the
     /// subscribers take it; the driver stops at its end.
+    ///
+    /// A replay nobody hears is no delivery: before its first fix the
+    /// driver waits, as long as it takes (until stopped), for a subscriber
+    /// of `<prefix>/gnss`, wakes the subscribers and gives them
+    /// [`FILE_SETTLE`] to connect (iceoryx2 0.10 connects a subscriber that
+    /// existed before the publisher only at its next receive; until then
+    /// its buffer fills and the rest is dropped). A subscriber that
+    /// subscribes later gets the fixes from then on. Every fix a subscriber
+    /// missed counts in `lost`, and so does every fix that reached no
+    /// subscriber at all (all of them gone mid-file). A file without a
+    /// fix never waits.
     File(PathBuf),
 }
 
@@ -190,6 +209,15 @@ pub fn run(
         "gnss-ubx: reading {what}, publishing NAV-PVT on {service} and NAV-RELPOSNED on \
          {baseline_service}"
     );
+    // Subscribers that existed before these publishers connect at their
+    // next receive: wake them now, not at the first fix.
+    publisher.notify()?;
+    baseline_publisher.notify()?;
+    let from_file = matches!(source, Source::File(_));
+    // `--file`: whether a subscriber was there (and had FILE_SETTLE to
+    // connect) before the first fix, and the fixes that reached no one.
+    let mut heard = !from_file;
+    let mut unheard: u64 = 0;
     let mut notify = Notify::new();
     notify.send(&[
         sd_notify::NotifyState::Ready,
@@ -277,13 +305,24 @@ pub fn run(
                         tracing::info!("gnss-ubx: NAV-PVT again");
                     }
                 }
+                if !heard && (!fixes.is_empty() || !baselines.is_empty()) {
+                    if !await_subscriber(&publisher, &baseline_publisher, &service, stop)? {
+                        break;
+                    }
+                    heard = true;
+                }
                 for f in &fixes {
-                    publisher.publish(f)?;
+                    let no_one = reached_no_one(|| publisher.lost(), || publisher.publish(f))?;
+                    unheard += u64::from(no_one && from_file);
                 }
                 for b in &baselines {
-                    baseline_publisher.publish(b)?;
+                    let no_one = reached_no_one(
+                        || baseline_publisher.lost(),
+                        || baseline_publisher.publish(b),
+                    )?;
+                    unheard += u64::from(no_one && from_file);
                 }
-                driver.set_lost(publisher.lost() + baseline_publisher.lost());
+                driver.set_lost(publisher.lost() + baseline_publisher.lost() + unheard);
             }
             Some(Err(e))
                 if matches!(
@@ -332,11 +371,58 @@ pub fn run(
     if let Input::Device(Some(_)) = input {
         driver.finish();
     }
-    driver.set_lost(publisher.lost() + baseline_publisher.lost());
+    driver.set_lost(publisher.lost() + baseline_publisher.lost() + unheard);
     let counters = driver.counters();
     notify.send(&[sd_notify::NotifyState::Stopping]);
     tracing::info!("gnss-ubx: exit: {counters}");
     Ok(Summary { counters })
+}
+
+/// Publishes `x`; `true` when it reached no subscriber and none missed it
+/// (no subscriber at all: a miss is already in the publisher's `lost`).
+fn reached_no_one(
+    lost: impl Fn() -> u64,
+    publish: impl FnOnce() -> Result<usize, TransportError>,
+) -> Result<bool, TransportError> {
+    let before = lost();
+    Ok(publish()? == 0 && lost() == before)
+}
+
+/// `--file`, before the first fix: waits for a subscriber of `service`,
+/// then wakes the subscribers and waits [`FILE_SETTLE`] for them to
+/// connect. `false`: stopped meanwhile.
+fn await_subscriber(
+    publisher: &TopicPublisher<GnssFix>,
+    baseline_publisher: &TopicPublisher<BaselineSample>,
+    service: &str,
+    stop: &AtomicBool,
+) -> Result<bool, RunError> {
+    if publisher.subscribers() == 0 {
+        tracing::info!(
+            "gnss-ubx: no subscriber on {service} yet: the file's first fix waits for one \
+             (stop with Ctrl-C)"
+        );
+        while publisher.subscribers() == 0 {
+            if stop.load(Ordering::Relaxed) {
+                return Ok(false);
+            }
+            std::thread::sleep(SUBSCRIBER_POLL);
+        }
+    }
+    publisher.notify()?;
+    baseline_publisher.notify()?;
+    let t0 = Instant::now();
+    while t0.elapsed() < FILE_SETTLE {
+        if stop.load(Ordering::Relaxed) {
+            return Ok(false);
+        }
+        std::thread::sleep(SUBSCRIBER_POLL);
+    }
+    tracing::info!(
+        "gnss-ubx: {} subscriber(s) on {service}: publishing the file",
+        publisher.subscribers()
+    );
+    Ok(true)
 }
 
 fn lose(
@@ -357,5 +443,20 @@ fn report(c: &Counters, before: &Counters) {
         tracing::warn!("gnss-ubx: counters: {c}");
     } else {
         tracing::info!("gnss-ubx: counters: {c}");
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `--file` gives its subscribers the time every input subscriber
+    /// receives within, by the contract the input buffers are sized on.
+    #[test]
+    fn file_settle_is_the_input_buffers_time() {
+        assert_eq!(
+            FILE_SETTLE,
+            Duration::from_secs_f64(polarnav_ipc::INPUT_BUFFER_S)
+        );
     }
 }

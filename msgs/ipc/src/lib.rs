@@ -317,7 +317,8 @@ pub enum Delivery {
 /// What a publisher could not deliver, and how long it waited.
 #[derive(Debug, Default)]
 struct DeliveryCounters {
-    /// Deliveries dropped (one per subscriber that missed a sample).
+    /// Deliveries dropped (one per subscriber that missed a sample),
+    /// counted from what each send reached ([`TopicPublisher::publish`]).
     lost: AtomicU64,
     /// Sends that found a full buffer and waited.
     waits: AtomicU64,
@@ -328,6 +329,7 @@ struct DeliveryCounters {
 /// A publisher that notifies its topic's event after each send.
 #[derive(Debug)]
 pub struct TopicPublisher<T: Debug + ZeroCopySend + 'static> {
+    service: iceoryx2::service::port_factory::publish_subscribe::PortFactory<ipc::Service, T, ()>,
     publisher: Publisher<ipc::Service, T, ()>,
     notifier: Notifier<ipc::Service>,
     name: String,
@@ -371,17 +373,17 @@ impl<T: Debug + ZeroCopySend + Copy + 'static> TopicPublisher<T> {
                     }
                     BackpressureAction::Retry
                 }
-                _ => {
-                    c.lost.fetch_add(1, Ordering::Relaxed);
-                    BackpressureAction::DiscardData
-                }
+                // Not counted here: `publish` counts every subscriber a
+                // send did not reach, this one included.
+                _ => BackpressureAction::DiscardData,
             }
         };
         let strategy = match delivery {
             Delivery::Discard => BackpressureStrategy::DiscardData,
             Delivery::Wait(_) => BackpressureStrategy::RetryUntilDelivered,
         };
-        let publisher = pubsub_service::<T>(node, cfg, topic)?
+        let service = pubsub_service::<T>(node, cfg, topic)?;
+        let publisher = service
             .publisher_builder()
             .backpressure_strategy(strategy)
             .set_backpressure_handler(handler)
@@ -392,6 +394,7 @@ impl<T: Debug + ZeroCopySend + Copy + 'static> TopicPublisher<T> {
             .create()
             .map_err(|e| iox("notifier", &name, e))?;
         Ok(Self {
+            service,
             publisher,
             notifier,
             name,
@@ -399,8 +402,9 @@ impl<T: Debug + ZeroCopySend + Copy + 'static> TopicPublisher<T> {
         })
     }
 
-    /// Deliveries dropped because a subscriber's buffer was full (one per
-    /// subscriber and sample).
+    /// Deliveries dropped (one per subscriber and sample): a subscriber's
+    /// buffer was full, or the subscriber was not connected yet and its
+    /// buffer was full (see [`Self::publish`]).
     pub fn lost(&self) -> u64 {
         self.counters.lost.load(Ordering::Relaxed)
     }
@@ -413,8 +417,23 @@ impl<T: Debug + ZeroCopySend + Copy + 'static> TopicPublisher<T> {
         )
     }
 
-    /// Writes `value` into a loaned shared-memory sample, sends it and notifies.
-    /// Returns the number of subscribers reached.
+    /// Subscribers of this topic's service now (one of a process killed
+    /// without cleanup counts until its dead node is removed).
+    pub fn subscribers(&self) -> usize {
+        use iceoryx2::service::port_factory::PortFactory as _;
+        self.service.dynamic_config().number_of_subscribers()
+    }
+
+    /// Wakes the topic's listeners without a sample: a subscriber that
+    /// existed before this publisher connects to it at its next receive
+    /// (iceoryx2 0.10 connects a subscriber's side only then).
+    pub fn notify(&self) -> Result<(), TransportError> {
+        self.notifier
+            .notify()
+            .map(|_| ())
+            .map_err(|e| iox("notify", &self.name, e))
+    }
+
     /// Connects subscribers that appeared since the last send and hands
     /// them this topic's history (iceoryx2 delivers history only from the
     /// publisher's side, at a send or here). Cheap when nothing changed.
@@ -425,7 +444,23 @@ impl<T: Debug + ZeroCopySend + Copy + 'static> TopicPublisher<T> {
             .map_err(|e| iox("update connections", &self.name, e))
     }
 
+    /// Writes `value` into a loaned shared-memory sample, sends it and
+    /// notifies. Returns the number of subscribers reached.
+    ///
+    /// Every subscriber of the service the send did not reach counts one
+    /// lost delivery ([`Self::lost`]), whatever the reason. The backpressure
+    /// handler sees only one: a connected subscriber's full buffer. iceoryx2
+    /// 0.10 connects a subscriber's side of a connection only at its next
+    /// `receive` (or `update_connections`); until then a non-overflowing
+    /// buffer takes up to its size and every later sample for it is dropped
+    /// without a call to the handler (`NoConnectedReceiverAndBufferIsFull`,
+    /// no error to the sender: iceoryx2-cal `zero_copy_connection/common.rs`
+    /// `blocking_send`, iceoryx2 `port/details/sender.rs`
+    /// `deliver_offset_to_connection_impl`). A subscriber that joins or
+    /// leaves during the send is not counted as missing (the smaller of the
+    /// counts before and after the send).
     pub fn publish(&self, value: &T) -> Result<usize, TransportError> {
+        let before = self.subscribers();
         let sample = self
             .publisher
             .loan_uninit()
@@ -434,6 +469,12 @@ impl<T: Debug + ZeroCopySend + Copy + 'static> TopicPublisher<T> {
             .write_payload(*value)
             .send()
             .map_err(|e| iox("send", &self.name, e))?;
+        let missed = before.min(self.subscribers()).saturating_sub(n);
+        if missed > 0 {
+            self.counters
+                .lost
+                .fetch_add(missed as u64, Ordering::Relaxed);
+        }
         self.notifier
             .notify()
             .map_err(|e| iox("notify", &self.name, e))?;
@@ -843,6 +884,61 @@ mod tests {
                 ..Default::default()
             },
         );
+    }
+
+    /// A subscriber that existed before its publisher and has not received
+    /// since is not connected yet (iceoryx2 0.10 connects a subscriber's
+    /// side at its `receive`): its buffer takes one buffer's worth, and the
+    /// samples after it are dropped without a call to the backpressure
+    /// handler. Each is counted lost, with either delivery; once connected,
+    /// a full buffer is counted once per sample (not also by the handler).
+    /// Before `publish` counted what a send reached, `lost` stayed 0 here
+    /// (the fix at the buffer boundary of issue 43, item 5).
+    #[test]
+    fn a_subscriber_not_connected_yet_loses_nothing_uncounted() {
+        use msgs::GnssFix;
+        let topic = Topic::Aid(AidKind::Gnss);
+        let buffer = qos(topic).buffer as u64;
+        let extra = 3;
+        for delivery in [Delivery::Discard, Delivery::Wait(Duration::from_millis(50))] {
+            let cfg = TransportConfig::isolated("unconnected");
+            let _cleanup = IsolatedCleanup(cfg.clone());
+            let node = node(&cfg, "unconnected").expect("node");
+            let sub = TopicSubscriber::<GnssFix>::new(&node, &cfg, topic).expect("subscriber");
+            let publ = TopicPublisher::<GnssFix>::with_delivery(&node, &cfg, topic, delivery)
+                .expect("publisher");
+            assert_eq!(publ.subscribers(), 1);
+            let fix = |seq: u64| GnssFix {
+                t_ns: seq + 1,
+                seq,
+                ..Default::default()
+            };
+            let reached: Vec<usize> = (0..buffer + extra)
+                .map(|seq| publ.publish(&fix(seq)).expect("publish"))
+                .collect();
+            assert_eq!(
+                reached.iter().filter(|&&n| n == 0).count() as u64,
+                extra,
+                "{delivery:?}: {reached:?}"
+            );
+            assert_eq!(publ.lost(), extra, "{delivery:?}: lost deliveries counted");
+            let mut got = Vec::new();
+            sub.drain(|f| got.push(f.seq)).expect("drain");
+            assert_eq!(got, (0..buffer).collect::<Vec<_>>(), "{delivery:?}");
+            // Connected now (the drain received): a full buffer goes through
+            // the handler, and each dropped sample is still counted once.
+            for seq in 0..buffer + extra {
+                publ.publish(&fix(buffer + extra + seq)).expect("publish");
+            }
+            assert_eq!(publ.lost(), 2 * extra, "{delivery:?}: counted once each");
+            if let Delivery::Wait(_) = delivery {
+                assert_eq!(
+                    publ.waits().0,
+                    extra,
+                    "the connected subscriber was waited for"
+                );
+            }
+        }
     }
 
     /// A drain stops after one buffer's worth while its publisher keeps
