@@ -220,6 +220,64 @@ pub mod unavailable {
     /// exists with another payload type or other options.
     pub const INCOMPATIBLE_SHIFT: u32 = 16;
     const _: () = assert!(STREAM_COUNT + 4 <= INCOMPATIBLE_SHIFT as usize);
+
+    /// The services of `bits` by name, each with its cause when it is
+    /// another payload type or options (for readers and logs).
+    pub fn describe(bits: u32) -> String {
+        let outputs = [
+            ("init", INIT_SERVICE),
+            ("solution", SOLUTION_SERVICE),
+            ("status", STATUS_SERVICE),
+            ("settings", SETTINGS_SERVICE),
+        ];
+        Stream::ALL
+            .iter()
+            .map(|s| (s.name(), stream(*s)))
+            .chain(outputs)
+            .filter(|(_, b)| bits & b != 0)
+            .map(|(name, b)| {
+                if bits & (b << INCOMPATIBLE_SHIFT) != 0 {
+                    format!("{name} (exists with another payload type or options)")
+                } else {
+                    name.to_owned()
+                }
+            })
+            .collect::<Vec<_>>()
+            .join(", ")
+    }
+
+    #[cfg(test)]
+    mod tests {
+        use super::*;
+        use crate::AidKind;
+
+        #[test]
+        fn every_service_has_its_own_bit_and_is_named_with_its_cause() {
+            let mut all: Vec<u32> = Stream::ALL.iter().map(|s| stream(*s)).collect();
+            all.extend([
+                INIT_SERVICE,
+                SOLUTION_SERVICE,
+                STATUS_SERVICE,
+                SETTINGS_SERVICE,
+            ]);
+            let or = all.iter().fold(0, |acc, b| {
+                assert_eq!(acc & b, 0, "bit {b:#x} shared");
+                acc | b
+            });
+            assert!(or < 1 << INCOMPATIBLE_SHIFT);
+            let imu = stream(Stream::Imu);
+            let gnss = stream(Stream::Aid(AidKind::Gnss));
+            assert_eq!(
+                describe(imu | imu << INCOMPATIBLE_SHIFT | gnss | SOLUTION_SERVICE),
+                format!(
+                    "{} (exists with another payload type or options), {}, solution",
+                    Stream::Imu.name(),
+                    Stream::Aid(AidKind::Gnss).name()
+                )
+            );
+            assert_eq!(describe(0), "");
+        }
+    }
 }
 
 impl Status {

@@ -534,10 +534,15 @@ pub fn run(
         if status_due {
             let st = state.status();
             ports.publish_status(st)?;
-            let line = match state.session.navigator() {
+            let mut line = match state.session.navigator() {
                 Some(n) => status_line(&st, Some(n.state().geodetic().lat_rad.to_degrees())),
                 None => waiting_line(&state.session, &transport_cfg.prefix),
             };
+            let unavailable = ports.unavailable();
+            if unavailable != 0 {
+                line.push_str("; UNAVAILABLE: ");
+                line.push_str(&msgs::unavailable::describe(unavailable));
+            }
             notify.status(&line);
             state.reset_window();
         }

@@ -110,6 +110,12 @@ pub fn render(sol: Option<&Solution>, st: Option<&Status>, solutions_per_s: f64)
                     |m| format!("{m}")
                 )
             ));
+            if x.unavailable != 0 {
+                s.push_str(&format!(
+                    "  UNAVAILABLE services (not opened, retried): {}\n",
+                    msgs::unavailable::describe(x.unavailable)
+                ));
+            }
             let rows = std::iter::once(("imu", x.imu(), None))
                 .chain(x.each_aid().map(|(k, c, a)| (k.name(), c, Some((k, a)))));
             for (name, c, a) in rows {

@@ -205,6 +205,7 @@ pub fn status(st: &Status, made: &PerAid<UpdateAt>) -> pb::Status {
         flags: st.flags,
         frame: nav_frame(st.frame),
         resumed: st.resumed != 0,
+        unavailable: st.unavailable,
         aids: st
             .each_aid()
             .map(|(k, c, _)| pb::NamedAid {
