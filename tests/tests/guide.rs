@@ -16,21 +16,12 @@
 
 use std::path::Path;
 
-/// The binaries the guide's commands name.
-const BINARIES: [&str; 5] = [
-    "nav-daemon",
-    "sensor-replay",
-    "gnss-ubx",
-    "nav-mavlink",
-    "nav-nmea",
-];
-
 #[test]
 fn the_guides_commands_print_what_the_guide_shows() {
     let repo = Path::new(env!("CARGO_MANIFEST_DIR"))
         .parent()
         .expect("the workspace root");
-    let bins: Vec<_> = BINARIES
+    let bins: Vec<_> = polarnav_tests::BINARIES
         .iter()
         .map(|b| (*b, polarnav_tests::bin(b)))
         .collect();

@@ -332,36 +332,27 @@ mod shape {
         }
     }
 
-    impl ser::SerializeSeq for Seq<'_> {
-        type Ok = String;
-        type Error = Error;
-        fn serialize_element<T: ?Sized + Serialize>(&mut self, v: &T) -> Result<(), Error> {
-            self.push(v)
-        }
-        fn end(self) -> Result<String, Error> {
-            self.done()
-        }
+    /// A sequence, a tuple (a fixed-size array) and a tuple struct: the
+    /// same collection of element types.
+    macro_rules! seq_like {
+        ($($tr:ident :: $f:ident),*) => {$(
+            impl ser::$tr for Seq<'_> {
+                type Ok = String;
+                type Error = Error;
+                fn $f<T: ?Sized + Serialize>(&mut self, v: &T) -> Result<(), Error> {
+                    self.push(v)
+                }
+                fn end(self) -> Result<String, Error> {
+                    self.done()
+                }
+            }
+        )*};
     }
-    impl ser::SerializeTuple for Seq<'_> {
-        type Ok = String;
-        type Error = Error;
-        fn serialize_element<T: ?Sized + Serialize>(&mut self, v: &T) -> Result<(), Error> {
-            self.push(v)
-        }
-        fn end(self) -> Result<String, Error> {
-            self.done()
-        }
-    }
-    impl ser::SerializeTupleStruct for Seq<'_> {
-        type Ok = String;
-        type Error = Error;
-        fn serialize_field<T: ?Sized + Serialize>(&mut self, v: &T) -> Result<(), Error> {
-            self.push(v)
-        }
-        fn end(self) -> Result<String, Error> {
-            self.done()
-        }
-    }
+    seq_like!(
+        SerializeSeq::serialize_element,
+        SerializeTuple::serialize_element,
+        SerializeTupleStruct::serialize_field
+    );
 
     impl ser::SerializeStruct for Fields<'_> {
         type Ok = String;
@@ -862,15 +853,6 @@ fn settings_reference_is_current() {
 
 // ---------------------------------------------------------------- CLI --
 
-/// The binaries, in the guide's order.
-const BINARIES: [&str; 5] = [
-    "nav-daemon",
-    "sensor-replay",
-    "gnss-ubx",
-    "nav-mavlink",
-    "nav-nmea",
-];
-
 /// `args --help` of the built binary, as clap prints it.
 fn help(args: &[&str]) -> String {
     let out = std::process::Command::new(polarnav_tests::bin(args[0]))
@@ -919,7 +901,7 @@ fn cli_reference() -> String {
         "\n`--help` of every binary and subcommand, as clap prints it from the binaries' \
          definitions. `tests/tests/guide.rs` runs each block again (trycmd).\n",
     );
-    for b in BINARIES {
+    for b in polarnav_tests::BINARIES {
         cli_command(vec![b.to_owned()], &mut s);
     }
     s
