@@ -36,6 +36,16 @@ pub fn daemon_command(bin: &Path) -> (std::process::Command, bool) {
     }
 }
 
+/// The workspace's binaries, in the guide's order (the generated CLI
+/// reference and the guide's command tests name these).
+pub const BINARIES: [&str; 5] = [
+    "nav-daemon",
+    "sensor-replay",
+    "gnss-ubx",
+    "nav-mavlink",
+    "nav-nmea",
+];
+
 /// A binary of the workspace, built by `cargo test --workspace` beside the
 /// test executables (`target/<profile>/NAME`).
 pub fn bin(name: &str) -> PathBuf {

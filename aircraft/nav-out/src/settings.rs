@@ -49,6 +49,28 @@ pub struct Bound {
     pub why: &'static str,
 }
 
+thread_local! {
+    static RECORD: std::cell::RefCell<Option<Vec<(String, Bound, f64)>>> =
+        const { std::cell::RefCell::new(None) };
+}
+
+/// Runs `f` and returns, with its result, every (key, bound, value) that
+/// [`Checker::num`] or [`Checker::int`] checked on this thread meanwhile, in
+/// order. The settings reference (`docs/src/reference/settings.generated.md`,
+/// `tests/tests/references.rs`) is made from these, so it lists the bounds
+/// the checks apply.
+pub fn record<R>(f: impl FnOnce() -> R) -> (R, Vec<(String, Bound, f64)>) {
+    let outer = RECORD.replace(Some(Vec::new()));
+    let r = f();
+    let checked = RECORD.replace(outer).unwrap_or_default();
+    RECORD.with_borrow_mut(|o| {
+        if let Some(o) = o {
+            o.extend(checked.iter().cloned());
+        }
+    });
+    (r, checked)
+}
+
 /// Checks numbers against bounds, naming the file and key.
 #[derive(Debug, Clone)]
 pub struct Checker {
@@ -66,6 +88,11 @@ impl Checker {
 
     /// `v` if finite and inside `b`.
     pub fn num(&self, key: &str, v: f64, b: Bound) -> Result<f64, SettingsError> {
+        RECORD.with_borrow_mut(|r| {
+            if let Some(r) = r {
+                r.push((key.to_owned(), b, v));
+            }
+        });
         if v.is_finite() && v >= b.lo && v <= b.hi {
             Ok(v)
         } else {
@@ -303,4 +330,34 @@ pub fn rate(c: &Checker, key: &str, v: f64, lo: f64, hi: f64) -> Result<f64, Set
             why: "below, the consumer times the stream out; above, the link or the consumer is flooded",
         },
     )
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn record_returns_the_bounds_checked_inside_it() {
+        let c = Checker { file: "f".into() };
+        let b = Bound {
+            lo: 1.0,
+            hi: 9.0,
+            unit: "Hz",
+            why: "because",
+        };
+        c.num("outside", 2.0, b).unwrap();
+        let (r, checked) = record(|| {
+            c.num("a.rate_hz", 2.0, b).unwrap();
+            c.int("a.count", 10.0, b)
+        });
+        assert!(r.is_err(), "a recorded check still refuses");
+        let got: Vec<(&str, f64, &str)> = checked
+            .iter()
+            .map(|(k, b, v)| (k.as_str(), *v, b.why))
+            .collect();
+        assert_eq!(
+            got,
+            [("a.rate_hz", 2.0, "because"), ("a.count", 10.0, "because")]
+        );
+    }
 }
