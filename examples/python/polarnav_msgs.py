@@ -312,13 +312,165 @@ class MagSample(ctypes.Structure):
         return "polarnav::MagSample_v1"
 
 
+class ImuSample(ctypes.Structure):
+    """Increments over `dt_s` ending at `t_ns` (body axes)."""
+
+    _fields_ = [
+        ("t_ns", ctypes.c_uint64),
+        ("seq", ctypes.c_uint64),
+        ("dt_s", ctypes.c_double),
+        ("d_theta_rad", V3),
+        ("d_v_mps", V3),
+    ]
+
+    @staticmethod
+    def type_name() -> str:
+        return "polarnav::ImuSample_v1"
+
+
+SRS_MAX_LINES = 8
+
+
+class SrsLine(ctypes.Structure):
+    _fields_ = [
+        ("los_i", V3),
+        ("body_vel_i_mps", V3),
+        ("rest_wavelength_m", ctypes.c_double),
+        ("measured_wavelength_m", ctypes.c_double),
+        ("sigma_mps", ctypes.c_double),
+        ("body_id", ctypes.c_uint32),
+        ("_pad", ctypes.c_uint32),
+    ]
+
+    @staticmethod
+    def type_name() -> str:
+        return "polarnav::SrsLine_v1"
+
+
+class SrsSample(ctypes.Structure):
+    _fields_ = [
+        ("t_ns", ctypes.c_uint64),
+        ("seq", ctypes.c_uint64),
+        ("count", ctypes.c_uint32),
+        ("_pad", ctypes.c_uint32),
+        ("lines", SrsLine * SRS_MAX_LINES),
+    ]
+
+    @staticmethod
+    def type_name() -> str:
+        return "polarnav::SrsSample_v1"
+
+
+class CnsFix(ctypes.Structure):
+    _fields_ = [
+        ("t_ns", ctypes.c_uint64),
+        ("seq", ctypes.c_uint64),
+        ("lat_rad", ctypes.c_double),
+        ("lon_rad", ctypes.c_double),
+        ("sigma_h_m", ctypes.c_double),
+    ]
+
+    @staticmethod
+    def type_name() -> str:
+        return "polarnav::CnsFix_v1"
+
+
+class BaroSample(ctypes.Structure):
+    _fields_ = [
+        ("t_ns", ctypes.c_uint64),
+        ("seq", ctypes.c_uint64),
+        ("pressure_pa", ctypes.c_double),
+        ("temperature_k", ctypes.c_double),
+        ("sigma_m", ctypes.c_double),
+    ]
+
+    @staticmethod
+    def type_name() -> str:
+        return "polarnav::BaroSample_v1"
+
+
+class InitState(ctypes.Structure):
+    _fields_ = [
+        ("t_ns", ctypes.c_uint64),
+        ("seq", ctypes.c_uint64),
+        ("r_e_m", V3),
+        ("v_e_mps", V3),
+        ("q_b_e", V4),
+        ("sigma_pos_h_m", ctypes.c_double),
+        ("sigma_pos_v_m", ctypes.c_double),
+        ("sigma_vel_h_mps", ctypes.c_double),
+        ("sigma_vel_v_mps", ctypes.c_double),
+        ("sigma_tilt_rad", ctypes.c_double),
+        ("sigma_heading_rad", ctypes.c_double),
+        ("method", ctypes.c_uint8),
+        ("heading_aid", ctypes.c_uint8),
+        ("_pad", ctypes.c_uint8 * 6),
+    ]
+
+    @staticmethod
+    def type_name() -> str:
+        return "polarnav::InitState_v2"
+
+
+# The payload of each input stream, by its service's last name component.
+INPUTS = {
+    "imu": ImuSample,
+    "init": InitState,
+    "srs": SrsSample,
+    "cns": CnsFix,
+    "baro": BaroSample,
+    "star": None,  # set below, once every aid class exists
+    "gnss": None,
+    "baseline": None,
+    "mag": None,
+}
+
+# The quality of service of every service (polarnav_ipc::qos, the one table
+# of the Rust side: msgs/ipc/src/lib.rs; the layout test holds these values
+# to it). iceoryx2 fixes a service's QoS when the first process creates it,
+# so a Python publisher that creates a service must ask for exactly these.
+QOS = {
+    # stream: (subscriber_max_buffer_size, history_size, safe_overflow)
+    "imu": (500, 0, False),
+    "aid": (25, 0, False),
+    "init": (4, 1, True),
+    "solution": (2000, 0, True),
+    "status": (16, 1, True),
+    "settings": (2, 1, True),
+}
+MAX_PUBLISHERS = 4
+MAX_SUBSCRIBERS = 16
+MAX_NODES = 32
+EVENT_MAX_NOTIFIERS = 8
+EVENT_MAX_LISTENERS = 16
+
+
+def qos(stream: str):
+    """(buffer, history, safe overflow) of a stream's service."""
+    return QOS["aid"] if stream in AIDS else QOS[stream]
+
+
 def layout() -> dict:
     """Sizes and field offsets, for the layout test."""
     out = {}
-    for t in (Solution, StreamCounters, AidStatus, Status, StarSample, GnssFix, BaselineSample, MagSample):
+    for t in (Solution, StreamCounters, AidStatus, Status, StarSample, GnssFix, BaselineSample, MagSample,
+              ImuSample, SrsLine, SrsSample, CnsFix, BaroSample, InitState):
         out[t.__name__] = ctypes.sizeof(t)
         for name, _ in t._fields_:
             out[f"{t.__name__}.{name}"] = getattr(t, name).offset
     for k, name in enumerate(AIDS):
         out[f"aid.{name}"] = k
+    for stream in ("imu", "aid", "init", "solution", "status", "settings"):
+        buffer, history, overflow = QOS[stream]
+        out[f"qos.{stream}.buffer"] = buffer
+        out[f"qos.{stream}.history"] = history
+        out[f"qos.{stream}.safe_overflow"] = int(overflow)
+    out["qos.max_publishers"] = MAX_PUBLISHERS
+    out["qos.max_subscribers"] = MAX_SUBSCRIBERS
+    out["qos.max_nodes"] = MAX_NODES
+    out["qos.event_max_notifiers"] = EVENT_MAX_NOTIFIERS
+    out["qos.event_max_listeners"] = EVENT_MAX_LISTENERS
     return out
+
+
+INPUTS.update({"star": StarSample, "gnss": GnssFix, "baseline": BaselineSample, "mag": MagSample})

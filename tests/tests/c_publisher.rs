@@ -1,14 +1,14 @@
-//! libpolarnav_pub from C: programs compiled by `cc` against the header and
-//! the shared library as `scripts/install.sh` installs them (flags from its
-//! pkg-config file) publish a
+//! libpolarnav_pub from C, and the Python publisher: programs compiled by
+//! `cc` against the header and the shared library as `scripts/install.sh`
+//! installs them (flags from its pkg-config file), and
+//! `examples/python/publisher.py`, publish a
 //! simulated flight into the daemon (the recording equals `batch` on the
 //! same records bit for bit), provoke and name every code, are refused
 //! and counted by the daemon as a second publisher, and never block on a
 //! subscriber that does not read. Each test has its own iceoryx2 prefix
 //! and root, and a deadline on every wait.
 
-use std::path::{Path, PathBuf};
-use std::process::Command;
+use std::path::Path;
 use std::time::{Duration, Instant};
 
 use msgs::navlog::Record;
@@ -17,84 +17,11 @@ use msgs::{AidKind, BaroSample, ImuSample, Solution};
 use polarnav::session;
 use polarnav_config::{CliOverrides, ConfigFile, effective};
 use polarnav_tests::harness::{Env, short_log, status_until, terminate, wait};
-use polarnav_tests::repo;
+use polarnav_tests::{python, repo};
 
-/// The target directory's profile directory (where `libpolarnav_pub.so` is).
-fn lib_dir() -> PathBuf {
-    let exe = std::env::current_exe().expect("test executable");
-    exe.parent()
-        .and_then(Path::parent)
-        .expect("target directory")
-        .to_owned()
-}
-
-/// Builds the library (`cargo test` builds its rlib only, not the shared
-/// library a C program links), installs it with `scripts/install.sh` into
-/// a stage under `dir` (PREFIX /usr), and compiles `tests/c/NAME.c` with
-/// the installed pkg-config file's flags, every warning an error.
-fn compile(name: &str, dir: &Path) -> PathBuf {
-    let profile = if lib_dir().ends_with("release") {
-        vec!["--release"]
-    } else {
-        vec![]
-    };
-    let st = Command::new(env!("CARGO"))
-        .args(["build", "--quiet", "-p", "polarnav-pub", "--lib"])
-        .args(&profile)
-        .current_dir(repo("."))
-        .status()
-        .expect("cargo");
-    assert!(st.success(), "cargo build -p polarnav-pub failed");
-    let stage = dir.join("stage");
-    if !stage.join("usr/lib/pkgconfig/polarnav_pub.pc").exists() {
-        let o = Command::new("bash")
-            .arg(repo("scripts/install.sh"))
-            .env("DESTDIR", &stage)
-            .env("PREFIX", "/usr")
-            .env("BIN_DIR", lib_dir())
-            .output()
-            .expect("install.sh");
-        assert!(
-            o.status.success(),
-            "install.sh: {}",
-            String::from_utf8_lossy(&o.stderr)
-        );
-    }
-    let flags = Command::new("pkg-config")
-        .args(["--cflags", "--libs", "polarnav_pub"])
-        .env("PKG_CONFIG_PATH", stage.join("usr/lib/pkgconfig"))
-        .env("PKG_CONFIG_SYSROOT_DIR", &stage)
-        .output()
-        .expect("pkg-config");
-    assert!(flags.status.success(), "pkg-config polarnav_pub");
-    let flags = String::from_utf8(flags.stdout).expect("flags");
-    let installed = stage.join("usr/lib");
-    assert!(
-        flags.contains(&format!(
-            "-I{}",
-            stage.join("usr/include/polarnav").display()
-        )) && flags.contains(&format!("-L{}", installed.display())),
-        "{flags}"
-    );
-    let exe = dir.join(name);
-    let out = Command::new("cc")
-        .args(["-std=c11", "-Wall", "-Wextra", "-Werror", "-pedantic"])
-        .arg("-D_POSIX_C_SOURCE=200809L")
-        .arg(repo(&format!("tests/c/{name}.c")))
-        .args(flags.split_whitespace())
-        .arg("-lm")
-        .arg(format!("-Wl,-rpath,{}", installed.display()))
-        .arg("-o")
-        .arg(&exe)
-        .output()
-        .expect("cc");
-    assert!(
-        out.status.success(),
-        "cc {name}.c: {}",
-        String::from_utf8_lossy(&out.stderr)
-    );
-    exe
-}
+#[path = "../c/common.rs"]
+mod common;
+use common::compile;
 
 /// The bytes of a `#[repr(C)]` wire payload, as C sees it.
 #[allow(unsafe_code)]
@@ -134,11 +61,32 @@ fn feed_file(records: &[Record], path: &Path) -> usize {
     n
 }
 
+/// The program that publishes the flight's inputs.
+#[derive(Debug, Clone, Copy)]
+enum Driver {
+    /// `tests/c/feed.c` on libpolarnav_pub.
+    C,
+    /// `examples/python/publisher.py` on PyPI iceoryx2 and the ctypes mirror.
+    Python,
+}
+
 #[test]
 fn a_c_driver_publishes_a_flight_that_the_daemon_navigates_as_batch_does() {
-    let env = Env::new("cpub");
-    let feed = compile("feed", &env.dir);
-    let codes = compile("codes", &env.dir);
+    fly_through("cpub", Driver::C);
+}
+
+#[test]
+fn a_python_driver_publishes_a_flight_that_the_daemon_navigates_as_batch_does() {
+    fly_through("pypub", Driver::Python);
+}
+
+/// A 60 s flight's inputs published by `driver` into the daemon at 15×,
+/// with a second (C) publisher on the IMU meanwhile: every sample sent,
+/// none lost or refused, the second publisher's 200 refused and counted,
+/// and the recording equal to `batch` on the same records bit for bit.
+fn fly_through(tag: &str, driver: Driver) {
+    let env = Env::new(tag);
+    let codes = compile("tests/c/codes.c", &env.dir);
     let log = short_log(&env.dir, 60.0);
     let bytes = std::fs::read(&log).expect("log");
     let (records, report) = msgs::navlog::read_all(&bytes);
@@ -157,13 +105,24 @@ fn a_c_driver_publishes_a_flight_that_the_daemon_navigates_as_batch_does() {
     let mut daemon = env.start_daemon("daemon", None);
     let rec_path = env.dir.join("recorded.navlog");
     let mut recorder = env.start_recorder(&rec_path);
-    let mut c = env
-        .command_for(&feed, "feed")
-        .arg(&env.cfg.prefix)
-        .arg(env.dir.join("flight.feed"))
-        .arg("15")
-        .spawn()
-        .expect("feed");
+    let flight = env.dir.join("flight.feed");
+    let mut c = match driver {
+        Driver::C => env
+            .command_for(&compile("tests/c/feed.c", &env.dir), "feed")
+            .arg(&env.cfg.prefix)
+            .arg(&flight)
+            .arg("15")
+            .spawn()
+            .expect("feed"),
+        Driver::Python => env
+            .command_for(&python(), "feed")
+            .current_dir(repo("examples/python"))
+            .arg("publisher.py")
+            .args(["--prefix", &env.cfg.prefix, "--speed", "15", "--feed"])
+            .arg(&flight)
+            .spawn()
+            .expect("publisher.py"),
+    };
     // A second C publisher on the IMU while the flight flies.
     std::thread::sleep(Duration::from_secs(1));
     let mut second = env
@@ -231,11 +190,14 @@ fn a_c_driver_publishes_a_flight_that_the_daemon_navigates_as_batch_does() {
         })
         .count();
     eprintln!(
-        "C feed: {fed} records of imu, init and {aids:?}; {} of {} solutions recorded, {differing} differ from batch, {flagged} flagged SECOND_PUBLISHER",
+        "{driver:?} driver: {fed} records of imu, init and {aids:?}; {} of {} solutions recorded, {differing} differ from batch, {flagged} flagged SECOND_PUBLISHER",
         live.len(),
         batch.len()
     );
-    assert_eq!(differing, 0, "the C-fed live run differs from batch");
+    assert_eq!(
+        differing, 0,
+        "the {driver:?}-fed live run differs from batch"
+    );
     assert!(flagged > 0, "no solution flagged SECOND_PUBLISHER");
     assert!(
         live.len() * 100 >= batch.len() * 99,
@@ -248,7 +210,7 @@ fn a_c_driver_publishes_a_flight_that_the_daemon_navigates_as_batch_does() {
 #[test]
 fn every_code_is_provoked_named_and_a_full_subscriber_never_blocks() {
     let env = Env::new("ccodes");
-    let codes = compile("codes", &env.dir);
+    let codes = compile("tests/c/codes.c", &env.dir);
     // A squatter: `<prefix>/cns` created with another payload type.
     let node = polarnav_ipc::node(&env.cfg, "squatter").expect("node");
     let _squat =

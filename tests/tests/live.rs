@@ -1106,6 +1106,54 @@ fn python_ctypes_mirror_has_the_rust_layout() {
         heading_rad, acc_heading_rad, acc_ned_m, itow_ms, carr_soln, flags, _pad),
     );
     rust.extend(offsets!(MagSample: t_ns, seq, field_b_nt, sigma_nt));
+    // The inputs a Python driver publishes (examples/python/publisher.py).
+    rust.extend(offsets!(ImuSample: t_ns, seq, dt_s, d_theta_rad, d_v_mps));
+    rust.extend(offsets!(SrsLine: los_i, body_vel_i_mps, rest_wavelength_m,
+        measured_wavelength_m, sigma_mps, body_id, _pad));
+    rust.extend(offsets!(SrsSample: t_ns, seq, count, _pad, lines));
+    rust.extend(offsets!(CnsFix: t_ns, seq, lat_rad, lon_rad, sigma_h_m));
+    rust.extend(offsets!(BaroSample: t_ns, seq, pressure_pa, temperature_k, sigma_m));
+    rust.extend(
+        offsets!(InitState: t_ns, seq, r_e_m, v_e_mps, q_b_e, sigma_pos_h_m,
+        sigma_pos_v_m, sigma_vel_h_mps, sigma_vel_v_mps, sigma_tilt_rad, sigma_heading_rad,
+        method, heading_aid, _pad),
+    );
+    // The services' options: the QoS table (every aid has the one "aid"
+    // entry) and the port limits.
+    use msgs::service::Topic;
+    for k in AidKind::ALL {
+        assert_eq!(
+            polarnav_ipc::qos(Topic::Aid(k)),
+            polarnav_ipc::qos(Topic::Aid(AidKind::Srs))
+        );
+    }
+    for (name, topic) in [
+        ("imu", Topic::Imu),
+        ("aid", Topic::Aid(AidKind::Srs)),
+        ("init", Topic::Init),
+        ("solution", Topic::Solution),
+        ("status", Topic::Status),
+        ("settings", Topic::Settings),
+    ] {
+        let q = polarnav_ipc::qos(topic);
+        rust.push((format!("qos.{name}.buffer"), q.buffer));
+        rust.push((format!("qos.{name}.history"), q.history));
+        rust.push((
+            format!("qos.{name}.safe_overflow"),
+            usize::from(q.safe_overflow),
+        ));
+    }
+    rust.push(("qos.max_publishers".into(), polarnav_ipc::MAX_PUBLISHERS));
+    rust.push(("qos.max_subscribers".into(), polarnav_ipc::MAX_SUBSCRIBERS));
+    rust.push(("qos.max_nodes".into(), polarnav_ipc::MAX_NODES));
+    rust.push((
+        "qos.event_max_notifiers".into(),
+        polarnav_ipc::EVENT_MAX_NOTIFIERS,
+    ));
+    rust.push((
+        "qos.event_max_listeners".into(),
+        polarnav_ipc::EVENT_MAX_LISTENERS,
+    ));
     // The mirror's aid names, in the declaration's order.
     rust.extend(AidKind::ALL.map(|k| (format!("aid.{}", k.name()), k as usize)));
     assert_eq!(

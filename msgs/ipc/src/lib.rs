@@ -253,6 +253,17 @@ pub fn qos(topic: Topic) -> Qos {
     }
 }
 
+/// Publishers, subscribers and nodes a publish-subscribe service admits,
+/// and notifiers and listeners an event service admits: with [`qos`], the
+/// options every process creates a service with (the Python mirror,
+/// examples/python/polarnav_msgs.py, is held to these by
+/// tests/tests/live.rs).
+pub const MAX_PUBLISHERS: usize = 4;
+pub const MAX_SUBSCRIBERS: usize = 16;
+pub const MAX_NODES: usize = 32;
+pub const EVENT_MAX_NOTIFIERS: usize = 8;
+pub const EVENT_MAX_LISTENERS: usize = 16;
+
 /// Opens or creates the publish-subscribe service of `topic` with the project's QoS.
 pub fn pubsub_service<T: Debug + ZeroCopySend + 'static>(
     node: &Node<ipc::Service>,
@@ -274,9 +285,9 @@ pub fn pubsub_service<T: Debug + ZeroCopySend + 'static>(
     .subscriber_max_buffer_size(q.buffer)
     .history_size(q.history)
     .enable_safe_overflow(q.safe_overflow)
-    .max_publishers(4)
-    .max_subscribers(16)
-    .max_nodes(32)
+    .max_publishers(MAX_PUBLISHERS)
+    .max_subscribers(MAX_SUBSCRIBERS)
+    .max_nodes(MAX_NODES)
     .open_or_create()
     .map_err(|e| iox("publish-subscribe service", &name, e))
 }
@@ -295,9 +306,9 @@ pub fn event_service(
             .map_err(|_| TransportError::Name(name.clone()))?,
     )
     .event()
-    .max_notifiers(8)
-    .max_listeners(16)
-    .max_nodes(32)
+    .max_notifiers(EVENT_MAX_NOTIFIERS)
+    .max_listeners(EVENT_MAX_LISTENERS)
+    .max_nodes(MAX_NODES)
     .open_or_create()
     .map_err(|e| iox("event service", &name, e))
 }
