@@ -31,7 +31,6 @@ Like the Rust processes it honours POLARNAV_IOX_PREFIX / POLARNAV_IOX_ROOT.
 import argparse
 import ctypes
 import math
-import os
 import struct
 import sys
 import time
@@ -39,17 +38,7 @@ import time
 import iceoryx2 as iox2
 
 import polarnav_msgs as m
-
-
-def node_config():
-    cfg = iox2.config.default()
-    prefix = os.environ.get("POLARNAV_IOX_PREFIX")
-    root = os.environ.get("POLARNAV_IOX_ROOT")
-    if prefix:
-        cfg.global_cfg.prefix = iox2.FileName.new(prefix)
-    if root:
-        cfg.global_cfg.root_path = iox2.Path.new(root.rstrip("/") + "/")
-    return cfg
+from consumer import node_config
 
 
 def make_node(role: str, prefix: str):

@@ -61,6 +61,25 @@ fn feed_file(records: &[Record], path: &Path) -> usize {
     n
 }
 
+/// Runs `codes PREFIX MODE` (`tests/c/codes.c`) to its end, exit 0 within
+/// 60 s, with `var` set in its environment when given; returns what it printed.
+fn run_codes(env: &Env, codes: &Path, mode: &str, var: Option<(&str, &Path)>) -> String {
+    let mut c = env.command_for(codes, mode);
+    c.args([&env.cfg.prefix, mode]);
+    if let Some((k, v)) = var {
+        c.env(k, v);
+    }
+    let mut p = c.spawn().expect("codes");
+    assert_eq!(
+        wait(&mut p, Duration::from_secs(60)),
+        Some(0),
+        "codes {mode}: {}\n{}",
+        env.read(&format!("{mode}.out")),
+        env.read(&format!("{mode}.err"))
+    );
+    env.read(&format!("{mode}.out"))
+}
+
 /// The program that publishes the flight's inputs.
 #[derive(Debug, Clone, Copy)]
 enum Driver {
@@ -125,17 +144,7 @@ fn fly_through(tag: &str, driver: Driver) {
     };
     // A second C publisher on the IMU while the flight flies.
     std::thread::sleep(Duration::from_secs(1));
-    let mut second = env
-        .command_for(&codes, "second")
-        .args([&env.cfg.prefix, "second"])
-        .spawn()
-        .expect("second");
-    assert_eq!(
-        wait(&mut second, Duration::from_secs(60)),
-        Some(0),
-        "{}",
-        env.read("second.err")
-    );
+    run_codes(&env, &codes, "second", None);
     assert_eq!(
         wait(&mut c, Duration::from_secs(120)),
         Some(0),
@@ -216,19 +225,7 @@ fn every_code_is_provoked_named_and_a_full_subscriber_never_blocks() {
     let _squat =
         polarnav_ipc::pubsub_service::<BaroSample>(&node, &env.cfg, Topic::Aid(AidKind::Cns))
             .expect("squatted service");
-    let mut p = env
-        .command_for(&codes, "errors")
-        .args([&env.cfg.prefix, "errors"])
-        .spawn()
-        .expect("codes");
-    assert_eq!(
-        wait(&mut p, Duration::from_secs(30)),
-        Some(0),
-        "{}\n{}",
-        env.read("errors.out"),
-        env.read("errors.err")
-    );
-    let out = env.read("errors.out");
+    let out = run_codes(&env, &codes, "errors", None);
     eprintln!("{out}");
     for name in [
         "PN_E_NULL",
@@ -251,37 +248,20 @@ fn every_code_is_provoked_named_and_a_full_subscriber_never_blocks() {
     // No shared memory where POLARNAV_IOX_ROOT points (a file).
     let not_a_dir = env.dir.join("not-a-directory");
     std::fs::write(&not_a_dir, "").expect("file");
-    let mut p = env
-        .command_for(&codes, "transport")
-        .env("POLARNAV_IOX_ROOT", &not_a_dir)
-        .args([&env.cfg.prefix, "transport"])
-        .spawn()
-        .expect("codes");
-    assert_eq!(
-        wait(&mut p, Duration::from_secs(30)),
-        Some(0),
-        "{}",
-        env.read("transport.err")
+    let out = run_codes(
+        &env,
+        &codes,
+        "transport",
+        Some(("POLARNAV_IOX_ROOT", &not_a_dir)),
     );
-    assert!(env.read("transport.out").contains("PN_E_TRANSPORT ok"));
+    assert!(out.contains("PN_E_TRANSPORT ok"), "{out}");
 
     // A subscriber that never reads (a stopped daemon's): 20 000 samples
     // go out without blocking, all but a buffer's worth counted lost.
     let sub = polarnav_ipc::TopicSubscriber::<ImuSample>::new(&node, &env.cfg, Topic::Imu)
         .expect("subscriber");
     let t0 = Instant::now();
-    let mut p = env
-        .command_for(&codes, "stalled")
-        .args([&env.cfg.prefix, "stalled"])
-        .spawn()
-        .expect("codes");
-    assert_eq!(
-        wait(&mut p, Duration::from_secs(30)),
-        Some(0),
-        "{}",
-        env.read("stalled.err")
-    );
-    let out = env.read("stalled.out");
+    let out = run_codes(&env, &codes, "stalled", None);
     eprintln!("{out} (process {:.2} s)", t0.elapsed().as_secs_f64());
     let field = |k: &str| -> u64 {
         out.split_whitespace()
