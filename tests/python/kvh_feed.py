@@ -11,7 +11,8 @@ line on stdin (the reader has opened it), then writes COUNT message slots: garba
 false header before slot 10, slot 50's CRC damaged, slots 100 to 102 not
 sent (a gap of three periods), the sequence counter wrapping at 128. Writes
 the messages that should arrive (slot, sequence, the float values as the
-unit's float32 has them) to EXPECTED_JSON, then closes the terminal.
+unit's float32 has them) to EXPECTED_JSON, prints "sent", and closes the terminal at the next line on
+stdin (when the test has every message).
 """
 
 import json
@@ -72,9 +73,11 @@ def main() -> None:
         if delay > 0:
             time.sleep(delay)
         os.write(master, out)
-    time.sleep(0.3)
     with open(expected_path, "w") as f:
         json.dump(expected, f)
+    # The test closes the terminal once the driver has published them all.
+    print("sent", flush=True)
+    sys.stdin.readline()
     os.close(master)
     os.close(slave)
     os.unlink(link)

@@ -18,13 +18,13 @@ use serde_json::Value;
 #[path = "../c/common.rs"]
 mod common;
 
-#[test]
-fn the_example_kvh1750_driver_publishes_every_good_message_with_the_sensors_time() {
-    let env = Env::new("kvh");
+/// 400 slots of a unit at `rate_hz` through the driver told `driver_hz`:
+/// the samples received, the messages that should arrive, and what the
+/// driver printed at its end.
+fn fly_kvh(env: &Env, rate_hz: f64, driver_hz: f64) -> (Vec<ImuSample>, Vec<Value>, String) {
     let driver = common::compile("examples/c/kvh1750.c", &env.dir);
     let link = env.dir.join("kvh-tty");
     let expected_path = env.dir.join("expected.json");
-    let rate_hz = 200.0f64;
     let mut feeder = std::process::Command::new("python3")
         .arg(repo("tests/python/kvh_feed.py"))
         .arg(&link)
@@ -35,15 +35,27 @@ fn the_example_kvh1750_driver_publishes_every_good_message_with_the_sensors_time
         .stdout(Stdio::piped())
         .spawn()
         .expect("python3");
-    // The feeder says "ready" once the terminal is linked.
-    {
+    // The feeder's lines ("ready" once the terminal is linked, "sent" once
+    // every message is written), read on a thread so that each wait has a
+    // deadline.
+    let lines = {
         use std::io::BufRead;
-        let mut line = String::new();
-        std::io::BufReader::new(feeder.stdout.as_mut().expect("stdout"))
-            .read_line(&mut line)
-            .expect("ready");
-        assert_eq!(line.trim(), "ready");
-    }
+        let out = feeder.stdout.take().expect("stdout");
+        let (tx, rx) = std::sync::mpsc::channel();
+        std::thread::spawn(move || {
+            for l in std::io::BufReader::new(out).lines().map_while(Result::ok) {
+                let _ = tx.send(l);
+            }
+        });
+        rx
+    };
+    let said = |what: &str| {
+        let l = lines
+            .recv_timeout(Duration::from_secs(30))
+            .unwrap_or_else(|e| panic!("the feeder did not say {what}: {e}"));
+        assert_eq!(l.trim(), what);
+    };
+    said("ready");
     let node = polarnav_ipc::node(&env.cfg, "test_imu").expect("node");
     let sub = polarnav_ipc::TopicSubscriber::<ImuSample>::new(&node, &env.cfg, Topic::Imu)
         .expect("subscriber");
@@ -51,36 +63,63 @@ fn the_example_kvh1750_driver_publishes_every_good_message_with_the_sensors_time
         .command_for(&driver, "kvh")
         .arg(&link)
         .arg(&env.cfg.prefix)
-        .arg(rate_hz.to_string())
+        .arg(driver_hz.to_string())
         .arg("increments")
         .spawn()
         .expect("driver");
-    // Let the driver open the terminal and its publisher, then go.
+    // The driver opens the terminal, then its publisher: once the
+    // publisher is there, go.
     let mut got = Vec::new();
-    let t0 = Instant::now();
-    while t0.elapsed() < Duration::from_millis(500) {
-        sub.drain(|s| got.push(s)).expect("drain");
-        std::thread::sleep(Duration::from_millis(10));
-    }
-    writeln!(feeder.stdin.as_mut().expect("stdin"), "go").expect("go");
-    let deadline = Instant::now() + Duration::from_secs(30);
-    loop {
-        sub.drain(|s| got.push(s)).expect("drain");
-        if let Some(st) = drv.try_wait().expect("driver") {
-            assert!(st.success(), "driver: {st}: {}", env.read("kvh.err"));
-            break;
+    let until = |what: &str,
+                 deadline: Duration,
+                 done: &mut dyn FnMut(&mut Vec<ImuSample>) -> bool,
+                 got: &mut Vec<ImuSample>| {
+        let t0 = Instant::now();
+        loop {
+            sub.drain(|s| got.push(s)).expect("drain");
+            if done(got) {
+                return;
+            }
+            assert!(t0.elapsed() < deadline, "{what} within {deadline:?}");
+            std::thread::sleep(Duration::from_millis(10));
         }
-        assert!(Instant::now() < deadline, "the driver did not end");
-        std::thread::sleep(Duration::from_millis(10));
-    }
-    sub.drain(|s| got.push(s)).expect("drain");
-    assert!(feeder.wait().expect("feeder").success());
-    let _ = wait(&mut drv, Duration::from_secs(1));
-
+    };
+    until(
+        "the driver's publisher",
+        Duration::from_secs(20),
+        &mut |_| sub.publishers() > 0,
+        &mut got,
+    );
+    writeln!(feeder.stdin.as_mut().expect("stdin"), "go").expect("go");
+    said("sent");
     let expected: Vec<Value> =
         serde_json::from_str(&std::fs::read_to_string(&expected_path).expect("expected"))
             .expect("json");
-    let printed = env.read("kvh.out");
+    // Every message that should arrive has arrived: the terminal may close.
+    until(
+        "every good message",
+        Duration::from_secs(20),
+        &mut |g| g.len() >= expected.len(),
+        &mut got,
+    );
+    writeln!(feeder.stdin.as_mut().expect("stdin"), "done").expect("done");
+    assert!(feeder.wait().expect("feeder").success());
+    // The driver sees the terminal close and ends.
+    assert_eq!(
+        wait(&mut drv, Duration::from_secs(20)),
+        Some(0),
+        "driver: {}",
+        env.read("kvh.err")
+    );
+    sub.drain(|s| got.push(s)).expect("drain");
+    (got, expected, env.read("kvh.out"))
+}
+
+#[test]
+fn the_example_kvh1750_driver_publishes_every_good_message_with_the_sensors_time() {
+    let env = Env::new("kvh");
+    let rate_hz = 200.0f64;
+    let (got, expected, printed) = fly_kvh(&env, rate_hz, rate_hz);
     eprintln!("{printed}{} samples received", got.len());
     let count = |k: &str| -> u64 {
         printed
@@ -172,4 +211,27 @@ fn the_example_builds_with_its_cmake_file() {
         .expect("kvh1750");
     assert_eq!(o.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&o.stderr).contains("usage: kvh1750 DEVICE PREFIX RATE_HZ"));
+}
+
+/// A unit whose clock runs 5 % slow against the one the driver was told
+/// (200 Hz sent, 210 Hz said): the stamps drift from the arrivals, and the
+/// driver moves their origin back to the arrivals past 5 ms, counted,
+/// every stamp still after the one before.
+#[test]
+fn a_drifting_unit_clock_is_re_anchored_counted_and_stays_increasing() {
+    let env = Env::new("kvhdrift");
+    let (got, expected, printed) = fly_kvh(&env, 200.0, 210.0);
+    eprintln!("{printed}");
+    let resyncs: u64 = printed
+        .split_whitespace()
+        .find_map(|w| w.strip_prefix("resyncs="))
+        .and_then(|v| v.parse().ok())
+        .unwrap_or_else(|| panic!("no resyncs in {printed}"));
+    // 0.24 ms of drift a message: past 5 ms every ~21 messages.
+    assert!(resyncs >= 5, "{printed}");
+    assert_eq!(got.len(), expected.len());
+    assert!(
+        got.windows(2).all(|w| w[1].t_ns > w[0].t_ns),
+        "stamps must increase"
+    );
 }

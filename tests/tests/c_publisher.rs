@@ -142,8 +142,9 @@ fn fly_through(tag: &str, driver: Driver) {
             .spawn()
             .expect("publisher.py"),
     };
-    // A second C publisher on the IMU while the flight flies.
-    std::thread::sleep(Duration::from_secs(1));
+    // A second C publisher on the IMU while the flight flies (once the
+    // daemon has taken the driver's first IMU samples).
+    status_until(&env, Duration::from_secs(30), |s| s.streams[0].accepted > 0);
     run_codes(&env, &codes, "second", None);
     assert_eq!(
         wait(&mut c, Duration::from_secs(120)),

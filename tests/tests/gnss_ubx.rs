@@ -20,7 +20,7 @@ use std::time::{Duration, Instant};
 use msgs::service::Topic;
 use msgs::{AidKind, BaselineSample, GnssFix};
 use polarnav_ipc::TopicSubscriber;
-use polarnav_tests::harness::{Env, Proc, terminate, wait};
+use polarnav_tests::harness::{Env, Proc, status_until, terminate, wait};
 use polarnav_tests::{python, repo, shared_dataset};
 use serde_json::Value;
 
@@ -558,9 +558,16 @@ fn replay_walk(
         env.read("gnss.err")
     );
     let counters = exit_counters(&env, "gnss");
-    // The daemon drains within a cycle (5 ms); its final status, published
-    // as it stops, reaches the recorder, stopped after it.
-    std::thread::sleep(Duration::from_millis(300));
+    // The daemon has taken every fix the driver published (or counted the
+    // ones it missed) before it stops; its final status, published as it
+    // stops, reaches the recorder, stopped after it.
+    if daemon.is_some() {
+        let published = counters["published"];
+        let gnss = msgs::Stream::Aid(AidKind::Gnss).index();
+        status_until(&env, Duration::from_secs(20), |s| {
+            s.streams[gnss].received + s.streams[gnss].seq_gaps >= published
+        });
+    }
     if let Some(d) = daemon.as_mut() {
         assert_eq!(terminate(d, Duration::from_secs(10)), Some(0));
         std::thread::sleep(Duration::from_millis(200));

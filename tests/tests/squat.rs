@@ -55,8 +55,11 @@ fn a_squatted_input_leaves_the_daemon_serving_and_is_taken_once_freed() {
     // Its status goes out, saying which service it cannot serve and why.
     let st = status_until(&env, Duration::from_secs(10), |s| s.unavailable != 0);
     assert_eq!(st.unavailable, squatted(imu_bit), "{st:?}");
-    // Retried once a second, said once.
-    std::thread::sleep(Duration::from_millis(2500));
+    // Retried once a second, said once: three more statuses (1 s apart)
+    // see at least two retries.
+    status_until(&env, Duration::from_secs(10), |s| {
+        s.seq >= st.seq + 3 && s.unavailable != 0
+    });
     assert!(
         daemon.try_wait().expect("wait").is_none(),
         "the daemon exited"
@@ -108,7 +111,10 @@ fn a_squatted_output_leaves_the_daemon_navigating_and_is_taken_once_freed() {
         squatted(unavailable::SOLUTION_SERVICE),
         "{st:?}"
     );
-    std::thread::sleep(Duration::from_millis(2500));
+    // Three more statuses (1 s apart): at least two retries.
+    status_until(&env, Duration::from_secs(10), |s| {
+        s.seq >= st.seq + 3 && s.unavailable != 0
+    });
     assert!(
         daemon.try_wait().expect("wait").is_none(),
         "the daemon exited"
