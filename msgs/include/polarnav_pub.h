@@ -74,8 +74,8 @@ extern "C" {
 #endif // __cplusplus
 
 /**
- * Opens a publisher of `stream` (`"imu"`, `"init"` or an aid's name:
- * `"srs"`, `"cns"`, `"baro"`, `"star"`, `"gnss"`, `"baseline"`, `"mag"`)
+ * Opens a publisher of `stream` (`"imu"`, `"init"` or an aid's name,
+ * [`pn_aid_name`] of its `AidKind`)
  * under the service prefix `prefix` (NULL: `"polarnav"`, the daemon's
  * default). Writes the code to `*err` (when `err` is not NULL): 0, or
  * [`PnCode::PN_W_SECOND_PUBLISHER`] with a publisher that works but whose
@@ -192,6 +192,13 @@ uint64_t pn_publisher_sent(const PnPublisher *p);
  * `p` is NULL or a publisher from [`pn_publisher_open`], closed once.
  */
 void pn_publisher_close(PnPublisher *p);
+
+/**
+ * The stream name of the aid `kind` (an `AidKind`, `0 ..
+ * POLARNAV_AID_COUNT`), from the aids' one declaration: the `stream` of
+ * [`pn_publisher_open`] for it. NULL for any other value. A static string.
+ */
+const char *pn_aid_name(uint32_t kind);
 
 /**
  * The name of a code (`"PN_E_NOT_FINITE"`), `"PN_UNKNOWN_CODE"` for any

@@ -16,7 +16,11 @@
 #include "polarnav_pub.h"
 
 #define STREAMS (2 + POLARNAV_AID_COUNT)
-static const char *const NAMES[STREAMS] = {"init", "imu", "srs", "cns", "baro", "star", "gnss", "baseline", "mag"};
+
+/* Tag 0 init, 1 imu, 2 + k the aid k, named by the library. */
+static const char *stream_name(uint32_t tag) {
+  return tag == 0 ? "init" : tag == 1 ? "imu" : pn_aid_name(tag - 2);
+}
 
 static double now_s(void) {
   struct timespec t;
@@ -37,7 +41,6 @@ int main(int argc, char **argv) {
     fprintf(stderr, "usage: feed PREFIX FILE SPEED\n");
     return 2;
   }
-  _Static_assert(sizeof(NAMES) / sizeof(NAMES[0]) == STREAMS, "one name per stream");
   const char *prefix = argv[1];
   double speed = atof(argv[3]);
   FILE *f = fopen(argv[2], "rb");
@@ -60,9 +63,9 @@ int main(int argc, char **argv) {
     }
     if (!pubs[tag]) {
       int32_t err = 0;
-      pubs[tag] = pn_publisher_open(prefix, NAMES[tag], &err);
+      pubs[tag] = pn_publisher_open(prefix, stream_name(tag), &err);
       if (!pubs[tag] || err != PN_OK) {
-        fprintf(stderr, "feed: open %s: %s (%s): %s\n", NAMES[tag], pn_error_name(err),
+        fprintf(stderr, "feed: open %s: %s (%s): %s\n", stream_name(tag), pn_error_name(err),
                 pn_error_message(err), pn_last_error_detail());
         return 1;
       }
@@ -90,7 +93,7 @@ int main(int argc, char **argv) {
       default: rc = PN_E_UNKNOWN_STREAM;
     }
     if (rc != PN_OK) {
-      fprintf(stderr, "feed: publish %s at %llu ns: %s: %s\n", NAMES[tag], (unsigned long long)t_ns,
+      fprintf(stderr, "feed: publish %s at %llu ns: %s: %s\n", stream_name(tag), (unsigned long long)t_ns,
               pn_error_name(rc), pn_last_error_detail());
       return 1;
     }
@@ -102,7 +105,7 @@ int main(int argc, char **argv) {
   }
   for (int k = 0; k < STREAMS; k++) {
     if (pubs[k]) {
-      printf("%s sent=%llu lost=%llu refused=%llu\n", NAMES[k], sent[k],
+      printf("%s sent=%llu lost=%llu refused=%llu\n", stream_name((uint32_t)k), sent[k],
              (unsigned long long)pn_publisher_lost(pubs[k]),
              (unsigned long long)pn_publisher_refused(pubs[k]));
       pn_publisher_close(pubs[k]);

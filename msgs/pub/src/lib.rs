@@ -105,7 +105,7 @@ impl PnCode {
             ),
             PnCode::PN_E_UNKNOWN_STREAM => (
                 c"PN_E_UNKNOWN_STREAM",
-                c"unknown stream (imu, init, srs, cns, baro, star, gnss, baseline, mag)",
+                c"unknown stream (imu, init, or an aid's name: pn_aid_name)",
             ),
             PnCode::PN_E_INCOMPATIBLE_SERVICE => (
                 c"PN_E_INCOMPATIBLE_SERVICE",
@@ -281,8 +281,8 @@ unsafe fn str_arg<'a>(s: *const c_char) -> Option<Result<&'a str, std::str::Utf8
     (!s.is_null()).then(|| unsafe { CStr::from_ptr(s) }.to_str())
 }
 
-/// Opens a publisher of `stream` (`"imu"`, `"init"` or an aid's name:
-/// `"srs"`, `"cns"`, `"baro"`, `"star"`, `"gnss"`, `"baseline"`, `"mag"`)
+/// Opens a publisher of `stream` (`"imu"`, `"init"` or an aid's name,
+/// [`pn_aid_name`] of its `AidKind`)
 /// under the service prefix `prefix` (NULL: `"polarnav"`, the daemon's
 /// default). Writes the code to `*err` (when `err` is not NULL): 0, or
 /// [`PnCode::PN_W_SECOND_PUBLISHER`] with a publisher that works but whose
@@ -591,6 +591,24 @@ pub unsafe extern "C" fn pn_publisher_close(p: *mut PnPublisher) {
     }
 }
 
+/// The stream name of the aid `kind` (an `AidKind`, `0 ..
+/// POLARNAV_AID_COUNT`), from the aids' one declaration: the `stream` of
+/// [`pn_publisher_open`] for it. NULL for any other value. A static string.
+#[unsafe(no_mangle)]
+pub extern "C" fn pn_aid_name(kind: u32) -> *const c_char {
+    static NAMES: std::sync::OnceLock<Vec<CString>> = std::sync::OnceLock::new();
+    let names = NAMES.get_or_init(|| {
+        AidKind::ALL
+            .into_iter()
+            .map(|k| CString::new(k.name()).unwrap_or_default())
+            .collect()
+    });
+    usize::try_from(kind)
+        .ok()
+        .and_then(|k| names.get(k))
+        .map_or(std::ptr::null(), |n| n.as_ptr())
+}
+
 /// The name of a code (`"PN_E_NOT_FINITE"`), `"PN_UNKNOWN_CODE"` for any
 /// other value. A static string.
 #[unsafe(no_mangle)]
@@ -629,5 +647,19 @@ mod tests {
             assert_eq!(PnCode::from_i32(c as i32), Some(c));
         }
         assert_eq!(PnCode::from_i32(77), None);
+    }
+
+    #[test]
+    fn aid_names_are_the_declarations() {
+        for k in AidKind::ALL {
+            let p = pn_aid_name(k as u32);
+            assert!(!p.is_null());
+            // SAFETY: a static NUL-terminated string of the library.
+            let name = unsafe { CStr::from_ptr(p) }.to_str().expect("ascii");
+            assert_eq!(name, k.name());
+            assert_eq!(stream_topic(name).map(|t| t.0), Some(Topic::Aid(k)));
+        }
+        assert!(pn_aid_name(AidKind::ALL.len() as u32).is_null());
+        assert!(pn_aid_name(u32::MAX).is_null());
     }
 }
